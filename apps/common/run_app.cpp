@@ -1,0 +1,99 @@
+#include "run_app.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+#include <new>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/toml_config.hpp"
+
+namespace shearzone::apps {
+namespace {
+
+void print_error(const std::string& message) {
+  std::string m = message;
+  std::replace(m.begin(), m.end(), '\n', ' ');
+  std::fprintf(stderr, "shearzone: error: %s\n", m.c_str());
+}
+
+}  // namespace
+
+int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch) {
+  try {
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+      print_error(std::string(e.what()) + " (run with --help for usage)");
+      return kExitUsage;
+    }
+    return dispatch();
+  } catch (const CLI::ParseError& e) {
+    // Raised after parsing, e.g. a required option missing from flags and config.
+    print_error(std::string(e.what()) + " (run with --help for usage)");
+    return kExitUsage;
+  } catch (const InputError& e) {
+    print_error(e.what());
+    return kExitInputError;
+  } catch (const ConfigError& e) {
+    print_error(e.what());
+    return kExitInputError;
+  } catch (const NoResultError& e) {
+    print_error(e.what());
+    return kExitNoResult;
+  } catch (const std::bad_alloc&) {
+    print_error("out of memory");
+    return kExitInternal;
+  } catch (const std::exception& e) {
+    print_error(std::string("internal error: ") + e.what());
+    return kExitInternal;
+  }
+}
+
+void apply_toml_config(CLI::App& sub, const std::string& path,
+                       const std::vector<std::string>& not_configurable) {
+  const io::TomlConfig cfg = io::TomlConfig::load(path);
+
+  // The keys this subcommand knows: its long option names without the dashes.
+  std::vector<std::string> known;
+  for (const CLI::Option* opt : sub.get_options()) {
+    for (const std::string& name : opt->get_lnames())
+      if (std::find(not_configurable.begin(), not_configurable.end(), name) ==
+          not_configurable.end())
+        known.push_back(name);
+  }
+  cfg.require_known(known);
+
+  for (const std::string& key : cfg.keys()) {
+    CLI::Option* opt = sub.get_option_no_throw("--" + key);
+    if (opt == nullptr || opt->count() > 0) continue;  // the command line wins
+    const auto& values = cfg.texts(key);
+    try {
+      if (opt->get_expected_min() == 0) {  // a flag
+        if (values.size() != 1 || (values[0] != "true" && values[0] != "false"))
+          throw CLI::ValidationError(key, "expected true or false");
+        if (values[0] == "true") {
+          opt->add_result(std::string("true"));
+          opt->run_callback();
+        }
+        continue;
+      }
+      opt->add_result(values);
+      opt->run_callback();
+    } catch (const CLI::Error& e) {
+      throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", cfg.source(), cfg.line(key), key,
+                                    e.what()));
+    }
+  }
+}
+
+void require_option(CLI::App& sub, const std::string& name) {
+  const CLI::Option* opt = sub.get_option_no_throw("--" + name);
+  if (opt != nullptr && opt->count() == 0)
+    throw CLI::RequiredError("--" + name + " is required (on the command line or in --config)");
+}
+
+}  // namespace shearzone::apps

@@ -1,0 +1,44 @@
+// apps/common/run_app.hpp: the one place where exceptions become exit codes.
+//
+// Every failure prints exactly one line to stderr, `shearzone: error: <message>`,
+// and returns the documented code (exit_codes.hpp). Library code throws; it never
+// prints or exits.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "exit_codes.hpp"
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+
+namespace shearzone::apps {
+
+/// State shared by all subcommands of one invocation.
+struct Context {
+  std::string command_line;                    ///< shell-quoted argv, for output headers
+  core::LogLevel level = core::LogLevel::kNormal;
+  /// tool, version, command line and conventions: the start of every output header.
+  core::Metadata header() const { return core::standard_metadata(command_line); }
+};
+
+/// Parses argv with `app`, then runs `dispatch` (which returns an exit code).
+/// Maps: CLI::ParseError -> 1 (help and --version -> 0), InputError/ConfigError
+/// -> 2, NoResultError -> 3, anything else -> 4.
+int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch);
+
+/// Applies a TOML config file to the options of `sub`: each key is a long option
+/// name without the dashes ("width", "U0", "vane-angle0-deg"); arrays give several
+/// values. Options given on the command line win over the file. Unknown keys and
+/// invalid values are ConfigError naming the file, line and key.
+void apply_toml_config(CLI::App& sub, const std::string& path,
+                       const std::vector<std::string>& not_configurable = {"config", "help"});
+
+/// Throws CLI::RequiredError (exit 1) if option `name` of `sub` was given neither on
+/// the command line nor in the config file.
+void require_option(CLI::App& sub, const std::string& name);
+
+}  // namespace shearzone::apps

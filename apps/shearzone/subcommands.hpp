@@ -1,0 +1,22 @@
+// apps/shearzone/subcommands.hpp: each subcommand file adds itself to the CLI and
+// returns the function that runs it once parsing is done.
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+#include "common/run_app.hpp"
+
+namespace shearzone::apps {
+
+/// A parsed subcommand and the function that runs it (returns an exit code).
+struct Subcommand {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+/// `shearzone synth particles|beads`.
+std::vector<Subcommand> add_synth(CLI::App& root, Context& ctx);
+
+}  // namespace shearzone::apps

@@ -1,0 +1,27 @@
+# Interface targets that carry compile settings (no global CMAKE_CXX_FLAGS).
+#
+#   shearzone_warnings : warning flags (and -Werror with SHEARZONE_WARNINGS_AS_ERRORS)
+#   shearzone_options  : language level, asserts, sanitizers. Never -ffast-math:
+#                        input checks rely on std::isfinite.
+
+add_library(shearzone_warnings INTERFACE)
+target_compile_options(shearzone_warnings INTERFACE
+  $<$<CXX_COMPILER_ID:GNU,Clang>:-Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor
+                                 -Wcast-align -Wunused -Woverloaded-virtual
+                                 -Wnull-dereference -Wimplicit-fallthrough>)
+if(SHEARZONE_WARNINGS_AS_ERRORS)
+  target_compile_options(shearzone_warnings INTERFACE $<$<CXX_COMPILER_ID:GNU,Clang>:-Werror>)
+endif()
+
+add_library(shearzone_options INTERFACE)
+target_compile_features(shearzone_options INTERFACE cxx_std_20)
+if(SHEARZONE_ASSERTS)
+  # RelWithDebInfo adds -DNDEBUG; the test build wants assert() and SHEARZONE_DCHECK on.
+  target_compile_options(shearzone_options INTERFACE -UNDEBUG)
+  target_compile_definitions(shearzone_options INTERFACE SHEARZONE_ENABLE_DCHECK=1)
+endif()
+if(SHEARZONE_SANITIZE)
+  target_compile_options(shearzone_options INTERFACE
+    -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(shearzone_options INTERFACE -fsanitize=address,undefined)
+endif()

@@ -1,0 +1,114 @@
+// shearzone/io/hdf5.hpp: small HDF5 helpers for arrays plus attributes.
+//
+// Used by PIV field files and simulator snapshots. Datasets are dense, row-major
+// (C order) arrays of float32, float64, int64, int32 or uint8; intermediate groups
+// are created as needed ("/pairs/u_px" creates "/pairs"). Attributes are scalars
+// (string, float64, int64) or float64 vectors, on the root ("/"), a group or a
+// dataset. Reading converts to the requested element type (HDF5 does it).
+//
+// Errors: HDF5's own error-stack printing is switched off; every failure is an
+// InputError naming the file and the object, e.g.
+//     fields.h5: dataset "/pairs/u_px": not found
+// For writing a file atomically, create it at io::AtomicOutput::temp_path() and
+// commit after close().
+//
+// Thread-safety: Debian's HDF5 is not built thread-safe; use one H5File from one
+// thread at a time and do not use two at once from different threads.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace shearzone::io {
+
+template <class T>
+struct H5Array {
+  std::vector<std::size_t> dims;  ///< row-major extents
+  std::vector<T> data;            ///< product(dims) elements
+};
+
+class H5File {
+ public:
+  /// Opens an existing file read-only.
+  static H5File open_read(const std::filesystem::path& path);
+  /// Creates (truncating) a file for writing.
+  static H5File create(const std::filesystem::path& path);
+
+  H5File(H5File&& other) noexcept;
+  H5File& operator=(H5File&& other) noexcept;
+  H5File(const H5File&) = delete;
+  H5File& operator=(const H5File&) = delete;
+  ~H5File();
+
+  /// Flushes and closes; throws InputError if HDF5 reports a failure. The
+  /// destructor closes silently.
+  void close();
+  const std::string& path() const { return path_; }
+
+  /// True if a group or dataset exists at `object` ("/grid/x_px").
+  bool exists(const std::string& object) const;
+
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims, const float* data);
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims, const double* data);
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims,
+             const std::int64_t* data);
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims,
+             const std::int32_t* data);
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims,
+             const std::uint8_t* data);
+  template <class T>
+  void write(const std::string& dataset, const std::vector<std::size_t>& dims,
+             const std::vector<T>& data) {
+    check_size(dataset, dims, data.size());
+    write(dataset, dims, data.data());
+  }
+
+  /// Dimensions of a dataset.
+  std::vector<std::size_t> dims(const std::string& dataset) const;
+  template <class T>
+  H5Array<T> read(const std::string& dataset) const {
+    H5Array<T> a;
+    a.dims = dims(dataset);
+    std::size_t n = 1;
+    for (auto d : a.dims) n *= d;
+    a.data.resize(n);
+    read_into(dataset, a.data.data());
+    return a;
+  }
+
+  void set_attribute(const std::string& object, const std::string& name, const std::string& value);
+  void set_attribute(const std::string& object, const std::string& name, const char* value) {
+    set_attribute(object, name, std::string(value));
+  }
+  void set_attribute(const std::string& object, const std::string& name, double value);
+  void set_attribute(const std::string& object, const std::string& name, std::int64_t value);
+  void set_attribute(const std::string& object, const std::string& name,
+                     const std::vector<double>& value);
+  bool has_attribute(const std::string& object, const std::string& name) const;
+  std::vector<std::string> attribute_names(const std::string& object) const;
+  std::string attribute_string(const std::string& object, const std::string& name) const;
+  double attribute_double(const std::string& object, const std::string& name) const;
+  std::int64_t attribute_int(const std::string& object, const std::string& name) const;
+  std::vector<double> attribute_doubles(const std::string& object, const std::string& name) const;
+
+ private:
+  H5File(std::int64_t id, std::string path) : id_(id), path_(std::move(path)) {}
+  void check_size(const std::string& dataset, const std::vector<std::size_t>& dims,
+                  std::size_t n) const;
+  void write_raw(const std::string& dataset, const std::vector<std::size_t>& dims,
+                 std::int64_t mem_type, std::int64_t file_type, const void* data);
+  void read_raw(const std::string& dataset, std::int64_t mem_type, void* data) const;
+  void read_into(const std::string& dataset, float* out) const;
+  void read_into(const std::string& dataset, double* out) const;
+  void read_into(const std::string& dataset, std::int64_t* out) const;
+  void read_into(const std::string& dataset, std::int32_t* out) const;
+  void read_into(const std::string& dataset, std::uint8_t* out) const;
+
+  std::int64_t id_ = -1;
+  std::string path_;
+};
+
+}  // namespace shearzone::io

@@ -1,0 +1,43 @@
+// shearzone/io/image.hpp: reading and writing still images (OpenCV).
+//
+// Formats: PNG, TIFF, BMP and JPEG, 8 or 16 bits per sample. Colour images are
+// converted to grey (ITU-R BT.601 luma, OpenCV's cvtColor weights), keeping the
+// bit depth. Pixel (row i, column j) has its centre at (x, y) = (j, i).
+//
+// Truncated or undecodable files are an InputError naming the file. Because some
+// decoders quietly return a partly grey image for a truncated file (libjpeg),
+// the reader also checks each format's end marker (PNG IEND chunk, JPEG EOI,
+// BMP declared size) before decoding.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace shearzone::io {
+
+/// Reads an image as single-channel grey, CV_8U or CV_16U as stored.
+/// `bit_depth` (optional) receives 8 or 16.
+cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth = nullptr);
+
+/// Decodes an in-memory image file (`source` names it in messages).
+cv::Mat decode_image_gray(const std::string& bytes, const std::string& source,
+                          int* bit_depth = nullptr);
+
+/// Colour (3 or 4 channels, BGR order) to grey; grey images pass through.
+cv::Mat to_gray(const cv::Mat& image);
+
+/// Encodes `image` (CV_8U or CV_16U, 1 or 3 channels) in the format given by the
+/// extension of `path` (.png, .tif/.tiff, .bmp, .jpg/.jpeg). JPEG and BMP are
+/// 8-bit only. Throws ConfigError for an unsupported extension or depth.
+std::string encode_image(const cv::Mat& image, const std::filesystem::path& path);
+
+/// Writes an image atomically (temporary file + rename); refuses to overwrite an
+/// existing file unless `force`.
+void write_image(const std::filesystem::path& path, const cv::Mat& image, bool force);
+
+/// True if the extension is one of the still-image formats above.
+bool is_image_extension(const std::filesystem::path& path);
+
+}  // namespace shearzone::io

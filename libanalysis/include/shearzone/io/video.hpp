@@ -1,0 +1,84 @@
+// shearzone/io/video.hpp: reading and writing video (OpenCV's FFmpeg back-end).
+//
+// VideoReader gives grey frames with their timestamps from the container
+// (CAP_PROP_POS_MSEC), so that velocity = displacement / (t_b - t_a) holds even for
+// variable frame rates. A file that will not open, or whose frames stop decoding
+// before the frame count the container declares, is an InputError naming the file
+// and the frame index.
+//
+// VideoWriter writes 8-bit grey frames as MP4 (codec "mp4v" by default, or "avc1"
+// where the FFmpeg build has an H.264 encoder) or AVI ("MJPG"). Write to
+// AtomicOutput::temp_path(), which keeps the extension, then commit.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace cv {
+class VideoCapture;
+class VideoWriter;
+}  // namespace cv
+
+namespace shearzone::io {
+
+struct VideoInfo {
+  double fps = 0.0;              ///< frames per second, as the container declares it
+  std::int64_t frame_count = 0;  ///< declared number of frames (may be approximate for some codecs)
+  int width = 0;                 ///< px
+  int height = 0;                ///< px
+  std::string codec;             ///< FourCC as text, e.g. "mp4v", "avc1", "MJPG"
+};
+
+class VideoReader {
+ public:
+  explicit VideoReader(const std::filesystem::path& path);
+  ~VideoReader();
+  VideoReader(const VideoReader&) = delete;
+  VideoReader& operator=(const VideoReader&) = delete;
+
+  const VideoInfo& info() const { return info_; }
+  const std::string& path() const { return path_; }
+
+  /// Reads the next frame as grey CV_8U; `t_s` receives its timestamp in s.
+  /// Returns false at the declared end of the video. Throws InputError if a frame
+  /// before the declared end cannot be decoded (a truncated or corrupt file).
+  bool read(cv::Mat& gray, double& t_s);
+  /// Index of the frame the next read() returns.
+  std::int64_t next_index() const { return next_; }
+
+ private:
+  std::string path_;
+  std::unique_ptr<cv::VideoCapture> cap_;
+  VideoInfo info_;
+  std::int64_t next_ = 0;
+};
+
+class VideoWriter {
+ public:
+  /// `codec`: "mp4v", "avc1" or "MJPG" (a FourCC). `path` decides the container by
+  /// its extension (.mp4, .avi). Throws ConfigError if the combination cannot be
+  /// opened by this build of OpenCV/FFmpeg.
+  VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
+              const std::string& codec = "mp4v");
+  ~VideoWriter();
+  VideoWriter(const VideoWriter&) = delete;
+  VideoWriter& operator=(const VideoWriter&) = delete;
+
+  /// Appends a grey CV_8U frame of the size given at construction.
+  void write(const cv::Mat& gray8);
+  void close();
+
+ private:
+  std::string path_;
+  cv::Size size_;
+  std::unique_ptr<cv::VideoWriter> writer_;
+};
+
+/// True for the video extensions VideoReader is meant for (.mp4, .avi, .mov, .mkv).
+bool is_video_extension(const std::filesystem::path& path);
+
+}  // namespace shearzone::io

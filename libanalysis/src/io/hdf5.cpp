@@ -1,0 +1,327 @@
+// HDF5 helpers on the C API, with RAII handles and errors that name the object.
+#include "shearzone/io/hdf5.hpp"
+
+#include <hdf5.h>
+
+#include <mutex>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+
+static_assert(sizeof(hid_t) == sizeof(std::int64_t), "hid_t is expected to be 64-bit");
+
+namespace shearzone::io {
+namespace {
+
+void silence_hdf5() {
+  static std::once_flag once;
+  std::call_once(once, [] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); });
+}
+
+/// Closes an HDF5 handle of any kind on scope exit.
+class Handle {
+ public:
+  explicit Handle(hid_t id = -1) : id_(id) {}
+  ~Handle() {
+    if (id_ >= 0) H5Oclose_any(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  static void H5Oclose_any(hid_t id) {
+    switch (H5Iget_type(id)) {
+      case H5I_FILE: H5Fclose(id); break;
+      case H5I_GROUP: H5Gclose(id); break;
+      case H5I_DATASET: H5Dclose(id); break;
+      case H5I_DATASPACE: H5Sclose(id); break;
+      case H5I_DATATYPE: H5Tclose(id); break;
+      case H5I_ATTR: H5Aclose(id); break;
+      case H5I_GENPROP_LST: H5Pclose(id); break;
+      default: break;
+    }
+  }
+  hid_t id_;
+};
+
+[[noreturn]] void fail(const std::string& file, const std::string& what) {
+  throw InputError(fmt::format("{}: {}", file, what));
+}
+
+std::vector<hsize_t> to_hsize(const std::vector<std::size_t>& dims) {
+  return std::vector<hsize_t>(dims.begin(), dims.end());
+}
+
+}  // namespace
+
+H5File H5File::open_read(const std::filesystem::path& path) {
+  silence_hdf5();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path.string(), "no such file");
+  if (H5Fis_hdf5(path.c_str()) <= 0) fail(path.string(), "not an HDF5 file (or truncated)");
+  hid_t id = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (id < 0) fail(path.string(), "cannot open as HDF5 (corrupt or truncated?)");
+  return H5File(id, path.string());
+}
+
+H5File H5File::create(const std::filesystem::path& path) {
+  silence_hdf5();
+  hid_t id = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (id < 0) fail(path.string(), "cannot create HDF5 file (folder missing or not writable?)");
+  return H5File(id, path.string());
+}
+
+H5File::H5File(H5File&& other) noexcept : id_(other.id_), path_(std::move(other.path_)) {
+  other.id_ = -1;
+}
+
+H5File& H5File::operator=(H5File&& other) noexcept {
+  if (this != &other) {
+    if (id_ >= 0) H5Fclose(id_);
+    id_ = other.id_;
+    path_ = std::move(other.path_);
+    other.id_ = -1;
+  }
+  return *this;
+}
+
+H5File::~H5File() {
+  if (id_ >= 0) H5Fclose(id_);
+}
+
+void H5File::close() {
+  if (id_ < 0) return;
+  const herr_t flush = H5Fflush(id_, H5F_SCOPE_LOCAL);
+  const herr_t status = H5Fclose(id_);
+  id_ = -1;
+  if (flush < 0 || status < 0) fail(path_, "error while closing HDF5 file (disk full?)");
+}
+
+bool H5File::exists(const std::string& object) const {
+  if (object == "/" || object.empty()) return true;
+  // Check every prefix: H5Lexists fails on a path whose parent does not exist.
+  std::size_t pos = 0;
+  while ((pos = object.find('/', pos + 1)) != std::string::npos) {
+    if (H5Lexists(id_, object.substr(0, pos).c_str(), H5P_DEFAULT) <= 0) return false;
+  }
+  return H5Lexists(id_, object.c_str(), H5P_DEFAULT) > 0;
+}
+
+void H5File::check_size(const std::string& dataset, const std::vector<std::size_t>& dims,
+                        std::size_t n) const {
+  std::size_t want = 1;
+  for (auto d : dims) want *= d;
+  if (want != n)
+    throw InternalError(fmt::format("{}: dataset \"{}\": {} elements given for dims of {}",
+                                    path_, dataset, n, want));
+}
+
+void H5File::write_raw(const std::string& dataset, const std::vector<std::size_t>& dims,
+                       std::int64_t mem_type, std::int64_t file_type, const void* data) {
+  const auto hd = to_hsize(dims);
+  Handle space(H5Screate_simple(static_cast<int>(hd.size()), hd.data(), nullptr));
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
+  H5Pset_create_intermediate_group(lcpl.get(), 1);
+  Handle dset(H5Dcreate2(id_, dataset.c_str(), file_type, space.get(), lcpl.get(), H5P_DEFAULT,
+                         H5P_DEFAULT));
+  if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot create (exists already?)", dataset));
+  if (H5Dwrite(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(path_, fmt::format("dataset \"{}\": write failed", dataset));
+}
+
+void H5File::write(const std::string& d, const std::vector<std::size_t>& dims, const float* p) {
+  write_raw(d, dims, H5T_NATIVE_FLOAT, H5T_IEEE_F32LE, p);
+}
+void H5File::write(const std::string& d, const std::vector<std::size_t>& dims, const double* p) {
+  write_raw(d, dims, H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, p);
+}
+void H5File::write(const std::string& d, const std::vector<std::size_t>& dims,
+                   const std::int64_t* p) {
+  write_raw(d, dims, H5T_NATIVE_INT64, H5T_STD_I64LE, p);
+}
+void H5File::write(const std::string& d, const std::vector<std::size_t>& dims,
+                   const std::int32_t* p) {
+  write_raw(d, dims, H5T_NATIVE_INT32, H5T_STD_I32LE, p);
+}
+void H5File::write(const std::string& d, const std::vector<std::size_t>& dims,
+                   const std::uint8_t* p) {
+  write_raw(d, dims, H5T_NATIVE_UINT8, H5T_STD_U8LE, p);
+}
+
+std::vector<std::size_t> H5File::dims(const std::string& dataset) const {
+  if (!exists(dataset)) fail(path_, fmt::format("dataset \"{}\": not found", dataset));
+  Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
+  if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot open (is it a group?)", dataset));
+  Handle space(H5Dget_space(dset.get()));
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) fail(path_, fmt::format("dataset \"{}\": unreadable dataspace", dataset));
+  std::vector<hsize_t> hd(static_cast<std::size_t>(rank));
+  H5Sget_simple_extent_dims(space.get(), hd.data(), nullptr);
+  return std::vector<std::size_t>(hd.begin(), hd.end());
+}
+
+void H5File::read_raw(const std::string& dataset, std::int64_t mem_type, void* data) const {
+  if (!exists(dataset)) fail(path_, fmt::format("dataset \"{}\": not found", dataset));
+  Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
+  if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot open", dataset));
+  if (H5Dread(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+    fail(path_, fmt::format("dataset \"{}\": read failed (type not convertible or file corrupt)",
+                            dataset));
+}
+
+void H5File::read_into(const std::string& d, float* o) const { read_raw(d, H5T_NATIVE_FLOAT, o); }
+void H5File::read_into(const std::string& d, double* o) const {
+  read_raw(d, H5T_NATIVE_DOUBLE, o);
+}
+void H5File::read_into(const std::string& d, std::int64_t* o) const {
+  read_raw(d, H5T_NATIVE_INT64, o);
+}
+void H5File::read_into(const std::string& d, std::int32_t* o) const {
+  read_raw(d, H5T_NATIVE_INT32, o);
+}
+void H5File::read_into(const std::string& d, std::uint8_t* o) const {
+  read_raw(d, H5T_NATIVE_UINT8, o);
+}
+
+// ---- Attributes -------------------------------------------------------------------
+
+namespace {
+
+hid_t open_object(hid_t file, const std::string& path, const std::string& object) {
+  const std::string o = object.empty() ? "/" : object;
+  hid_t id = H5Oopen(file, o.c_str(), H5P_DEFAULT);
+  if (id < 0) fail(path, fmt::format("object \"{}\": not found", o));
+  return id;
+}
+
+void write_attribute(hid_t file, const std::string& path, const std::string& object,
+                     const std::string& name, hid_t type, hid_t space, const void* data) {
+  Handle obj(open_object(file, path, object));
+  if (H5Aexists(obj.get(), name.c_str()) > 0) H5Adelete(obj.get(), name.c_str());
+  Handle attr(H5Acreate2(obj.get(), name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT));
+  if (!attr.ok() || H5Awrite(attr.get(), type, data) < 0)
+    fail(path, fmt::format("object \"{}\": cannot write attribute \"{}\"", object, name));
+}
+
+}  // namespace
+
+void H5File::set_attribute(const std::string& object, const std::string& name,
+                           const std::string& value) {
+  Handle type(H5Tcopy(H5T_C_S1));
+  H5Tset_size(type.get(), std::max<std::size_t>(value.size(), 1));
+  H5Tset_strpad(type.get(), H5T_STR_NULLPAD);
+  H5Tset_cset(type.get(), H5T_CSET_UTF8);
+  Handle space(H5Screate(H5S_SCALAR));
+  std::string buf = value.empty() ? std::string(1, '\0') : value;
+  write_attribute(id_, path_, object, name, type.get(), space.get(), buf.data());
+}
+
+void H5File::set_attribute(const std::string& object, const std::string& name, double value) {
+  Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(id_, path_, object, name, H5T_NATIVE_DOUBLE, space.get(), &value);
+}
+
+void H5File::set_attribute(const std::string& object, const std::string& name,
+                           std::int64_t value) {
+  Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(id_, path_, object, name, H5T_NATIVE_INT64, space.get(), &value);
+}
+
+void H5File::set_attribute(const std::string& object, const std::string& name,
+                           const std::vector<double>& value) {
+  hsize_t n = value.size();
+  Handle space(H5Screate_simple(1, &n, nullptr));
+  write_attribute(id_, path_, object, name, H5T_NATIVE_DOUBLE, space.get(), value.data());
+}
+
+bool H5File::has_attribute(const std::string& object, const std::string& name) const {
+  if (!exists(object)) return false;
+  Handle obj(open_object(id_, path_, object));
+  return H5Aexists(obj.get(), name.c_str()) > 0;
+}
+
+std::vector<std::string> H5File::attribute_names(const std::string& object) const {
+  Handle obj(open_object(id_, path_, object));
+  H5O_info_t info;
+  if (H5Oget_info2(obj.get(), &info, H5O_INFO_NUM_ATTRS) < 0)
+    fail(path_, fmt::format("object \"{}\": cannot list attributes", object));
+  std::vector<std::string> names;
+  for (hsize_t i = 0; i < info.num_attrs; ++i) {
+    Handle attr(H5Aopen_by_idx(obj.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, H5P_DEFAULT,
+                               H5P_DEFAULT));
+    const ssize_t len = H5Aget_name(attr.get(), 0, nullptr);
+    std::string name(static_cast<std::size_t>(std::max<ssize_t>(len, 0)), '\0');
+    H5Aget_name(attr.get(), name.size() + 1, name.data());
+    names.push_back(name);
+  }
+  return names;
+}
+
+namespace {
+
+hid_t open_attribute(hid_t file, const std::string& path, const std::string& object,
+                     const std::string& name) {
+  // The attribute stays valid after its object's handle is closed.
+  Handle obj(open_object(file, path, object));
+  if (H5Aexists(obj.get(), name.c_str()) <= 0)
+    fail(path, fmt::format("object \"{}\": attribute \"{}\" not found", object, name));
+  return H5Aopen(obj.get(), name.c_str(), H5P_DEFAULT);
+}
+
+}  // namespace
+
+std::string H5File::attribute_string(const std::string& object, const std::string& name) const {
+  Handle attr(open_attribute(id_, path_, object, name));
+  Handle ftype(H5Aget_type(attr.get()));
+  if (H5Tget_class(ftype.get()) != H5T_STRING)
+    fail(path_, fmt::format("object \"{}\": attribute \"{}\" is not a string", object, name));
+  if (H5Tis_variable_str(ftype.get()) > 0) {
+    Handle mtype(H5Tcopy(H5T_C_S1));
+    H5Tset_size(mtype.get(), H5T_VARIABLE);
+    char* s = nullptr;
+    if (H5Aread(attr.get(), mtype.get(), &s) < 0)
+      fail(path_, fmt::format("object \"{}\": attribute \"{}\": read failed", object, name));
+    std::string out = s ? s : "";
+    H5free_memory(s);
+    return out;
+  }
+  const std::size_t size = H5Tget_size(ftype.get());
+  std::string buf(size, '\0');
+  if (H5Aread(attr.get(), ftype.get(), buf.data()) < 0)
+    fail(path_, fmt::format("object \"{}\": attribute \"{}\": read failed", object, name));
+  const auto nul = buf.find('\0');
+  if (nul != std::string::npos) buf.resize(nul);
+  return buf;
+}
+
+double H5File::attribute_double(const std::string& object, const std::string& name) const {
+  Handle attr(open_attribute(id_, path_, object, name));
+  double v = 0;
+  if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, &v) < 0)
+    fail(path_, fmt::format("object \"{}\": attribute \"{}\": not a number", object, name));
+  return v;
+}
+
+std::int64_t H5File::attribute_int(const std::string& object, const std::string& name) const {
+  Handle attr(open_attribute(id_, path_, object, name));
+  std::int64_t v = 0;
+  if (H5Aread(attr.get(), H5T_NATIVE_INT64, &v) < 0)
+    fail(path_, fmt::format("object \"{}\": attribute \"{}\": not an integer", object, name));
+  return v;
+}
+
+std::vector<double> H5File::attribute_doubles(const std::string& object,
+                                              const std::string& name) const {
+  Handle attr(open_attribute(id_, path_, object, name));
+  Handle space(H5Aget_space(attr.get()));
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  std::vector<double> v(static_cast<std::size_t>(std::max<hssize_t>(n, 0)));
+  if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, v.data()) < 0)
+    fail(path_, fmt::format("object \"{}\": attribute \"{}\": not numbers", object, name));
+  return v;
+}
+
+}  // namespace shearzone::io

@@ -1,0 +1,155 @@
+#include "shearzone/io/image.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+
+namespace shearzone::io {
+namespace {
+
+std::string lower_ext(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e;
+}
+
+enum class Format { kPng, kJpeg, kBmp, kTiff, kUnknown };
+
+Format sniff(const std::string& b) {
+  auto u = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
+  if (b.size() >= 8 && u(0) == 0x89 && b.compare(1, 3, "PNG") == 0) return Format::kPng;
+  if (b.size() >= 3 && u(0) == 0xFF && u(1) == 0xD8 && u(2) == 0xFF) return Format::kJpeg;
+  if (b.size() >= 2 && b[0] == 'B' && b[1] == 'M') return Format::kBmp;
+  if (b.size() >= 4 && ((b[0] == 'I' && b[1] == 'I' && u(2) == 42 && u(3) == 0) ||
+                        (b[0] == 'M' && b[1] == 'M' && u(2) == 0 && u(3) == 42)))
+    return Format::kTiff;
+  return Format::kUnknown;
+}
+
+/// Checks the end marker of formats whose decoders may accept truncated data.
+void check_complete(const std::string& b, Format f, const std::string& source) {
+  auto u = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
+  switch (f) {
+    case Format::kPng: {
+      // The file ends with the IEND chunk: length 0, "IEND", CRC AE 42 60 82.
+      if (b.size() < 12 || b.find("IEND", b.size() - 12) == std::string::npos)
+        throw InputError(fmt::format("{}: truncated PNG (no IEND chunk at the end)", source));
+      break;
+    }
+    case Format::kJpeg: {
+      // EOI marker FF D9 near the end (trailing padding is tolerated). In the
+      // entropy-coded data FF is always followed by 00 or a restart marker, so FF D9
+      // only occurs as the end-of-image marker.
+      const std::size_t from = b.size() > 1024 ? b.size() - 1024 : 0;
+      const bool has_eoi = b.find("\xFF\xD9", from) != std::string::npos;
+      if (!has_eoi)
+        throw InputError(fmt::format("{}: truncated JPEG (no end-of-image marker)", source));
+      break;
+    }
+    case Format::kBmp: {
+      if (b.size() < 6) throw InputError(fmt::format("{}: truncated BMP header", source));
+      const std::uint32_t declared = u(2) | (u(3) << 8) | (u(4) << 16) |
+                                     (static_cast<std::uint32_t>(u(5)) << 24);
+      if (declared > b.size())
+        throw InputError(fmt::format("{}: truncated BMP: header declares {} bytes, file has {}",
+                                     source, declared, b.size()));
+      break;
+    }
+    default: break;
+  }
+}
+
+}  // namespace
+
+bool is_image_extension(const std::filesystem::path& path) {
+  const std::string e = lower_ext(path);
+  return e == ".png" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".jpg" ||
+         e == ".jpeg";
+}
+
+cv::Mat to_gray(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  else
+    throw InputError(fmt::format("image has {} channels; expected 1, 3 or 4", image.channels()));
+  return grey;
+}
+
+cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, int* bit_depth) {
+  const Format f = sniff(bytes);
+  if (f == Format::kUnknown)
+    throw InputError(fmt::format("{}: not a PNG, TIFF, BMP or JPEG image", source));
+  check_complete(bytes, f, source);
+  cv::Mat raw;
+  try {
+    std::vector<uchar> buf(bytes.begin(), bytes.end());
+    raw = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("{}: cannot decode image: {}", source, e.what()));
+  }
+  if (raw.empty())
+    throw InputError(fmt::format("{}: cannot decode image (corrupt or truncated)", source));
+  if (raw.depth() != CV_8U && raw.depth() != CV_16U)
+    throw InputError(fmt::format("{}: {}-byte samples are not supported; expected an 8- or "
+                                 "16-bit image",
+                                 source, raw.elemSize1()));
+  if (bit_depth) *bit_depth = raw.depth() == CV_8U ? 8 : 16;
+  try {
+    return to_gray(raw);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", source, e.what()));
+  }
+}
+
+cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw InputError(fmt::format("{}: no such file", path.string()));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: cannot open for reading", path.string()));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return decode_image_gray(ss.str(), path.string(), bit_depth);
+}
+
+std::string encode_image(const cv::Mat& image, const std::filesystem::path& path) {
+  const std::string e = lower_ext(path);
+  if (!is_image_extension(path))
+    throw ConfigError(fmt::format("{}: unsupported image extension \"{}\"; expected one of: "
+                                  ".png, .tif, .tiff, .bmp, .jpg, .jpeg",
+                                  path.string(), e));
+  if (image.depth() != CV_8U && image.depth() != CV_16U)
+    throw ConfigError(fmt::format("{}: cannot write a {}-byte image; expected 8 or 16 bits",
+                                  path.string(), image.elemSize1()));
+  if (image.depth() == CV_16U && (e == ".jpg" || e == ".jpeg" || e == ".bmp"))
+    throw ConfigError(fmt::format("{}: {} cannot hold 16-bit images; use .png or .tif",
+                                  path.string(), e));
+  std::vector<int> params;
+  if (e == ".jpg" || e == ".jpeg") params = {cv::IMWRITE_JPEG_QUALITY, 95};
+  if (e == ".png") params = {cv::IMWRITE_PNG_COMPRESSION, 3};
+  std::vector<uchar> buf;
+  if (!cv::imencode(e, image, buf, params))
+    throw InputError(fmt::format("{}: image encoding failed", path.string()));
+  return std::string(buf.begin(), buf.end());
+}
+
+void write_image(const std::filesystem::path& path, const cv::Mat& image, bool force) {
+  const std::string bytes = encode_image(image, path);
+  AtomicOutput out(path, force);
+  out.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  out.commit();
+}
+
+}  // namespace shearzone::io

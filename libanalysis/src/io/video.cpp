@@ -1,0 +1,128 @@
+#include "shearzone/io/video.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/image.hpp"
+
+namespace shearzone::io {
+namespace {
+
+std::string fourcc_text(double v) {
+  const int code = static_cast<int>(v);
+  std::string s;
+  for (int i = 0; i < 4; ++i) {
+    const char c = static_cast<char>((code >> (8 * i)) & 0xFF);
+    s += std::isprint(static_cast<unsigned char>(c)) ? c : '?';
+  }
+  return s;
+}
+
+}  // namespace
+
+bool is_video_extension(const std::filesystem::path& path) {
+  std::string e = path.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e == ".mp4" || e == ".avi" || e == ".mov" || e == ".mkv";
+}
+
+VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string()) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError(fmt::format("{}: no such file", path_));
+  cap_ = std::make_unique<cv::VideoCapture>();
+  try {
+    cap_->open(path_, cv::CAP_FFMPEG);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("{}: cannot open video: {}", path_, e.what()));
+  }
+  if (!cap_->isOpened())
+    throw InputError(fmt::format("{}: cannot open as video (not a video, unsupported codec, or "
+                                 "truncated before the index)",
+                                 path_));
+  info_.fps = cap_->get(cv::CAP_PROP_FPS);
+  info_.frame_count = static_cast<std::int64_t>(std::llround(cap_->get(cv::CAP_PROP_FRAME_COUNT)));
+  info_.width = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_WIDTH));
+  info_.height = static_cast<int>(cap_->get(cv::CAP_PROP_FRAME_HEIGHT));
+  info_.codec = fourcc_text(cap_->get(cv::CAP_PROP_FOURCC));
+  if (!(info_.fps > 0) || !std::isfinite(info_.fps))
+    throw InputError(fmt::format("{}: container declares fps = {}; expected a positive frame rate",
+                                 path_, info_.fps));
+  if (info_.width <= 0 || info_.height <= 0)
+    throw InputError(fmt::format("{}: video has no frames of a known size", path_));
+}
+
+VideoReader::~VideoReader() = default;
+
+bool VideoReader::read(cv::Mat& gray, double& t_s) {
+  cv::Mat frame;
+  bool ok = false;
+  try {
+    ok = cap_->read(frame);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("{}: frame {}: cannot decode: {}", path_, next_, e.what()));
+  }
+  if (!ok || frame.empty()) {
+    if (info_.frame_count > 0 && next_ < info_.frame_count)
+      throw InputError(fmt::format("{}: frame {}: cannot decode; the container declares {} "
+                                   "frames (truncated or corrupt file?)",
+                                   path_, next_, info_.frame_count));
+    return false;
+  }
+  if (frame.size() != cv::Size(info_.width, info_.height))
+    throw InputError(fmt::format("{}: frame {}: size {}x{} differs from the first frame's {}x{}",
+                                 path_, next_, frame.cols, frame.rows, info_.width,
+                                 info_.height));
+  // The FFmpeg back-end reports the presentation time of the frame just read.
+  t_s = cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+  if (!std::isfinite(t_s) || t_s < 0) t_s = static_cast<double>(next_) / info_.fps;
+  gray = frame.depth() == CV_8U ? to_gray(frame) : cv::Mat();
+  if (gray.empty())
+    throw InputError(fmt::format("{}: frame {}: unsupported sample depth; expected 8-bit video",
+                                 path_, next_));
+  ++next_;
+  return true;
+}
+
+VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
+                         const std::string& codec)
+    : path_(path.string()), size_(size) {
+  if (codec.size() != 4)
+    throw ConfigError(fmt::format("video codec \"{}\": expected a four-character code such as "
+                                  "mp4v, avc1 or MJPG",
+                                  codec));
+  if (!(fps > 0)) throw ConfigError(fmt::format("video fps = {}: must be > 0", fps));
+  writer_ = std::make_unique<cv::VideoWriter>();
+  const int fourcc = cv::VideoWriter::fourcc(codec[0], codec[1], codec[2], codec[3]);
+  bool ok = false;
+  try {
+    ok = writer_->open(path_, cv::CAP_FFMPEG, fourcc, fps, size, false);
+  } catch (const cv::Exception& e) {
+    ok = false;
+  }
+  if (!ok)
+    throw ConfigError(fmt::format("{}: cannot open a video writer for codec \"{}\" (this "
+                                  "OpenCV/FFmpeg build may lack it; try mp4v for .mp4 or MJPG "
+                                  "for .avi)",
+                                  path_, codec));
+}
+
+VideoWriter::~VideoWriter() = default;
+
+void VideoWriter::write(const cv::Mat& gray8) {
+  if (gray8.type() != CV_8UC1 || gray8.size() != size_)
+    throw InternalError(fmt::format("{}: VideoWriter::write expects {}x{} CV_8UC1 frames", path_,
+                                    size_.width, size_.height));
+  writer_->write(gray8);
+}
+
+void VideoWriter::close() {
+  if (writer_) writer_->release();
+}
+
+}  // namespace shearzone::io
