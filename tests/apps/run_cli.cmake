@@ -1,0 +1,55 @@
+# run_cli.cmake: runs the shearzone binary the way a user does and checks the outcome.
+#
+#   cmake -DEXE=... -DARGS="a;b;c" -DWORKDIR=... -DEXPECT_CODE=N
+#         [-DEXPECT_STDERR=regex] [-DEXPECT_STDOUT=regex]
+#         [-DEXPECT_ABSENT=path;...] [-DEXPECT_PRESENT=path;...]
+#         [-DSETUP_FILE=path -DSETUP_TEXT=text] -P run_cli.cmake
+#
+# WORKDIR is wiped first. Paths in EXPECT_ABSENT/PRESENT are relative to WORKDIR.
+# Failure tests check exit code, a one-line stderr message, and that no output exists.
+string(REPLACE "|" ";" ARGS "${ARGS}")
+string(REPLACE "|" ";" EXPECT_ABSENT "${EXPECT_ABSENT}")
+string(REPLACE "|" ";" EXPECT_PRESENT "${EXPECT_PRESENT}")
+file(REMOVE_RECURSE "${WORKDIR}")
+file(MAKE_DIRECTORY "${WORKDIR}")
+if(DEFINED SETUP_FILE)
+  string(REPLACE "\\n" "\n" text "${SETUP_TEXT}")
+  file(WRITE "${WORKDIR}/${SETUP_FILE}" "${text}")
+endif()
+
+execute_process(COMMAND "${EXE}" ${ARGS}
+                WORKING_DIRECTORY "${WORKDIR}"
+                RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+
+message(STATUS "exit code: ${code}\nstdout: ${out}\nstderr: ${err}")
+if(NOT code STREQUAL "${EXPECT_CODE}")
+  message(FATAL_ERROR "expected exit code ${EXPECT_CODE}, got ${code}")
+endif()
+if(DEFINED EXPECT_STDERR AND NOT err MATCHES "${EXPECT_STDERR}")
+  message(FATAL_ERROR "stderr does not match: ${EXPECT_STDERR}")
+endif()
+if(DEFINED EXPECT_STDOUT AND NOT out MATCHES "${EXPECT_STDOUT}")
+  message(FATAL_ERROR "stdout does not match: ${EXPECT_STDOUT}")
+endif()
+if(NOT code EQUAL 0)
+  # One line on stderr for a failure.
+  string(REGEX MATCHALL "\n" newlines "${err}")
+  list(LENGTH newlines n)
+  if(NOT n EQUAL 1)
+    message(FATAL_ERROR "expected exactly one stderr line on failure, got ${n}")
+  endif()
+endif()
+foreach(p IN LISTS EXPECT_ABSENT)
+  if(EXISTS "${WORKDIR}/${p}")
+    message(FATAL_ERROR "output '${p}' exists but should not")
+  endif()
+endforeach()
+foreach(p IN LISTS EXPECT_PRESENT)
+  if(NOT EXISTS "${WORKDIR}/${p}")
+    message(FATAL_ERROR "output '${p}' is missing")
+  endif()
+endforeach()
+file(GLOB_RECURSE leftovers "${WORKDIR}/*.partial*")
+if(leftovers)
+  message(FATAL_ERROR "temporary files left behind: ${leftovers}")
+endif()

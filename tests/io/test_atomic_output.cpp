@@ -1,0 +1,125 @@
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <stdexcept>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+namespace fs = std::filesystem;
+
+TEST_CASE("an atomic output appears only on commit", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  const fs::path target = dir / "out.csv";
+  {
+    io::AtomicOutput out(target, false);
+    out.stream() << "hello\n";
+    CHECK_FALSE(fs::exists(target));
+    CHECK(fs::exists(out.temp_path()));
+    CHECK(out.temp_path().parent_path() == target.parent_path());  // same folder: rename is atomic
+    CHECK(out.temp_path().extension() == ".csv");
+    out.commit();
+  }
+  CHECK(testing::read_file(target) == "hello\n");
+  CHECK(testing::list_dir(dir.path()) == std::vector<std::string>{"out.csv"});
+}
+
+TEST_CASE("a writer that throws leaves no file behind", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  const fs::path target = dir / "out.csv";
+  auto failing_job = [&] {
+    io::AtomicOutput out(target, false);
+    out.stream() << "partial data";
+    throw std::runtime_error("writer failed");
+  };
+  CHECK_THROWS_AS(failing_job(), std::runtime_error);
+  CHECK(testing::list_dir(dir.path()).empty());
+}
+
+TEST_CASE("an existing output is refused without force and left untouched", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  const fs::path target = dir / "out.csv";
+  testing::write_file(target, "precious");
+  CHECK_THROWS_MATCHES(io::AtomicOutput(target, false), ConfigError,
+                       Catch::Matchers::Predicate<ConfigError>([&](const ConfigError& e) {
+                         const std::string m = e.what();
+                         return m.find(target.string()) != std::string::npos &&
+                                m.find("--force") != std::string::npos;
+                       }));
+  CHECK(testing::read_file(target) == "precious");
+  CHECK(testing::list_dir(dir.path()) == std::vector<std::string>{"out.csv"});
+
+  SECTION("with force it is replaced on commit") {
+    io::AtomicOutput out(target, true);
+    out.stream() << "new";
+    CHECK(testing::read_file(target) == "precious");
+    out.commit();
+    CHECK(testing::read_file(target) == "new");
+  }
+}
+
+TEST_CASE("an output in a missing folder is an input error naming the folder", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  CHECK_THROWS_WITH(io::AtomicOutput(dir / "nope" / "x.csv", false),
+                    Contains("folder") && Contains("nope") && Contains("does not exist"));
+}
+
+TEST_CASE("an output set into a new folder appears whole or not at all", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  const fs::path out_dir = dir / "run1";
+  SECTION("commit") {
+    io::AtomicOutputSet set(out_dir, false);
+    set.add("a.txt").stream() << "a";
+    set.add("b.txt").stream() << "b";
+    CHECK_FALSE(fs::exists(out_dir));
+    set.commit_all();
+    CHECK(testing::list_dir(out_dir) == std::vector<std::string>{"a.txt", "b.txt"});
+    CHECK(testing::list_dir(dir.path()) == std::vector<std::string>{"run1"});
+  }
+  SECTION("failure") {
+    {
+      io::AtomicOutputSet set(out_dir, false);
+      set.add("a.txt").stream() << "a";
+    }
+    CHECK(testing::list_dir(dir.path()).empty());
+  }
+}
+
+TEST_CASE("an output set into an existing folder refuses existing files", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  testing::write_file(dir / "a.txt", "old");
+  io::AtomicOutputSet set(dir.path(), false);
+  CHECK_THROWS_AS(set.add("a.txt"), ConfigError);
+  set.add("b.txt").stream() << "b";
+  set.commit_all();
+  CHECK(testing::read_file(dir / "a.txt") == "old");
+  CHECK(testing::read_file(dir / "b.txt") == "b");
+}
+
+TEST_CASE("Ctrl-C during a write leaves no partial file", "[io][atomic]") {
+  testing::TempDir dir("atomic");
+  const fs::path target = dir / "out.csv";
+  const fs::path set_dir = dir / "frames";
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    // Child: start two outputs (a single file and a staged folder), then get SIGINT.
+    io::AtomicOutput out(target, false);
+    out.stream() << "partial" << std::flush;
+    io::AtomicOutputSet set(set_dir, false);
+    set.add("frame_0.png").stream() << "x" << std::flush;
+    std::raise(SIGINT);
+    ::_exit(0);  // not reached
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  CHECK(WIFSIGNALED(status));
+  CHECK(WTERMSIG(status) == SIGINT);
+  CHECK(testing::list_dir(dir.path()).empty());
+}

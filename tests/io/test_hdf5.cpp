@@ -1,0 +1,97 @@
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+
+TEST_CASE("HDF5 arrays and attributes round-trip", "[io][hdf5]") {
+  testing::TempDir dir("h5");
+  const auto path = dir / "f.h5";
+  {
+    auto f = io::H5File::create(path);
+    f.write("/grid/x_px", {3}, std::vector<double>{0.5, 16.5, 32.5});
+    f.write("/pairs/u_px", {2, 2, 3}, std::vector<float>{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12});
+    f.write("/pairs/flag", {2, 2, 3}, std::vector<std::uint8_t>(12, 3));
+    f.write("/pairs/frame_a", {2}, std::vector<std::int64_t>{0, 1});
+    f.set_attribute("/", "fps", 25.0);
+    f.set_attribute("/", "source", "clip.mp4");
+    f.set_attribute("/", "N", std::int64_t{9});
+    f.set_attribute("/", "empty", "");
+    f.set_attribute("/pairs/flag", "mapping", "0 valid, 1 replaced, 2 masked, 3 invalid");
+    f.set_attribute("/grid", "centre_px", std::vector<double>{10.0, 20.0});
+    f.close();
+  }
+  const auto f = io::H5File::open_read(path);
+  CHECK(f.exists("/pairs/u_px"));
+  CHECK_FALSE(f.exists("/pairs/v_px"));
+  CHECK_FALSE(f.exists("/nope/deeper"));
+  const auto u = f.read<float>("/pairs/u_px");
+  CHECK(u.dims == std::vector<std::size_t>{2, 2, 3});
+  CHECK(u.data[11] == 12.0f);
+  CHECK(f.read<double>("/pairs/u_px").data[4] == 5.0);  // converted on read
+  CHECK(f.read<std::uint8_t>("/pairs/flag").data[0] == 3);
+  CHECK(f.read<std::int64_t>("/pairs/frame_a").data[1] == 1);
+  CHECK(f.read<double>("/grid/x_px").data == std::vector<double>{0.5, 16.5, 32.5});
+  CHECK(f.attribute_double("/", "fps") == 25.0);
+  CHECK(f.attribute_string("/", "source") == "clip.mp4");
+  CHECK(f.attribute_string("/", "empty").empty());
+  CHECK(f.attribute_int("/", "N") == 9);
+  CHECK(f.attribute_string("/pairs/flag", "mapping").find("3 invalid") != std::string::npos);
+  CHECK(f.attribute_doubles("/grid", "centre_px") == std::vector<double>{10.0, 20.0});
+  CHECK(f.has_attribute("/", "fps"));
+  CHECK_FALSE(f.has_attribute("/", "f_Hz"));
+  const auto names = f.attribute_names("/");
+  CHECK(std::find(names.begin(), names.end(), "source") != names.end());
+}
+
+TEST_CASE("HDF5 errors name the file and the object", "[io][hdf5]") {
+  testing::TempDir dir("h5");
+  const auto path = dir / "f.h5";
+  {
+    auto f = io::H5File::create(path);
+    f.write("/a", {1}, std::vector<double>{1.0});
+    f.close();
+  }
+  const auto f = io::H5File::open_read(path);
+  CHECK_THROWS_WITH(f.read<float>("/pairs/u_px"),
+                    Contains(path.string() + ": dataset \"/pairs/u_px\": not found"));
+  CHECK_THROWS_WITH(f.attribute_double("/", "fps"), Contains("attribute \"fps\" not found"));
+  CHECK_THROWS_WITH(io::H5File::open_read(dir / "missing.h5"), Contains("missing.h5: no such file"));
+  testing::write_file(dir / "text.h5", "not hdf5 at all");
+  CHECK_THROWS_AS(io::H5File::open_read(dir / "text.h5"), InputError);
+}
+
+TEST_CASE("a truncated HDF5 file is an input error", "[io][hdf5]") {
+  testing::TempDir dir("h5");
+  const auto path = dir / "f.h5";
+  {
+    auto f = io::H5File::create(path);
+    f.write("/big", {4096}, std::vector<double>(4096, 1.0));
+    f.close();
+  }
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) / 2);
+  CHECK_THROWS_AS(
+      [&] {
+        auto f = io::H5File::open_read(path);
+        (void)f.read<double>("/big");
+      }(),
+      InputError);
+}
+
+TEST_CASE("HDF5 files are written atomically through AtomicOutput", "[io][hdf5]") {
+  testing::TempDir dir("h5");
+  const auto path = dir / "fields.h5";
+  {
+    io::AtomicOutput out(path, false);
+    auto f = io::H5File::create(out.temp_path());
+    f.write("/x", {2}, std::vector<double>{1, 2});
+    f.close();
+    CHECK_FALSE(std::filesystem::exists(path));
+    out.commit();
+  }
+  CHECK(io::H5File::open_read(path).read<double>("/x").data[1] == 2.0);
+}

@@ -1,0 +1,84 @@
+#include <catch2/catch.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/image.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+
+namespace {
+cv::Mat ramp(int depth) {
+  cv::Mat m(32, 48, depth);
+  for (int i = 0; i < m.rows; ++i)
+    for (int j = 0; j < m.cols; ++j) {
+      const int v = (i * 48 + j) * 37 % (depth == CV_8U ? 256 : 65536);
+      if (depth == CV_8U) m.at<std::uint8_t>(i, j) = static_cast<std::uint8_t>(v);
+      else m.at<std::uint16_t>(i, j) = static_cast<std::uint16_t>(v);
+    }
+  return m;
+}
+}  // namespace
+
+TEST_CASE("lossless formats round-trip 8- and 16-bit grey images exactly", "[io][image]") {
+  testing::TempDir dir("img");
+  for (const std::string ext : {".png", ".tif", ".bmp"}) {
+    for (int depth : {CV_8U, CV_16U}) {
+      if (ext == ".bmp" && depth == CV_16U) continue;  // BMP is 8-bit
+      const auto path = dir / ("a" + std::to_string(depth) + ext);
+      const cv::Mat m = ramp(depth);
+      io::write_image(path, m, false);
+      int bits = 0;
+      const cv::Mat back = io::read_image_gray(path, &bits);
+      CHECK(bits == (depth == CV_8U ? 8 : 16));
+      REQUIRE(back.type() == m.type());
+      CHECK(cv::norm(back, m, cv::NORM_INF) == 0.0);
+    }
+  }
+}
+
+TEST_CASE("JPEG round-trips within its compression error", "[io][image]") {
+  testing::TempDir dir("img");
+  cv::Mat m(64, 64, CV_8U);
+  cv::GaussianBlur(ramp(CV_8U)(cv::Rect(0, 0, 32, 32)), m, cv::Size(3, 3), 0);  // smooth input
+  cv::resize(m, m, cv::Size(64, 64));
+  io::write_image(dir / "a.jpg", m, false);
+  const cv::Mat back = io::read_image_gray(dir / "a.jpg");
+  // Quality 95 on smooth content: a mean error of a few grey levels at most.
+  CHECK(cv::norm(back, m, cv::NORM_L1) / m.total() < 4.0);
+}
+
+TEST_CASE("colour images are converted to grey", "[io][image]") {
+  testing::TempDir dir("img");
+  cv::Mat colour(8, 8, CV_8UC3, cv::Scalar(0, 0, 255));  // pure red (BGR)
+  io::write_image(dir / "red.png", colour, false);
+  const cv::Mat g = io::read_image_gray(dir / "red.png");
+  REQUIRE(g.channels() == 1);
+  CHECK(g.at<std::uint8_t>(0, 0) == 76);  // BT.601: 0.299 * 255
+}
+
+TEST_CASE("truncated and undecodable images are input errors naming the file", "[io][image]") {
+  testing::TempDir dir("img");
+  const cv::Mat m = ramp(CV_8U);
+  for (const std::string ext : {".png", ".jpg", ".bmp", ".tif"}) {
+    const auto path = dir / ("t" + ext);
+    io::write_image(path, m, false);
+    std::filesystem::resize_file(path, std::filesystem::file_size(path) * 2 / 3);
+    CHECK_THROWS_MATCHES(io::read_image_gray(path), InputError,
+                         Catch::Matchers::Predicate<InputError>([&](const InputError& e) {
+                           return std::string(e.what()).find(path.string()) != std::string::npos;
+                         }));
+  }
+  testing::write_file(dir / "x.png", "this is not an image");
+  CHECK_THROWS_WITH(io::read_image_gray(dir / "x.png"), Contains("not a PNG, TIFF, BMP or JPEG"));
+  CHECK_THROWS_WITH(io::read_image_gray(dir / "none.png"), Contains("none.png: no such file"));
+}
+
+TEST_CASE("write_image refuses 16-bit JPEG and unknown extensions", "[io][image]") {
+  testing::TempDir dir("img");
+  CHECK_THROWS_AS(io::write_image(dir / "a.jpg", ramp(CV_16U), false), ConfigError);
+  CHECK_THROWS_WITH(io::write_image(dir / "a.gif", ramp(CV_8U), false),
+                    Contains("unsupported image extension \".gif\""));
+  CHECK(testing::list_dir(dir.path()).empty());
+}

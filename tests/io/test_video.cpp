@@ -1,0 +1,81 @@
+#include <catch2/catch.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/video.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+
+namespace {
+/// A frame whose mean grey level encodes its index (robust to lossy coding).
+cv::Mat frame(int k) {
+  cv::Mat m(96, 128, CV_8U, cv::Scalar(20 + 10 * k));
+  cv::rectangle(m, cv::Rect(10 + 4 * k, 20, 16, 16), cv::Scalar(250), cv::FILLED);
+  return m;
+}
+
+void write_clip(const std::filesystem::path& path, int frames, double fps,
+                const std::string& codec) {
+  io::VideoWriter w(path, fps, cv::Size(128, 96), codec);
+  for (int k = 0; k < frames; ++k) w.write(frame(k));
+  w.close();
+}
+}  // namespace
+
+TEST_CASE("an MP4 reads back with fps, frame count and timestamps", "[io][video]") {
+  testing::TempDir dir("video");
+  const auto path = dir / "clip.mp4";
+  write_clip(path, 12, 25.0, "mp4v");
+  io::VideoReader r(path);
+  CHECK(r.info().fps == Approx(25.0));
+  CHECK(r.info().frame_count == 12);
+  CHECK(r.info().width == 128);
+  CHECK(r.info().height == 96);
+  cv::Mat g;
+  double t = -1;
+  int k = 0;
+  while (r.read(g, t)) {
+    REQUIRE(g.type() == CV_8UC1);
+    // Timestamps from the container: k / fps to within a millisecond.
+    CHECK(t == Approx(k / 25.0).margin(1e-3));
+    // The frame content is the frame we wrote (mean level within lossy-coding error).
+    CHECK(cv::mean(g(cv::Rect(60, 60, 40, 20)))[0] == Approx(20 + 10 * k).margin(3.0));
+    ++k;
+  }
+  CHECK(k == 12);
+}
+
+TEST_CASE("an AVI (MJPG) reads back too", "[io][video]") {
+  testing::TempDir dir("video");
+  write_clip(dir / "clip.avi", 5, 10.0, "MJPG");
+  io::VideoReader r(dir / "clip.avi");
+  CHECK(r.info().fps == Approx(10.0));
+  cv::Mat g;
+  double t;
+  int n = 0;
+  while (r.read(g, t)) ++n;
+  CHECK(n == 5);
+}
+
+TEST_CASE("truncated or non-video files are input errors naming the file", "[io][video]") {
+  testing::TempDir dir("video");
+  const auto path = dir / "clip.mp4";
+  write_clip(path, 20, 25.0, "mp4v");
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) / 2);
+  CHECK_THROWS_MATCHES(
+      [&] {
+        io::VideoReader r(path);
+        cv::Mat g;
+        double t;
+        while (r.read(g, t)) {
+        }
+      }(),
+      InputError, Catch::Matchers::Predicate<InputError>([&](const InputError& e) {
+        return std::string(e.what()).find(path.string()) != std::string::npos;
+      }));
+  testing::write_file(dir / "text.mp4", "no video here");
+  CHECK_THROWS_WITH(io::VideoReader(dir / "text.mp4"), Contains("text.mp4: cannot open as video"));
+  CHECK_THROWS_WITH(io::VideoReader(dir / "none.mp4"), Contains("none.mp4: no such file"));
+}
