@@ -118,6 +118,9 @@ int run_synth(CLI::App& c, SynthCli& s, const Context& ctx) {
   core::ProgressReporter progress("synth: frames", ctx.level);
   const auto summary = pipeline::run_synth_job(s.job, ctx.header(), progress.callback());
   progress.finish();
+  if (ctx.level == core::LogLevel::kVerbose)
+    for (const auto& [key, value] : summary.resolved_options)
+      std::fprintf(stderr, "synth: %s: %s\n", key.c_str(), value.c_str());
   if (ctx.level != core::LogLevel::kQuiet)
     std::printf("wrote %zu files to %s (%d frames, %zu %s)\n", summary.files.size(),
                 s.job.out_dir.string().c_str(), summary.frames, summary.tracers,

@@ -115,6 +115,7 @@ SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metada
   summary.files = out.final_paths();
   summary.tracers = gen.num_tracers();
   summary.frames = K;
+  summary.resolved_options = gen.options().to_metadata();
   return summary;
 }
 

@@ -40,6 +40,7 @@ struct SynthJobSummary {
   std::vector<std::filesystem::path> files;  ///< everything written, in order
   std::size_t tracers = 0;                   ///< particles or beads placed
   int frames = 0;
+  core::Metadata resolved_options;           ///< what the file headers record
 };
 
 /// Renders and writes everything; `header` (tool, version, command line,
