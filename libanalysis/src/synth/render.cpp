@@ -81,11 +81,14 @@ cv::Mat render_particles(const std::vector<double>& x, const std::vector<double>
 
 // ---- Beads --------------------------------------------------------------------------
 //
-// Ray-cast from above with supersampling. For a sample point at offset (dx, dy)
-// from a bead centre, inside its radius R, the sphere surface is at height
-// top - R + sqrt(R^2 - rho^2) and its normal is (dx, -dy, h)/R in a right-handed
-// frame (x right, y up on screen, z towards the camera). The highest surface wins.
-// Shade = ambient + albedo (diffuse max(0, n.L) + specular max(0, n.H)^shininess).
+// Ray-cast from above at S x S samples per pixel, done as a splat: each bead writes
+// the samples under its disc into a depth buffer, and the highest surface wins. For a
+// sample at offset (dx, dy) from a bead centre, inside its radius R, the sphere surface
+// is at height top - R + sqrt(R^2 - rho^2) and its normal is (dx, -dy, h)/R in a
+// right-handed frame (x right, y up on screen, z towards the camera).
+// Shade = ambient + albedo diffuse max(0, n.L) + specular max(0, n.H)^shininess.
+// Rows are processed in bands; within a band beads are splatted in index order with a
+// strict depth test, so the result does not depend on the thread count.
 
 cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
                      const std::vector<double>& top, const std::vector<double>& albedo,
@@ -93,16 +96,7 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
   SHEARZONE_CHECK(x.size() == y.size() && x.size() == top.size() && x.size() == albedo.size());
   SHEARZONE_CHECK(diameter_px > 0 && sh.supersample >= 1);
   const double R = diameter_px / 2.0;
-  const double cell = std::max(diameter_px, 1.0);
-  const int gw = static_cast<int>(std::ceil((size.width + 2 * cell) / cell)) + 1;
-  const int gh = static_cast<int>(std::ceil((size.height + 2 * cell) / cell)) + 1;
-  std::vector<std::vector<std::size_t>> grid(static_cast<std::size_t>(gw) * gh);
-  auto cell_of = [&](double v) { return static_cast<int>(std::floor((v + cell) / cell)); };
-  for (std::size_t b = 0; b < x.size(); ++b) {
-    const int cx = cell_of(x[b]), cy = cell_of(y[b]);
-    if (cx < 0 || cy < 0 || cx >= gw || cy >= gh) continue;
-    grid[static_cast<std::size_t>(cy) * gw + cx].push_back(b);
-  }
+  const int S = sh.supersample;
 
   const double az = sh.light_azimuth_deg * std::numbers::pi / 180.0;
   const double el = sh.light_elevation_deg * std::numbers::pi / 180.0;
@@ -111,40 +105,71 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
   const double hn = std::sqrt(H[0] * H[0] + H[1] * H[1] + H[2] * H[2]);
   for (double& h : H) h /= hn;
 
-  const int S = sh.supersample;
-  const double inv_s2 = 1.0 / (S * S);
+  // Sample (si, sj) of pixel (i, j) sits at (j - 1/2 + (sj + 1/2)/S, i - 1/2 + (si + 1/2)/S);
+  // in sample-grid units, sample column c = j S + sj has x = (c + 1/2)/S - 1/2.
+  auto sample_pos = [S](int c) { return (c + 0.5) / S - 0.5; };
+  auto first_sample = [S](double v) {  // smallest c with sample_pos(c) >= v
+    return static_cast<int>(std::ceil((v + 0.5) * S - 0.5));
+  };
+
+  const int band_rows = 16;
+  const int bands = (size.height + band_rows - 1) / band_rows;
+  std::vector<std::vector<std::size_t>> band_members(static_cast<std::size_t>(bands));
+  for (std::size_t b = 0; b < x.size(); ++b) {
+    if (y[b] + R < -0.5 || y[b] - R > size.height - 0.5) continue;
+    if (x[b] + R < -0.5 || x[b] - R > size.width - 0.5) continue;
+    const int i0 = std::max(0, static_cast<int>(std::floor(y[b] - R + 0.5)));
+    const int i1 = std::min(size.height - 1, static_cast<int>(std::floor(y[b] + R + 0.5)));
+    for (int band = i0 / band_rows; band <= i1 / band_rows; ++band)
+      band_members[static_cast<std::size_t>(band)].push_back(b);
+  }
+
   cv::Mat img(size, CV_64F);
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int i = 0; i < size.height; ++i) {
-    double* row = img.ptr<double>(i);
-    for (int j = 0; j < size.width; ++j) {
-      double acc = 0.0;
-      for (int si = 0; si < S; ++si) {
-        const double py = i - 0.5 + (si + 0.5) / S;
-        for (int sj = 0; sj < S; ++sj) {
-          const double px = j - 0.5 + (sj + 0.5) / S;
-          const int cx = cell_of(px), cy = cell_of(py);
-          double best_h = -1e300, shade = sh.gap_level;
-          for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
-            for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
-              for (std::size_t b : grid[static_cast<std::size_t>(gy) * gw + gx]) {
-                const double dx = px - x[b], dy = py - y[b];
-                const double rho2 = dx * dx + dy * dy;
-                if (rho2 >= R * R) continue;
-                const double hz = std::sqrt(R * R - rho2);
-                const double h = top[b] - R + hz;
-                if (h <= best_h) continue;
-                best_h = h;
-                const double n[3] = {dx / R, -dy / R, hz / R};
-                const double nl = std::max(0.0, n[0] * L[0] + n[1] * L[1] + n[2] * L[2]);
-                const double nh = std::max(0.0, n[0] * H[0] + n[1] * H[1] + n[2] * H[2]);
-                shade = sh.ambient + albedo[b] * sh.diffuse * nl +
-                        sh.specular * std::pow(nh, sh.shininess);
-              }
-          acc += shade;
+  const int cols = size.width * S;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int band = 0; band < bands; ++band) {
+    const int row_lo = band * band_rows;
+    const int row_hi = std::min(size.height, row_lo + band_rows);
+    const int r_lo = row_lo * S, r_hi = row_hi * S;  // sample rows [r_lo, r_hi)
+    std::vector<double> depth(static_cast<std::size_t>((r_hi - r_lo) * cols), -1e300);
+    std::vector<double> shade(depth.size(), sh.gap_level);
+    for (std::size_t b : band_members[static_cast<std::size_t>(band)]) {
+      const int c0 = std::max(0, first_sample(x[b] - R));
+      const int c1 = std::min(cols - 1, first_sample(x[b] + R) - 1);
+      const int q0 = std::max(r_lo, first_sample(y[b] - R));
+      const int q1 = std::min(r_hi - 1, first_sample(y[b] + R) - 1);
+      for (int q = q0; q <= q1; ++q) {
+        const double dy = sample_pos(q) - y[b];
+        double* drow = depth.data() + static_cast<std::size_t>(q - r_lo) * cols;
+        double* srow = shade.data() + static_cast<std::size_t>(q - r_lo) * cols;
+        for (int c = c0; c <= c1; ++c) {
+          const double dx = sample_pos(c) - x[b];
+          const double rho2 = dx * dx + dy * dy;
+          if (rho2 >= R * R) continue;
+          const double hz = std::sqrt(R * R - rho2);
+          const double h = top[b] - R + hz;
+          if (h <= drow[c]) continue;
+          drow[c] = h;
+          const double n[3] = {dx / R, -dy / R, hz / R};
+          const double nl = std::max(0.0, n[0] * L[0] + n[1] * L[1] + n[2] * L[2]);
+          const double nh = std::max(0.0, n[0] * H[0] + n[1] * H[1] + n[2] * H[2]);
+          srow[c] = sh.ambient + albedo[b] * sh.diffuse * nl +
+                    (nh > 0 ? sh.specular * std::pow(nh, sh.shininess) : 0.0);
         }
       }
-      row[j] = acc * inv_s2;
+    }
+    // Average the S x S samples of each pixel.
+    const double inv_s2 = 1.0 / (S * S);
+    for (int i = row_lo; i < row_hi; ++i) {
+      double* row = img.ptr<double>(i);
+      for (int j = 0; j < size.width; ++j) {
+        double acc = 0.0;
+        for (int si = 0; si < S; ++si) {
+          const double* srow = shade.data() + static_cast<std::size_t>((i * S + si) - r_lo) * cols;
+          for (int sj = 0; sj < S; ++sj) acc += srow[j * S + sj];
+        }
+        row[j] = acc * inv_s2;
+      }
     }
   }
   return img;
