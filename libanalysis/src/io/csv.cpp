@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/file.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -199,16 +200,7 @@ CsvTable parse_csv(std::string_view text, const std::string& source) {
 }
 
 CsvTable read_csv(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw InputError(fmt::format("{}: no such file", path.string()));
-  if (std::filesystem::is_directory(path, ec))
-    throw InputError(fmt::format("{}: is a folder; expected a CSV file", path.string()));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open for reading", path.string()));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse_csv(ss.str(), path.string());
+  return parse_csv(read_file_bytes(path, "file"), path.string());
 }
 
 bool CsvTable::has_column(std::string_view name) const {

@@ -13,6 +13,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/file.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -114,14 +115,7 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
 }
 
 cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw InputError(fmt::format("{}: no such file", path.string()));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open for reading", path.string()));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return decode_image_gray(ss.str(), path.string(), bit_depth);
+  return decode_image_gray(read_file_bytes(path, "file"), path.string(), bit_depth);
 }
 
 std::string encode_image(const cv::Mat& image, const std::filesystem::path& path) {

@@ -9,6 +9,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/file.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -101,14 +102,7 @@ TomlConfig TomlConfig::parse(const std::string& text, const std::string& source)
 }
 
 TomlConfig TomlConfig::load(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw InputError(fmt::format("{}: no such config file", path.string()));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot open config file", path.string()));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parse(ss.str(), path.string());
+  return parse(read_file_bytes(path, "config file"), path.string());
 }
 
 std::vector<std::string> TomlConfig::keys() const {
