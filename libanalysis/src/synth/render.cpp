@@ -6,6 +6,7 @@
 #include <random>
 
 #include "shearzone/core/check.hpp"
+#include "shearzone/core/vane.hpp"
 
 namespace shearzone::synth {
 
@@ -179,17 +180,7 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
 
 bool inside_vane(double x, double y, double cx, double cy, double angle_rad, int blades,
                  double half_width_px, double radius_px) {
-  const double dx = x - cx, dy = y - cy;
-  if (dx * dx + dy * dy > radius_px * radius_px) return false;
-  for (int k = 0; k < blades; ++k) {
-    const double a = angle_rad + 2.0 * std::numbers::pi * k / blades;
-    const double ex = std::cos(a), ey = -std::sin(a);  // blade direction in image coords
-    const double along = dx * ex + dy * ey;
-    const double across = -dx * ey + dy * ex;
-    if (along >= -half_width_px && along <= radius_px && std::abs(across) <= half_width_px)
-      return true;
-  }
-  return false;
+  return core::VaneGeometry{blades, half_width_px, radius_px}.contains(x, y, cx, cy, angle_rad);
 }
 
 void draw_vane(cv::Mat& ideal, double cx, double cy, double angle_rad, int blades,

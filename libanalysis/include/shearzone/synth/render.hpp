@@ -54,7 +54,7 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
 void draw_vane(cv::Mat& ideal, double centre_x_px, double centre_y_px, double angle_rad,
                int blades, double half_width_px, double radius_px, double level);
 
-/// True if the point (x, y) is inside the vane (same geometry as draw_vane).
+/// True if the point (x, y) is inside the vane (core::VaneGeometry::contains).
 bool inside_vane(double x, double y, double centre_x_px, double centre_y_px, double angle_rad,
                  int blades, double half_width_px, double radius_px);
 

@@ -1,0 +1,81 @@
+// shearzone/piv/correlate.hpp: FFT cross-correlation of interrogation windows and
+// sub-pixel peak location.
+//
+// For zero-mean windows a and b (W x W, row-major), the circular cross-correlation
+//     c(s) = sum_x a(x) b(x + s) / sqrt(sum a^2 sum b^2)
+// is computed as IFFT(conj(FFT a) FFT b) (FFTW, single precision, real-to-complex),
+// so its peak is at the displacement s of the pattern from a to b and its height is
+// the normalised correlation coefficient (1 for identical windows). The plane is
+// stored shifted: zero displacement at index (W/2, W/2).
+//
+// Thread-safety: a Correlator is immutable after construction and may be shared;
+// each thread passes its own Workspace. Plans use FFTW_ESTIMATE, so results are
+// deterministic (FFTW_MEASURE may pick different algorithms from run to run).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "shearzone/piv/options.hpp"
+
+namespace shearzone::piv {
+
+/// Per-thread scratch buffers for one window size.
+class Workspace {
+ public:
+  explicit Workspace(int window_px);
+  ~Workspace();
+  Workspace(const Workspace&) = delete;
+  Workspace& operator=(const Workspace&) = delete;
+  float* a() { return a_; }   ///< W*W input window A
+  float* b() { return b_; }   ///< W*W input window B
+  float* corr() { return corr_; }  ///< W*W correlation plane (shifted)
+
+ private:
+  friend class Correlator;
+  int w_;
+  float* a_ = nullptr;
+  float* b_ = nullptr;
+  float* corr_ = nullptr;
+  float* real_ = nullptr;   // unshifted IFFT output
+  void* spec_a_ = nullptr;  // fftwf_complex[W * (W/2 + 1)]
+  void* spec_b_ = nullptr;
+};
+
+/// Sub-pixel correlation peak.
+struct Peak {
+  double dx = 0.0;        ///< displacement from a to b, px
+  double dy = 0.0;
+  float height = 0.0f;    ///< normalised correlation at the integer peak
+  float ratio = 0.0f;     ///< height over the highest value outside the 5x5 around it
+  bool found = false;     ///< false: no positive peak in the search region
+};
+
+class Correlator {
+ public:
+  explicit Correlator(int window_px);
+  ~Correlator();
+  Correlator(const Correlator&) = delete;
+  Correlator& operator=(const Correlator&) = delete;
+  int window() const { return w_; }
+
+  /// Subtracts the means of ws.a() and ws.b() and correlates them into ws.corr().
+  /// Returns false (plane left at zero) if either window has no variance.
+  bool correlate(Workspace& ws) const;
+
+ private:
+  int w_;
+  void* plan_fwd_ = nullptr;  // fftwf_plan
+  void* plan_inv_ = nullptr;
+};
+
+/// Locates the highest value of a shifted W x W plane within |s_x|, |s_y| <= radius
+/// of zero displacement, refines it to sub-pixel with `method` and computes the
+/// peak ratio. Neighbours wrap around (the plane is circular).
+Peak find_peak(const float* corr, int w, int radius, Subpixel method);
+
+/// 3-point Gaussian fit through (-1, lo), (0, c), (1, hi): the offset of the
+/// maximum from 0. Falls back to a parabola if a value is not positive.
+double gauss3(double lo, double c, double hi);
+
+}  // namespace shearzone::piv

@@ -1,0 +1,88 @@
+// shearzone/piv/options.hpp: the settings of the multipass PIV engine.
+//
+// Defaults follow the accuracy gates (README, "PIV"): three passes 64 -> 32 -> 16 px
+// at 50 % overlap plus one repeat of the last, symmetric image deformation with a
+// quintic B-spline (the cubic B-spline leaves 0.012 px of bias at half-pixel shifts
+// of 3 px particles, bilinear and Keys 0.05-0.06 px), 3-point Gaussian sub-pixel fit,
+// normalised median test with epsilon = 0.1 px and threshold 2 (Westerweel &
+// Scarano 2005) between passes and after the last.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+
+namespace shearzone::piv {
+
+/// Image interpolation used to deform the frames between passes.
+enum class Interpolation {
+  kBilinear,  ///< PIVlab 2.55 "Standard": fast, biased for sub-pixel shifts
+  kBicubic,   ///< Keys cubic convolution (a = -0.5), 4x4 pixels
+  kBSpline,   ///< prefiltered cubic B-spline (interpolating), 4x4 coefficients
+  kBSpline5,  ///< prefiltered quintic B-spline (interpolating), 6x6 coefficients
+};
+const char* interpolation_name(Interpolation i);
+Interpolation interpolation_from_name(const std::string& name);
+
+/// Sub-pixel peak estimator.
+enum class Subpixel {
+  kGauss3,   ///< 3-point Gaussian in x and in y (separable); the PIV standard
+  kGauss2D,  ///< least-squares 2-D Gaussian on the 3x3 neighbourhood (Nobach & Honkanen 2005)
+};
+const char* subpixel_name(Subpixel s);
+Subpixel subpixel_from_name(const std::string& name);
+
+struct PivOptions {
+  /// Interrogation window side per pass, px, coarse to fine; each a power of two
+  /// from 8 to 256 and not larger than the previous one.
+  std::vector<int> windows_px = {64, 32, 16};
+  /// Window overlap, fraction (0 <= overlap <= 0.875); the grid step is
+  /// window * (1 - overlap), rounded to a whole pixel.
+  double overlap = 0.5;
+  /// Extra iterations of the final pass (re-deform with the refined field).
+  int final_pass_repeats = 1;
+  /// Image interpolation for the deformation between passes.
+  Interpolation interpolation = Interpolation::kBSpline5;
+  /// Deform the images between passes. Off: later passes only offset the windows
+  /// of A and B by the predictor rounded to whole pixels (no interpolation).
+  bool deform = true;
+  /// Sub-pixel estimator.
+  Subpixel subpixel = Subpixel::kGauss3;
+  /// Peak search radius in passes after the first, as a fraction of the window
+  /// (the residual displacement is small once the images are deformed).
+  double restricted_search = 0.25;
+  /// Gaussian smoothing of the predictor between passes, in grid steps (0: off).
+  double predictor_smoothing = 1.0;
+
+  /// Normalised median test: neighbourhood radius in vectors (1: 3x3), noise level
+  /// epsilon in px and threshold. threshold <= 0 switches the test off.
+  int median_radius = 1;
+  double median_epsilon_px = 0.1;
+  double median_threshold = 2.0;
+  /// Global std filter: |u - mean| > k std (k <= 0: off).
+  double std_threshold = 0.0;
+  /// Global limit on |d| in px (infinity: off).
+  double max_displacement_px = std::numeric_limits<double>::infinity();
+  /// A vector whose normalised correlation peak is below this is invalid. Correct
+  /// matches of deformed windows reach 0.6-1; unrelated windows (a failed predictor,
+  /// an aliased first pass) peak around 0.3-0.4.
+  double min_peak = 0.5;
+  /// A vector whose peak ratio (first over second peak) is below this is invalid.
+  double min_peak_ratio = 1.3;
+  /// A window whose intensity standard deviation is below this fraction of the
+  /// full scale has no texture: invalid.
+  double min_window_std = 2e-3;
+  /// A window is masked when its centre is masked or when more than this fraction
+  /// of its pixels is masked (in frame A or B).
+  double mask_fraction = 0.5;
+
+  /// Throws ConfigError naming the option and the constraint.
+  void validate() const;
+  core::Metadata to_metadata() const;
+  /// Grid step of pass p, px.
+  int step_px(std::size_t pass) const;
+};
+
+}  // namespace shearzone::piv

@@ -1,0 +1,199 @@
+#include "shearzone/piv/correlate.hpp"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include <Eigen/Dense>
+
+#include "shearzone/core/check.hpp"
+
+namespace shearzone::piv {
+namespace {
+
+// FFTW's planner is not thread-safe; execution with new arrays is.
+std::mutex g_fftw_planner_mutex;
+
+std::size_t spectrum_size(int w) { return static_cast<std::size_t>(w) * (w / 2 + 1); }
+
+}  // namespace
+
+Workspace::Workspace(int window_px) : w_(window_px) {
+  const std::size_t n = static_cast<std::size_t>(w_) * w_;
+  a_ = fftwf_alloc_real(n);
+  b_ = fftwf_alloc_real(n);
+  corr_ = fftwf_alloc_real(n);
+  real_ = fftwf_alloc_real(n);
+  spec_a_ = fftwf_alloc_complex(spectrum_size(w_));
+  spec_b_ = fftwf_alloc_complex(spectrum_size(w_));
+  SHEARZONE_CHECK(a_ && b_ && corr_ && real_ && spec_a_ && spec_b_);
+}
+
+Workspace::~Workspace() {
+  fftwf_free(a_);
+  fftwf_free(b_);
+  fftwf_free(corr_);
+  fftwf_free(real_);
+  fftwf_free(spec_a_);
+  fftwf_free(spec_b_);
+}
+
+Correlator::Correlator(int window_px) : w_(window_px) {
+  SHEARZONE_CHECK(w_ >= 4 && (w_ & (w_ - 1)) == 0);
+  Workspace tmp(w_);  // plans are made on FFTW-aligned arrays like every workspace's
+  std::lock_guard lock(g_fftw_planner_mutex);
+  plan_fwd_ = fftwf_plan_dft_r2c_2d(w_, w_, tmp.a(), static_cast<fftwf_complex*>(tmp.spec_a_),
+                                    FFTW_ESTIMATE);
+  plan_inv_ = fftwf_plan_dft_c2r_2d(w_, w_, static_cast<fftwf_complex*>(tmp.spec_a_), tmp.real_,
+                                    FFTW_ESTIMATE);
+  SHEARZONE_CHECK(plan_fwd_ != nullptr && plan_inv_ != nullptr);
+}
+
+Correlator::~Correlator() {
+  std::lock_guard lock(g_fftw_planner_mutex);
+  fftwf_destroy_plan(static_cast<fftwf_plan>(plan_fwd_));
+  fftwf_destroy_plan(static_cast<fftwf_plan>(plan_inv_));
+}
+
+bool Correlator::correlate(Workspace& ws) const {
+  SHEARZONE_DCHECK(ws.w_ == w_);
+  const int n = w_ * w_;
+  // Step 1: zero-mean windows and their energies.
+  double sa = 0, sb = 0;
+  for (int i = 0; i < n; ++i) {
+    sa += ws.a_[i];
+    sb += ws.b_[i];
+  }
+  const float ma = static_cast<float>(sa / n), mb = static_cast<float>(sb / n);
+  double ea = 0, eb = 0;
+  for (int i = 0; i < n; ++i) {
+    ws.a_[i] -= ma;
+    ws.b_[i] -= mb;
+    ea += static_cast<double>(ws.a_[i]) * ws.a_[i];
+    eb += static_cast<double>(ws.b_[i]) * ws.b_[i];
+  }
+  if (!(ea > 0) || !(eb > 0)) {
+    std::fill(ws.corr_, ws.corr_ + n, 0.0f);
+    return false;
+  }
+  // Step 2: spectra, cross-power, inverse transform.
+  auto* fa = static_cast<fftwf_complex*>(ws.spec_a_);
+  auto* fb = static_cast<fftwf_complex*>(ws.spec_b_);
+  fftwf_execute_dft_r2c(static_cast<fftwf_plan>(plan_fwd_), ws.a_, fa);
+  fftwf_execute_dft_r2c(static_cast<fftwf_plan>(plan_fwd_), ws.b_, fb);
+  const std::size_t ns = spectrum_size(w_);
+  for (std::size_t k = 0; k < ns; ++k) {
+    // conj(fa) * fb
+    const float re = fa[k][0] * fb[k][0] + fa[k][1] * fb[k][1];
+    const float im = fa[k][0] * fb[k][1] - fa[k][1] * fb[k][0];
+    fa[k][0] = re;
+    fa[k][1] = im;
+  }
+  fftwf_execute_dft_c2r(static_cast<fftwf_plan>(plan_inv_), fa, ws.real_);
+  // Step 3: normalise (FFTW's inverse is unscaled by n) and shift zero to (W/2, W/2).
+  const float scale = static_cast<float>(1.0 / (n * std::sqrt(ea * eb)));
+  const int h = w_ / 2;
+  for (int y = 0; y < w_; ++y) {
+    const int ys = (y + h) & (w_ - 1);
+    for (int x = 0; x < w_; ++x) {
+      const int xs = (x + h) & (w_ - 1);
+      ws.corr_[ys * w_ + xs] = ws.real_[y * w_ + x] * scale;
+    }
+  }
+  return true;
+}
+
+double gauss3(double lo, double c, double hi) {
+  double d;
+  if (lo > 0 && c > 0 && hi > 0) {
+    const double l = std::log(lo), m = std::log(c), r = std::log(hi);
+    const double den = 2.0 * (l - 2.0 * m + r);
+    d = den < 0 ? (l - r) / den : 0.0;
+  } else {
+    const double den = 2.0 * (lo - 2.0 * c + hi);
+    d = den < 0 ? (lo - hi) / den : 0.0;
+  }
+  return std::clamp(d, -1.0, 1.0);
+}
+
+namespace {
+
+/// Least-squares fit of ln c = a0 + a1 x + a2 y + a3 x^2 + a4 xy + a5 y^2 over the
+/// 3x3 neighbourhood: a = P ln(c) with the constant 6x9 pseudo-inverse P.
+const Eigen::Matrix<double, 6, 9>& gauss2d_pinv() {
+  static const Eigen::Matrix<double, 6, 9> P = [] {
+    Eigen::Matrix<double, 9, 6> X;
+    int k = 0;
+    for (int y = -1; y <= 1; ++y)
+      for (int x = -1; x <= 1; ++x, ++k) X.row(k) << 1, x, y, x * x, x * y, y * y;
+    return Eigen::Matrix<double, 6, 9>((X.transpose() * X).inverse() * X.transpose());
+  }();
+  return P;
+}
+
+}  // namespace
+
+Peak find_peak(const float* corr, int w, int radius, Subpixel method) {
+  Peak p;
+  const int h = w / 2;
+  radius = std::clamp(radius, 1, h - 1);
+  // Step 1: integer maximum in the search square.
+  int bx = h, by = h;
+  float best = -2.0f;
+  for (int y = h - radius; y <= h + radius; ++y)
+    for (int x = h - radius; x <= h + radius; ++x)
+      if (corr[y * w + x] > best) {
+        best = corr[y * w + x];
+        bx = x;
+        by = y;
+      }
+  if (!(best > 0)) return p;
+  auto at = [&](int x, int y) {
+    return static_cast<double>(corr[((y + w) & (w - 1)) * w + ((x + w) & (w - 1))]);
+  };
+  // Step 2: sub-pixel refinement.
+  double ox = gauss3(at(bx - 1, by), best, at(bx + 1, by));
+  double oy = gauss3(at(bx, by - 1), best, at(bx, by + 1));
+  if (method == Subpixel::kGauss2D) {
+    Eigen::Matrix<double, 9, 1> lnc;
+    bool positive = true;
+    int k = 0;
+    for (int y = -1; y <= 1; ++y)
+      for (int x = -1; x <= 1; ++x, ++k) {
+        const double v = at(bx + x, by + y);
+        positive &= v > 0;
+        lnc(k) = v > 0 ? std::log(v) : 0.0;
+      }
+    if (positive) {
+      const Eigen::Matrix<double, 6, 1> a = gauss2d_pinv() * lnc;
+      // Stationary point: [2a3 a4; a4 2a5] [x y]^T = -[a1 a2]^T, a maximum if negative definite.
+      const double A = 2 * a(3), B = a(4), C = 2 * a(5);
+      const double det = A * C - B * B;
+      if (A < 0 && det > 0) {
+        const double sx = (-a(1) * C + a(2) * B) / det;
+        const double sy = (-a(2) * A + a(1) * B) / det;
+        if (std::abs(sx) <= 1 && std::abs(sy) <= 1) {
+          ox = sx;
+          oy = sy;
+        }
+      }
+    }
+  }
+  p.dx = (bx - h) + ox;
+  p.dy = (by - h) + oy;
+  p.height = best;
+  // Step 3: second peak: the highest value outside the 5x5 square around the first.
+  float second = 0.0f;
+  for (int y = h - radius; y <= h + radius; ++y)
+    for (int x = h - radius; x <= h + radius; ++x) {
+      if (std::abs(x - bx) <= 2 && std::abs(y - by) <= 2) continue;
+      second = std::max(second, corr[y * w + x]);
+    }
+  p.ratio = second > 0 ? best / second : 1000.0f;
+  p.found = true;
+  return p;
+}
+
+}  // namespace shearzone::piv

@@ -1,0 +1,101 @@
+#include "shearzone/piv/options.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+
+namespace shearzone::piv {
+namespace {
+std::string num(double v) { return io::CsvWriter::format_number(v); }
+}  // namespace
+
+const char* interpolation_name(Interpolation i) {
+  switch (i) {
+    case Interpolation::kBilinear: return "bilinear";
+    case Interpolation::kBicubic: return "bicubic";
+    case Interpolation::kBSpline: return "bspline";
+    case Interpolation::kBSpline5: return "bspline5";
+  }
+  return "?";
+}
+
+Interpolation interpolation_from_name(const std::string& name) {
+  for (auto i : {Interpolation::kBilinear, Interpolation::kBicubic, Interpolation::kBSpline,
+                 Interpolation::kBSpline5})
+    if (name == interpolation_name(i)) return i;
+  throw ConfigError(fmt::format(
+      "unknown interpolation \"{}\"; expected one of: bilinear, bicubic, bspline, bspline5", name));
+}
+
+const char* subpixel_name(Subpixel s) { return s == Subpixel::kGauss3 ? "gauss3" : "gauss2d"; }
+
+Subpixel subpixel_from_name(const std::string& name) {
+  if (name == "gauss3") return Subpixel::kGauss3;
+  if (name == "gauss2d") return Subpixel::kGauss2D;
+  throw ConfigError(
+      fmt::format("unknown sub-pixel method \"{}\"; expected one of: gauss3, gauss2d", name));
+}
+
+int PivOptions::step_px(std::size_t pass) const {
+  const int w = windows_px.at(pass);
+  return std::max(1, static_cast<int>(std::lround(w * (1.0 - overlap))));
+}
+
+void PivOptions::validate() const {
+  if (windows_px.empty()) throw ConfigError("PivOptions::windows_px: at least one pass is needed");
+  for (std::size_t p = 0; p < windows_px.size(); ++p) {
+    const int w = windows_px[p];
+    if (w < 8 || w > 256 || (w & (w - 1)) != 0)
+      throw ConfigError(fmt::format(
+          "PivOptions::windows_px[{}] = {}: must be a power of two from 8 to 256", p, w));
+    if (p > 0 && w > windows_px[p - 1])
+      throw ConfigError(fmt::format(
+          "PivOptions::windows_px = {}: windows must not grow from pass to pass",
+          fmt::join(windows_px, ",")));
+  }
+  auto range = [](const char* what, double v, double lo, double hi, const char* rule) {
+    if (!(v >= lo && v <= hi))
+      throw ConfigError(fmt::format("PivOptions::{} = {}: {}", what, num(v), rule));
+  };
+  range("overlap", overlap, 0.0, 0.875, "must satisfy 0 <= overlap <= 0.875");
+  range("final_pass_repeats", final_pass_repeats, 0, 10, "must satisfy 0 <= repeats <= 10");
+  range("restricted_search", restricted_search, 0.05, 0.5, "must satisfy 0.05 <= r <= 0.5");
+  range("predictor_smoothing", predictor_smoothing, 0.0, 5.0, "must satisfy 0 <= s <= 5");
+  range("median_radius", median_radius, 1, 3, "must be 1, 2 or 3 (3x3 to 7x7)");
+  range("median_epsilon_px", median_epsilon_px, 0.0, 10.0, "must satisfy 0 <= epsilon <= 10");
+  range("median_threshold", median_threshold, -1e9, 1e9, "must be a number");
+  range("std_threshold", std_threshold, -1e9, 1e9, "must be a number");
+  if (!(max_displacement_px > 0))
+    throw ConfigError(fmt::format("PivOptions::max_displacement_px = {}: must be > 0",
+                                  num(max_displacement_px)));
+  range("min_peak", min_peak, 0.0, 1.0, "must satisfy 0 <= min_peak <= 1");
+  range("min_peak_ratio", min_peak_ratio, 1.0, 100.0, "must satisfy 1 <= min_peak_ratio <= 100");
+  range("min_window_std", min_window_std, 0.0, 0.5, "must satisfy 0 <= min_window_std <= 0.5");
+  range("mask_fraction", mask_fraction, 0.0, 1.0, "must satisfy 0 <= mask_fraction <= 1");
+}
+
+core::Metadata PivOptions::to_metadata() const {
+  return {{"piv_windows_px", fmt::format("{}", fmt::join(windows_px, ","))},
+          {"piv_overlap", num(overlap)},
+          {"piv_final_pass_repeats", std::to_string(final_pass_repeats)},
+          {"piv_deformation", deform ? std::string("symmetric, ") + interpolation_name(interpolation)
+                                     : std::string("off")},
+          {"piv_subpixel", subpixel_name(subpixel)},
+          {"piv_restricted_search", num(restricted_search)},
+          {"piv_predictor_smoothing_steps", num(predictor_smoothing)},
+          {"piv_median_test",
+           fmt::format("radius {}, epsilon {} px, threshold {}", median_radius,
+                       num(median_epsilon_px), num(median_threshold))},
+          {"piv_std_threshold", num(std_threshold)},
+          {"piv_max_displacement_px", num(max_displacement_px)},
+          {"piv_min_peak", num(min_peak)},
+          {"piv_min_peak_ratio", num(min_peak_ratio)},
+          {"piv_min_window_std", num(min_window_std)},
+          {"piv_mask_fraction", num(mask_fraction)},
+          {"piv_window_centre", "a window covering pixels [s, s+W-1] has its centre at s + (W-1)/2"}};
+}
+
+}  // namespace shearzone::piv

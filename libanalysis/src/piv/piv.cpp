@@ -1,0 +1,316 @@
+#include "shearzone/piv/piv.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "shearzone/core/check.hpp"
+#include "shearzone/core/error.hpp"
+#include "shearzone/piv/correlate.hpp"
+#include "shearzone/piv/deform.hpp"
+#include "shearzone/piv/validate.hpp"
+
+namespace shearzone::piv {
+
+using core::VectorField;
+using core::VectorFlag;
+
+namespace {
+
+struct Grid {
+  int window = 0, step = 0, nx = 0, ny = 0;
+  double x0 = 0, y0 = 0;  // centre of the first window
+};
+
+Grid make_grid(cv::Size size, int window, int step) {
+  Grid g;
+  g.window = window;
+  g.step = step;
+  g.nx = (size.width - window) / step + 1;
+  g.ny = (size.height - window) / step + 1;
+  g.x0 = g.y0 = 0.5 * (window - 1);
+  return g;
+}
+
+/// Bilinear value of a grid field (CV_32F ny x nx) at (x, y), constant outside.
+double sample_grid(const cv::Mat& values, const Grid& g, double x, double y) {
+  const double gx = std::clamp((x - g.x0) / g.step, 0.0, static_cast<double>(values.cols - 1));
+  const double gy = std::clamp((y - g.y0) / g.step, 0.0, static_cast<double>(values.rows - 1));
+  const int j0 = std::min(static_cast<int>(gx), values.cols - 1);
+  const int i0 = std::min(static_cast<int>(gy), values.rows - 1);
+  const int j1 = std::min(j0 + 1, values.cols - 1), i1 = std::min(i0 + 1, values.rows - 1);
+  const double tx = gx - j0, ty = gy - i0;
+  const double top = (1 - tx) * values.at<float>(i0, j0) + tx * values.at<float>(i0, j1);
+  const double bot = (1 - tx) * values.at<float>(i1, j0) + tx * values.at<float>(i1, j1);
+  return (1 - ty) * top + ty * bot;
+}
+
+/// Fraction of masked pixels in a window, from an integral image of (mask != 0).
+double masked_fraction(const cv::Mat& integral, int x, int y, int w) {
+  if (integral.empty()) return 0.0;
+  const double s = integral.at<double>(y + w, x + w) - integral.at<double>(y, x + w) -
+                   integral.at<double>(y + w, x) + integral.at<double>(y, x);
+  return s / (static_cast<double>(w) * w);
+}
+
+cv::Mat mask_integral(const cv::Mat& mask) {
+  if (mask.empty()) return {};
+  cv::Mat binary, integral;
+  cv::compare(mask, 0, binary, cv::CMP_NE);  // 255 where masked
+  binary.convertTo(binary, CV_8U, 1.0 / 255.0);
+  cv::integral(binary, integral, CV_64F);
+  return integral;
+}
+
+void check_image(const cv::Mat& m, const char* which) {
+  if (m.empty()) throw InputError(fmt::format("PIV: image {} is empty", which));
+  if (m.channels() != 1)
+    throw InputError(fmt::format("PIV: image {} has {} channels; expected a grey image", which,
+                                 m.channels()));
+  if (m.depth() != CV_8U && m.depth() != CV_16U && m.depth() != CV_32F)
+    throw InputError(fmt::format("PIV: image {} has an unsupported sample type; expected 8-bit, "
+                                 "16-bit or float",
+                                 which));
+}
+
+}  // namespace
+
+cv::Mat to_unit_float(const cv::Mat& image) {
+  cv::Mat f;
+  const double scale = image.depth() == CV_8U ? 1.0 / 255.0 : image.depth() == CV_16U ? 1.0 / 65535.0 : 1.0;
+  image.convertTo(f, CV_32F, scale);
+  return f;
+}
+
+PivEngine::PivEngine(PivOptions options) : opt_(std::move(options)) {
+  opt_.validate();
+  for (int w : opt_.windows_px) {
+    bool have = false;
+    for (const auto& c : correlators_) have |= c->window() == w;
+    if (!have) correlators_.push_back(std::make_unique<Correlator>(w));
+  }
+}
+
+PivEngine::~PivEngine() = default;
+
+const Correlator& PivEngine::correlator(int window_px) const {
+  for (const auto& c : correlators_)
+    if (c->window() == window_px) return *c;
+  throw InternalError(fmt::format("no correlator for window {}", window_px));
+}
+
+void PivEngine::final_grid(cv::Size size, std::vector<double>& x_px, std::vector<double>& y_px) const {
+  const Grid g = make_grid(size, opt_.windows_px.back(), opt_.step_px(opt_.windows_px.size() - 1));
+  x_px.resize(static_cast<std::size_t>(std::max(g.nx, 0)));
+  y_px.resize(static_cast<std::size_t>(std::max(g.ny, 0)));
+  for (int j = 0; j < g.nx; ++j) x_px[static_cast<std::size_t>(j)] = g.x0 + j * g.step;
+  for (int i = 0; i < g.ny; ++i) y_px[static_cast<std::size_t>(i)] = g.y0 + i * g.step;
+}
+
+PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv::Mat& mask_a,
+                             const cv::Mat& mask_b) const {
+  // Step 1: check and convert the inputs.
+  check_image(a_in, "A");
+  check_image(b_in, "B");
+  if (a_in.size() != b_in.size())
+    throw InputError(fmt::format("PIV: images differ in size: A is {}x{}, B is {}x{}",
+                                 a_in.cols, a_in.rows, b_in.cols, b_in.rows));
+  for (const cv::Mat* m : {&mask_a, &mask_b})
+    if (!m->empty() && (m->size() != a_in.size() || m->type() != CV_8U))
+      throw InputError(fmt::format("PIV: mask must be 8-bit and {}x{} like the images",
+                                   a_in.cols, a_in.rows));
+  const cv::Size size = a_in.size();
+  const int w0 = opt_.windows_px.front();
+  if (size.width < w0 || size.height < w0)
+    throw InputError(fmt::format("PIV: images of {}x{} px are smaller than the first window "
+                                 "({} px)",
+                                 size.width, size.height, w0));
+  const cv::Mat A = to_unit_float(a_in), B = to_unit_float(b_in);
+  const cv::Mat ia = mask_integral(mask_a), ib = mask_integral(mask_b);
+
+  // Pass schedule: every window, then the final one repeated.
+  std::vector<std::size_t> schedule;
+  for (std::size_t p = 0; p < opt_.windows_px.size(); ++p) schedule.push_back(p);
+  for (int r = 0; r < opt_.final_pass_repeats; ++r) schedule.push_back(opt_.windows_px.size() - 1);
+
+  PivResult result;
+  cv::Mat pred_u, pred_v;  // predictor on the previous grid (CV_32F)
+  Grid prev;
+  VectorField f;
+  for (std::size_t s = 0; s < schedule.size(); ++s) {
+    const std::size_t pass = schedule[s];
+    const bool first = s == 0;
+    const Grid g = make_grid(size, opt_.windows_px[pass], opt_.step_px(pass));
+
+    // Step 2: predictor at every pixel, and the deformed images.
+    cv::Mat Ad = A, Bd = B;
+    if (!first && opt_.deform) {
+      const cv::Mat du = grid_to_pixels(pred_u, prev.x0, prev.y0, prev.step, size);
+      const cv::Mat dv = grid_to_pixels(pred_v, prev.x0, prev.y0, prev.step, size);
+      cv::Mat ax(size, CV_32F), ay(size, CV_32F), bx(size, CV_32F), by(size, CV_32F);
+#pragma omp parallel for schedule(static)
+      for (int i = 0; i < size.height; ++i) {
+        const float* pu = du.ptr<float>(i);
+        const float* pv = dv.ptr<float>(i);
+        float *pax = ax.ptr<float>(i), *pay = ay.ptr<float>(i), *pbx = bx.ptr<float>(i),
+              *pby = by.ptr<float>(i);
+        for (int j = 0; j < size.width; ++j) {
+          pax[j] = j - 0.5f * pu[j];
+          pay[j] = i - 0.5f * pv[j];
+          pbx[j] = j + 0.5f * pu[j];
+          pby[j] = i + 0.5f * pv[j];
+        }
+      }
+      Ad = remap_image(A, ax, ay, opt_.interpolation);
+      Bd = remap_image(B, bx, by, opt_.interpolation);
+    }
+
+    // Step 3: correlate every window.
+    f = VectorField{};
+    f.x_px.resize(static_cast<std::size_t>(g.nx));
+    f.y_px.resize(static_cast<std::size_t>(g.ny));
+    for (int j = 0; j < g.nx; ++j) f.x_px[static_cast<std::size_t>(j)] = g.x0 + j * g.step;
+    for (int i = 0; i < g.ny; ++i) f.y_px[static_cast<std::size_t>(i)] = g.y0 + i * g.step;
+    f.resize_to_grid();
+    const Correlator& corr = correlator(g.window);
+    const int W = g.window;
+    const int radius = first ? W / 2 - 1
+                             : std::max(2, static_cast<int>(std::lround(opt_.restricted_search * W)));
+    const float min_var = static_cast<float>(opt_.min_window_std * opt_.min_window_std);
+
+#pragma omp parallel
+    {
+      Workspace ws(W);
+#pragma omp for schedule(dynamic, 1)
+      for (int i = 0; i < g.ny; ++i) {
+        for (int j = 0; j < g.nx; ++j) {
+          const std::size_t k = f.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
+          const int x = j * g.step, y = i * g.step;  // window origin
+          const double cx = f.x_px[static_cast<std::size_t>(j)], cy = f.y_px[static_cast<std::size_t>(i)];
+          // Masked window?
+          const int ci = static_cast<int>(std::lround(cy)), cj = static_cast<int>(std::lround(cx));
+          const bool centre_masked = (!mask_a.empty() && mask_a.at<std::uint8_t>(ci, cj)) ||
+                                     (!mask_b.empty() && mask_b.at<std::uint8_t>(ci, cj));
+          if (centre_masked || masked_fraction(ia, x, y, W) > opt_.mask_fraction ||
+              masked_fraction(ib, x, y, W) > opt_.mask_fraction) {
+            f.flag[k] = VectorFlag::kMasked;
+            continue;
+          }
+          // Predictor at the window centre; without deformation, integer offsets.
+          double pu = 0, pv = 0;
+          int oax = 0, oay = 0, obx = 0, oby = 0;
+          if (!first) {
+            pu = sample_grid(pred_u, prev, cx, cy);
+            pv = sample_grid(pred_v, prev, cx, cy);
+            if (!opt_.deform) {
+              const int ru = static_cast<int>(std::lround(pu)), rv = static_cast<int>(std::lround(pv));
+              oax = -(ru / 2);
+              oay = -(rv / 2);
+              obx = ru + oax;
+              oby = rv + oay;
+              pu = ru;
+              pv = rv;
+            }
+          }
+          // Extract the windows (clamped at the image border).
+          auto extract = [&](const cv::Mat& img, const cv::Mat& mask, int ox, int oy, float* dst) {
+            double sum = 0;
+            int n = 0;
+            for (int r = 0; r < W; ++r) {
+              const int yy = std::clamp(y + oy + r, 0, size.height - 1);
+              const float* src = img.ptr<float>(yy);
+              for (int c = 0; c < W; ++c) {
+                const int xx = std::clamp(x + ox + c, 0, size.width - 1);
+                dst[r * W + c] = src[xx];
+              }
+            }
+            if (mask.empty()) return;
+            // Masked pixels take the mean of the unmasked ones.
+            for (int r = 0; r < W; ++r) {
+              const int yy = std::clamp(y + oy + r, 0, size.height - 1);
+              const std::uint8_t* mrow = mask.ptr<std::uint8_t>(yy);
+              for (int c = 0; c < W; ++c)
+                if (!mrow[std::clamp(x + ox + c, 0, size.width - 1)]) {
+                  sum += dst[r * W + c];
+                  ++n;
+                }
+            }
+            const float mean = n ? static_cast<float>(sum / n) : 0.0f;
+            for (int r = 0; r < W; ++r) {
+              const int yy = std::clamp(y + oy + r, 0, size.height - 1);
+              const std::uint8_t* mrow = mask.ptr<std::uint8_t>(yy);
+              for (int c = 0; c < W; ++c)
+                if (mrow[std::clamp(x + ox + c, 0, size.width - 1)]) dst[r * W + c] = mean;
+            }
+          };
+          extract(Ad, mask_a, oax, oay, ws.a());
+          extract(Bd, mask_b, obx, oby, ws.b());
+          // Texture check: variance of each window.
+          auto variance = [W](const float* p) {
+            double s1 = 0, s2 = 0;
+            for (int q = 0; q < W * W; ++q) {
+              s1 += p[q];
+              s2 += static_cast<double>(p[q]) * p[q];
+            }
+            const double m = s1 / (W * W);
+            return s2 / (W * W) - m * m;
+          };
+          if (variance(ws.a()) < min_var || variance(ws.b()) < min_var) {
+            f.flag[k] = VectorFlag::kInvalid;
+            continue;
+          }
+          if (!corr.correlate(ws)) {
+            f.flag[k] = VectorFlag::kInvalid;
+            continue;
+          }
+          const Peak pk = find_peak(ws.corr(), W, radius, opt_.subpixel);
+          f.peak[k] = pk.height;
+          f.peak_ratio[k] = pk.ratio;
+          // In the first pass a correct peak is lowered by the loss of pairs (about
+          // (1 - |dx|/W)(1 - |dy|/W)), so the height test applies after deformation only.
+          const bool low_peak = !first && pk.height < opt_.min_peak;
+          if (!pk.found || low_peak || pk.ratio < opt_.min_peak_ratio) {
+            f.flag[k] = VectorFlag::kInvalid;
+            continue;
+          }
+          f.u_px[k] = static_cast<float>(pu + pk.dx);
+          f.v_px[k] = static_cast<float>(pv + pk.dy);
+        }
+      }
+    }
+
+    // Step 4: validate and fill.
+    flag_outliers(f, opt_);
+    fill_holes(f, {VectorFlag::kReplaced, VectorFlag::kInvalid, VectorFlag::kMasked});
+
+    PassReport rep;
+    rep.window_px = g.window;
+    rep.step_px = g.step;
+    rep.nx = static_cast<std::size_t>(g.nx);
+    rep.ny = static_cast<std::size_t>(g.ny);
+    rep.valid = f.count(VectorFlag::kValid);
+    rep.replaced = f.count(VectorFlag::kReplaced);
+    rep.masked = f.count(VectorFlag::kMasked);
+    rep.invalid = f.count(VectorFlag::kInvalid);
+    result.passes.push_back(rep);
+
+    // Step 5: the predictor for the next pass (smoothed copy).
+    pred_u = cv::Mat(g.ny, g.nx, CV_32F, f.u_px.data()).clone();
+    pred_v = cv::Mat(g.ny, g.nx, CV_32F, f.v_px.data()).clone();
+    if (opt_.predictor_smoothing > 0) {
+      cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+      cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+    }
+    prev = g;
+  }
+
+  // Masked vectors are not measurements: zero them.
+  for (std::size_t k = 0; k < f.size(); ++k)
+    if (f.flag[k] == VectorFlag::kMasked) f.u_px[k] = f.v_px[k] = 0.0f;
+  result.field = std::move(f);
+  return result;
+}
+
+}  // namespace shearzone::piv
