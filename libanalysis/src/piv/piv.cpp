@@ -129,6 +129,11 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
                                  size.width, size.height, w0));
   const cv::Mat A = to_unit_float(a_in), B = to_unit_float(b_in);
   const cv::Mat ia = mask_integral(mask_a), ib = mask_integral(mask_b);
+  // Inside a window, pixels masked in either frame are blanked in both, so that no
+  // pattern is visible in one window and hidden in the other.
+  cv::Mat mask_ab;
+  if (!mask_a.empty() && !mask_b.empty()) cv::bitwise_or(mask_a, mask_b, mask_ab);
+  else mask_ab = mask_a.empty() ? mask_b : mask_a;
 
   // Pass schedule: every window, then the final one repeated.
   std::vector<std::size_t> schedule;
@@ -189,10 +194,13 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           const std::size_t k = f.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
           const int x = j * g.step, y = i * g.step;  // window origin
           const double cx = f.x_px[static_cast<std::size_t>(j)], cy = f.y_px[static_cast<std::size_t>(i)];
-          // Masked window?
-          const int ci = static_cast<int>(std::lround(cy)), cj = static_cast<int>(std::lround(cx));
-          const bool centre_masked = (!mask_a.empty() && mask_a.at<std::uint8_t>(ci, cj)) ||
-                                     (!mask_b.empty() && mask_b.at<std::uint8_t>(ci, cj));
+          // Masked window? The centre of an even window lies between pixels: it is
+          // masked if any of the (up to four) pixels around it is.
+          bool centre_masked = false;
+          for (int ci : {static_cast<int>(std::floor(cy)), static_cast<int>(std::ceil(cy))})
+            for (int cj : {static_cast<int>(std::floor(cx)), static_cast<int>(std::ceil(cx))})
+              centre_masked |= (!mask_a.empty() && mask_a.at<std::uint8_t>(ci, cj)) ||
+                               (!mask_b.empty() && mask_b.at<std::uint8_t>(ci, cj));
           if (centre_masked || masked_fraction(ia, x, y, W) > opt_.mask_fraction ||
               masked_fraction(ib, x, y, W) > opt_.mask_fraction) {
             f.flag[k] = VectorFlag::kMasked;
@@ -245,8 +253,8 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
                 if (mrow[std::clamp(x + ox + c, 0, size.width - 1)]) dst[r * W + c] = mean;
             }
           };
-          extract(Ad, mask_a, oax, oay, ws.a());
-          extract(Bd, mask_b, obx, oby, ws.b());
+          extract(Ad, mask_ab, oax, oay, ws.a());
+          extract(Bd, mask_ab, obx, oby, ws.b());
           // Texture check: variance of each window.
           auto variance = [W](const float* p) {
             double s1 = 0, s2 = 0;
@@ -280,6 +288,9 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
         }
       }
     }
+
+    if (first && f.count(VectorFlag::kMasked) == f.size())
+      throw InputError("PIV: the mask covers every interrogation window; nothing to measure");
 
     // Step 4: validate and fill.
     flag_outliers(f, opt_);
