@@ -16,6 +16,9 @@ struct Subcommand {
   std::function<int()> run;
 };
 
+/// `shearzone piv`.
+std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx);
+
 /// `shearzone synth particles|beads`.
 std::vector<Subcommand> add_synth(CLI::App& root, Context& ctx);
 

@@ -95,3 +95,28 @@ TEST_CASE("HDF5 files are written atomically through AtomicOutput", "[io][hdf5]"
   }
   CHECK(io::H5File::open_read(path).read<double>("/x").data[1] == 2.0);
 }
+
+TEST_CASE("HDF5 appendable datasets grow one record at a time", "[io][hdf5]") {
+  testing::TempDir dir("h5");
+  const auto path = dir / "stream.h5";
+  {
+    auto f = io::H5File::create(path);
+    f.create_appendable("/pairs/u_px", {2, 3}, io::H5File::Type::kFloat32, 4);
+    f.create_appendable("/pairs/t_a_s", {}, io::H5File::Type::kFloat64);
+    for (int p = 0; p < 3; ++p) {
+      std::vector<float> rec(6);
+      for (int k = 0; k < 6; ++k) rec[k] = static_cast<float>(10 * p + k);
+      f.append("/pairs/u_px", rec.data());
+      const double t = 0.04 * p;
+      f.append("/pairs/t_a_s", &t);
+    }
+    f.close();
+  }
+  const auto f = io::H5File::open_read(path);
+  const auto u = f.read<float>("/pairs/u_px");
+  CHECK(u.dims == std::vector<std::size_t>{3, 2, 3});
+  CHECK(u.data[6 * 2 + 5] == 25.0f);
+  const auto t = f.read<double>("/pairs/t_a_s");
+  CHECK(t.dims == std::vector<std::size_t>{3});
+  CHECK(t.data[2] == 0.08);
+}

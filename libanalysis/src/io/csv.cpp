@@ -259,6 +259,15 @@ std::string CsvWriter::format_number(double value) {
   return std::string(buf, ptr);
 }
 
+std::string CsvWriter::format_float(float value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buf[32];
+  auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), value);
+  if (ec != std::errc()) return fmt::format("{:.9g}", value);
+  return std::string(buf, ptr);
+}
+
 std::string CsvWriter::quote(std::string_view field, char separator) {
   const bool needs = field.find_first_of(std::string{'"', '\r', '\n', separator}) !=
                          std::string_view::npos ||

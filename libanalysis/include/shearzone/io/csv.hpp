@@ -78,6 +78,9 @@ class CsvWriter {
 
   /// Shortest text that reads back to exactly `value` ("0.1", "2.25", "1e-05").
   static std::string format_number(double value);
+  /// Shortest text that reads back to exactly the float `value` ("2.2979" not
+  /// "2.297945022583008").
+  static std::string format_float(float value);
   /// RFC 4180 quoting of one field (only when needed).
   static std::string quote(std::string_view field, char separator = ',');
 

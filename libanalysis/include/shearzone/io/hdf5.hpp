@@ -66,6 +66,18 @@ class H5File {
     write(dataset, dims, data.data());
   }
 
+  /// Extendible datasets for streaming: create with the shape of one record
+  /// (`record_dims`, e.g. {ny, nx}), then append records one at a time; the dataset
+  /// is [n, record_dims...], chunked by one record and gzip-compressed at `level`
+  /// (0: none). Element types as for write().
+  enum class Type { kFloat32, kFloat64, kInt64, kUInt8 };
+  void create_appendable(const std::string& dataset, const std::vector<std::size_t>& record_dims,
+                         Type type, int compression_level = 0);
+  void append(const std::string& dataset, const float* record);
+  void append(const std::string& dataset, const double* record);
+  void append(const std::string& dataset, const std::int64_t* record);
+  void append(const std::string& dataset, const std::uint8_t* record);
+
   /// Dimensions of a dataset.
   std::vector<std::size_t> dims(const std::string& dataset) const;
   template <class T>
@@ -101,6 +113,7 @@ class H5File {
   void write_raw(const std::string& dataset, const std::vector<std::size_t>& dims,
                  std::int64_t mem_type, std::int64_t file_type, const void* data);
   void read_raw(const std::string& dataset, std::int64_t mem_type, void* data) const;
+  void append_raw(const std::string& dataset, std::int64_t mem_type, const void* record);
   void read_into(const std::string& dataset, float* out) const;
   void read_into(const std::string& dataset, double* out) const;
   void read_into(const std::string& dataset, std::int64_t* out) const;

@@ -1,0 +1,166 @@
+// `shearzone piv`: multipass PIV of an image pair, an image sequence or a video.
+// Flags map onto pipeline::PivJobOptions; --config FILE.toml sets them by long name.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/pipeline/piv_job.hpp"
+#include "subcommands.hpp"
+
+namespace shearzone::apps {
+namespace {
+
+struct PivCli {
+  pipeline::PivJobOptions job;
+  std::string output;
+  std::string config;
+  std::string interpolation = "bspline5";
+  std::string subpixel = "gauss3";
+  bool no_deform = false;
+  std::vector<double> centre, annulus, vane;
+  std::vector<std::string> attrs;
+  double m_per_px = std::nan(""), n_chain = std::nan("");
+};
+
+int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
+  if (!s.config.empty()) apply_toml_config(c, s.config);
+  require_option(c, "output");
+  auto& j = s.job;
+  j.output = s.output;
+  j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
+  j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
+  j.piv.deform = !s.no_deform;
+  if (!s.centre.empty()) {
+    j.centre_x_px = s.centre[0];
+    j.centre_y_px = s.centre[1];
+  }
+  if (!s.annulus.empty()) {
+    j.annulus_inner_px = s.annulus[0];
+    j.annulus_outer_px = s.annulus[1];
+  }
+  if (!s.vane.empty()) {
+    if (s.vane[0] != std::floor(s.vane[0]) || s.vane[0] < 1)
+      throw ConfigError(fmt::format("--vane: blade count {} must be a positive integer", s.vane[0]));
+    j.vane.geometry = {static_cast<int>(s.vane[0]), s.vane[1], s.vane[2]};
+  }
+  if (!std::isnan(s.m_per_px)) j.attributes.emplace_back("m_per_px", fmt::format("{}", s.m_per_px));
+  if (!std::isnan(s.n_chain)) j.attributes.emplace_back("N", fmt::format("{}", s.n_chain));
+  if (c.count("--f-hz")) j.attributes.emplace_back("f_Hz", fmt::format("{}", j.vane.f_Hz));
+  if (c.count("--phi0-rad")) j.attributes.emplace_back("phi0_rad", fmt::format("{}", j.vane.phi0_rad));
+  for (const auto& kv : s.attrs) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError(fmt::format("--attr \"{}\": expected KEY=VALUE", kv));
+    j.attributes.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+  }
+
+  core::ProgressReporter progress("piv: pairs", ctx.level);
+  const auto sum = pipeline::run_piv_job(j, ctx.header(), progress.callback());
+  progress.finish();
+  if (ctx.level != core::LogLevel::kQuiet) {
+    const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);
+    std::printf("piv: %zu pair%s (%zu frames read, %zu duplicates skipped) -> %s\n", sum.pairs,
+                sum.pairs == 1 ? "" : "s", sum.frames_read, sum.duplicates,
+                j.output.string().c_str());
+    std::printf("piv: %zu vectors per pair: %.1f%% valid, %.1f%% replaced, %.1f%% masked, %.1f%% "
+                "invalid; %.2f s (%.2f pairs/s)\n",
+                sum.vectors_per_pair, 100.0 * sum.valid / n, 100.0 * sum.replaced / n,
+                100.0 * sum.masked / n, 100.0 * sum.invalid / n, sum.seconds,
+                sum.pairs / std::max(sum.seconds, 1e-9));
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
+  auto s = std::make_shared<PivCli>();
+  auto& j = s->job;
+  auto& p = j.piv;
+  CLI::App* c = root.add_subcommand(
+      "piv", "Multipass PIV of an image pair, an image sequence or a video -> CSV or HDF5");
+  c->add_option("inputs", j.inputs, "Two images, a glob (quote it) or image list, or one video")
+      ->required();
+  c->add_option("-o,--output", s->output, "Output: .csv (one pair) or .h5 (any number of pairs)");
+  c->add_option("--config", s->config, "TOML file setting any of these options by long name");
+  c->add_flag("--force", j.force, "Replace an existing output");
+  // Correlation
+  c->add_option("--windows", p.windows_px, "Window size per pass, px, coarse to fine")
+      ->delimiter(',')
+      ->capture_default_str();
+  c->add_option("--overlap", p.overlap, "Window overlap, fraction")->capture_default_str();
+  c->add_option("--repeats", p.final_pass_repeats, "Extra iterations of the final pass")
+      ->capture_default_str();
+  c->add_option("--interpolation", s->interpolation,
+                "Image deformation: bilinear, bicubic, bspline, bspline5")
+      ->capture_default_str();
+  c->add_flag("--no-deform", s->no_deform, "Shift windows by whole pixels instead of deforming");
+  c->add_option("--subpixel", s->subpixel, "Peak fit: gauss3 or gauss2d")->capture_default_str();
+  c->add_option("--search", p.restricted_search,
+                "Peak search radius after the first pass, fraction of the window")
+      ->capture_default_str();
+  c->add_option("--smoothing", p.predictor_smoothing,
+                "Predictor smoothing between passes, grid steps (0: off)")
+      ->capture_default_str();
+  // Validation
+  c->add_option("--median-threshold", p.median_threshold, "Normalised median test threshold (0: off)")
+      ->capture_default_str();
+  c->add_option("--median-epsilon", p.median_epsilon_px, "Normalised median test noise level, px")
+      ->capture_default_str();
+  c->add_option("--median-radius", p.median_radius, "Median neighbourhood radius in vectors")
+      ->capture_default_str();
+  c->add_option("--std-threshold", p.std_threshold, "Global std filter k (0: off)")
+      ->capture_default_str();
+  c->add_option("--max-displacement", p.max_displacement_px, "Global limit on |d|, px")
+      ->capture_default_str();
+  c->add_option("--min-peak", p.min_peak, "Smallest normalised correlation peak")
+      ->capture_default_str();
+  c->add_option("--min-peak-ratio", p.min_peak_ratio, "Smallest first/second peak ratio")
+      ->capture_default_str();
+  c->add_option("--min-window-std", p.min_window_std,
+                "Smallest window intensity std, fraction of full scale")
+      ->capture_default_str();
+  // Frames
+  c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz")->capture_default_str();
+  c->add_option("--first", j.first_frame, "First frame used")->capture_default_str();
+  c->add_option("--last", j.last_frame, "Last frame used (-1: to the end)")->capture_default_str();
+  c->add_option("--spacing", j.pair_spacing, "Pair spacing k: pairs (i, i+k)")->capture_default_str();
+  c->add_option("--stride", j.stride, "Step between pair starts")->capture_default_str();
+  c->add_option("--duplicate-tolerance", j.duplicate_tolerance,
+                "Frames differing by at most this (grey levels) are repeats")
+      ->capture_default_str();
+  // Masks
+  c->add_option("--centre", s->centre, "Cup centre X,Y in px")->expected(2)->delimiter(',');
+  c->add_option("--annulus", s->annulus, "Measure only R_INNER <= r <= R_OUTER (px)")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--mask-image", j.mask_image, "Static mask image (non-zero = masked)");
+  c->add_option("--mask-fraction", p.mask_fraction,
+                "Window masked above this fraction of masked pixels")
+      ->capture_default_str();
+  c->add_option("--vane", s->vane, "Rotating vane mask: BLADES,HALF_WIDTH_PX,RADIUS_PX")
+      ->expected(3)
+      ->delimiter(',');
+  c->add_option("--vane-angle0-deg", j.vane.angle0_deg,
+                "Blade 0 direction at phi = 0, deg CCW from +x")
+      ->capture_default_str();
+  c->add_option("--vane-margin-px", j.vane.margin_px, "Grow the vane mask by this, px")
+      ->capture_default_str();
+  c->add_option("--phi0-rad", j.vane.phi0_rad, "Vane amplitude: phi = phi0 sin(2 pi f t + phase)")
+      ->capture_default_str();
+  c->add_option("--f-hz", j.vane.f_Hz, "Vane frequency f, Hz")->capture_default_str();
+  c->add_option("--phase-rad", j.vane.phase_rad, "Vane phase, rad")->capture_default_str();
+  c->add_option("--angle-log", j.vane.log_path, "Vane angle log CSV with columns time_s,angle_rad");
+  c->add_option("--log-offset-s", j.vane.log_offset_s, "Log time = frame time + offset, s")
+      ->capture_default_str();
+  // Attributes
+  c->add_option("--m-per-px", s->m_per_px, "Calibration stored in the output, m per px");
+  c->add_option("--N", s->n_chain, "Chain length N stored in the output");
+  c->add_option("--attr", s->attrs, "Extra KEY=VALUE attribute (repeatable)");
+  return {{c, [c, s, &ctx] { return run_piv(*c, *s, ctx); }}};
+}
+
+}  // namespace shearzone::apps

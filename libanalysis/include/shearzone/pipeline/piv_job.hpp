@@ -1,0 +1,90 @@
+// shearzone/pipeline/piv_job.hpp: PIV from files to files (`shearzone piv`).
+//
+// Inputs: two images (one pair), an image sequence (a glob or a list) or a video.
+// Frames are streamed; repeated (duplicate) frames, which some encoders emit, are
+// skipped and counted. Pairs are (u_i, u_{i+k}) over the unique frames u, with
+// k = pair_spacing, i = 0, stride, 2 stride, ... Time comes from the container's
+// timestamps (or index / fps for images), and dt = t_b - t_a.
+//
+// Outputs:
+//   .csv  one pair: x_px,y_px,u_px,v_px,flag,peak,peak_ratio (flag as text), with
+//         every option and convention in the `#` header;
+//   .h5   any number of pairs, in the layout the next stages read:
+//         /grid/x_px[nx], /grid/y_px[ny];
+//         /pairs/u_px, v_px, peak, peak_ratio: float32 [npairs, ny, nx];
+//         /pairs/flag: uint8 (0 valid, 1 replaced, 2 masked, 3 invalid; attribute
+//         "mapping"); /pairs/frame_a, frame_b: int64; /pairs/t_a_s, dt_s: float64;
+//         root attributes fps, source, options, conventions, shearzone_version, the
+//         optional calibration and experiment tags, and free --attr pairs.
+// Displacements are in px per pair, from frame a to frame b.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+#include "shearzone/core/vane.hpp"
+#include "shearzone/piv/options.hpp"
+
+namespace shearzone::pipeline {
+
+/// The rotating-vane mask: the blade template of `geometry` at angle
+/// angle0 + phi(t) about the centre, counter-clockwise positive as the camera sees
+/// it, where phi(t) = phi0 sin(2 pi f t + phase), or phi(t) is read from a log
+/// (CSV with columns time_s, angle_rad; linear interpolation) at t + log_offset_s.
+struct VaneMaskOptions {
+  core::VaneGeometry geometry{0, 0.0, 0.0};  ///< blades = 0: no vane mask
+  double angle0_deg = 0.0;   ///< blade 0 direction at phi = 0, deg CCW from +x
+  double margin_px = 1.0;    ///< grow the blades by this much (edges, blur)
+  double phi0_rad = 0.0;     ///< amplitude of phi(t), rad
+  double f_Hz = 0.0;         ///< frequency of phi(t), Hz
+  double phase_rad = 0.0;    ///< phase of phi(t), rad
+  std::string log_path;      ///< angle log CSV (time_s, angle_rad); empty: sinusoid
+  double log_offset_s = 0.0; ///< log time = frame time + offset
+};
+
+struct PivJobOptions {
+  piv::PivOptions piv;
+  std::vector<std::string> inputs;  ///< images, a glob, or one video
+  std::filesystem::path output;     ///< .csv (one pair) or .h5
+  bool force = false;
+  double fps = 25.0;                ///< time base of image sequences, Hz
+  std::int64_t first_frame = 0;     ///< first source frame used
+  std::int64_t last_frame = -1;     ///< last source frame used (-1: to the end)
+  int pair_spacing = 1;             ///< k: pairs (i, i + k) of unique frames
+  int stride = 1;                   ///< step between pair starts
+  double duplicate_tolerance = 0.0; ///< frames whose max |difference| <= this (grey levels) repeat
+  /// Cup centre in px (NaN: unset). Needed by the annulus and vane masks.
+  double centre_x_px = std::numeric_limits<double>::quiet_NaN();
+  double centre_y_px = std::numeric_limits<double>::quiet_NaN();
+  double annulus_inner_px = 0.0;    ///< static mask: r < inner is masked
+  double annulus_outer_px = 0.0;    ///< static mask: r > outer is masked (0: no annulus)
+  std::string mask_image;           ///< static mask image: non-zero = masked
+  VaneMaskOptions vane;
+  /// Extra root attributes (m_per_px, f_Hz, phi0_rad, N, free --attr pairs). Values
+  /// that parse as numbers are stored as float64, others as strings.
+  std::vector<std::pair<std::string, std::string>> attributes;
+
+  /// ConfigError on inconsistent options (checked before any work).
+  void validate() const;
+};
+
+struct PivJobSummary {
+  std::size_t frames_read = 0;
+  std::size_t duplicates = 0;   ///< repeated frames skipped
+  std::size_t pairs = 0;
+  std::size_t vectors_per_pair = 0;
+  std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
+  double seconds = 0.0;         ///< wall time of the job
+};
+
+PivJobSummary run_piv_job(const PivJobOptions& options, const core::Metadata& header,
+                          const core::ProgressCallback& progress = {});
+
+}  // namespace shearzone::pipeline

@@ -1,0 +1,115 @@
+#include "shearzone/io/frames.hpp"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/image.hpp"
+#include "shearzone/io/video.hpp"
+
+namespace shearzone::io {
+namespace {
+
+class VideoSource : public FrameSource {
+ public:
+  explicit VideoSource(const std::string& path) : reader_(path), path_(path) {}
+  bool next(Frame& f) override {
+    const std::int64_t k = reader_.next_index();
+    if (!reader_.read(f.gray, f.t_s)) return false;
+    f.index = k;
+    f.label = fmt::format("{}#{}", path_, k);
+    return true;
+  }
+  double fps() const override { return reader_.info().fps; }
+  std::int64_t size_hint() const override { return reader_.info().frame_count; }
+  std::string description() const override {
+    return fmt::format("{} ({}x{}, {} fps, {} frames, codec {})", path_, reader_.info().width,
+                       reader_.info().height, reader_.info().fps, reader_.info().frame_count,
+                       reader_.info().codec);
+  }
+
+ private:
+  VideoReader reader_;
+  std::string path_;
+};
+
+class ImageSequenceSource : public FrameSource {
+ public:
+  ImageSequenceSource(std::vector<std::string> paths, double fps)
+      : paths_(std::move(paths)), fps_(fps) {}
+  bool next(Frame& f) override {
+    if (next_ >= paths_.size()) return false;
+    const std::string& p = paths_[next_];
+    f.gray = read_image_gray(p);
+    if (size_.width == 0) size_ = f.gray.size();
+    if (f.gray.size() != size_)
+      throw InputError(fmt::format("{}: image is {}x{}; expected {}x{} like the first frame ({})",
+                                   p, f.gray.cols, f.gray.rows, size_.width, size_.height,
+                                   paths_.front()));
+    f.index = static_cast<std::int64_t>(next_);
+    f.t_s = static_cast<double>(next_) / fps_;
+    f.label = p;
+    ++next_;
+    return true;
+  }
+  double fps() const override { return fps_; }
+  std::int64_t size_hint() const override { return static_cast<std::int64_t>(paths_.size()); }
+  std::string description() const override {
+    return fmt::format("{} images ({} ... {}), {} fps", paths_.size(), paths_.front(),
+                       paths_.back(), fps_);
+  }
+
+ private:
+  std::vector<std::string> paths_;
+  double fps_;
+  std::size_t next_ = 0;
+  cv::Size size_{0, 0};
+};
+
+bool has_glob_chars(const std::string& s) { return s.find_first_of("*?[") != std::string::npos; }
+
+}  // namespace
+
+std::vector<std::string> expand_glob(const std::string& pattern) {
+  glob_t g{};
+  std::vector<std::string> out;
+  if (::glob(pattern.c_str(), 0, nullptr, &g) == 0)
+    for (std::size_t i = 0; i < g.gl_pathc; ++i) out.emplace_back(g.gl_pathv[i]);
+  ::globfree(&g);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps) {
+  if (inputs.empty()) throw ConfigError("no input frames given");
+  if (inputs.size() == 1 && is_video_extension(inputs[0]))
+    return std::make_unique<VideoSource>(inputs[0]);
+  if (!(fps > 0) || !std::isfinite(fps))
+    throw ConfigError(fmt::format("fps = {}: must be > 0 for an image sequence", fps));
+  std::vector<std::string> paths;
+  for (const auto& in : inputs) {
+    if (has_glob_chars(in) && !std::filesystem::exists(in)) {
+      auto m = expand_glob(in);
+      if (m.empty()) throw InputError(fmt::format("{}: pattern matches no file", in));
+      paths.insert(paths.end(), m.begin(), m.end());
+    } else {
+      if (is_video_extension(in))
+        throw ConfigError(fmt::format("{}: a video must be the only input", in));
+      paths.push_back(in);
+    }
+  }
+  for (const auto& p : paths) {
+    if (!std::filesystem::exists(p)) throw InputError(fmt::format("{}: no such file", p));
+    if (!is_image_extension(p))
+      throw InputError(fmt::format("{}: unsupported input; expected an image (.png, .tif, .bmp, "
+                                   ".jpg) or a video (.mp4, .avi, .mov, .mkv)",
+                                   p));
+  }
+  return std::make_unique<ImageSequenceSource>(std::move(paths), fps);
+}
+
+}  // namespace shearzone::io

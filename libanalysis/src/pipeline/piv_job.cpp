@@ -1,0 +1,313 @@
+#include "shearzone/pipeline/piv_job.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/conventions.hpp"
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/vector_field.hpp"
+#include "shearzone/core/version.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/frames.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/image.hpp"
+#include "shearzone/piv/mask.hpp"
+#include "shearzone/piv/piv.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+std::string num(double v) { return io::CsvWriter::format_number(v); }
+
+std::string lower_ext(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e;
+}
+
+/// phi(t) of the vane: a sinusoid or a log.
+class VaneAngle {
+ public:
+  explicit VaneAngle(const VaneMaskOptions& o) : o_(o) {
+    if (o.log_path.empty()) return;
+    const io::CsvTable t = io::read_csv(o.log_path);
+    time_ = t.numeric_column("time_s");
+    angle_ = t.numeric_column("angle_rad");
+    if (time_.size() < 2)
+      throw InputError(fmt::format("{}: the angle log needs at least 2 rows", o.log_path));
+    for (std::size_t r = 1; r < time_.size(); ++r)
+      if (!(time_[r] > time_[r - 1]))
+        throw InputError(fmt::format("{}:{}: column \"time_s\": {} does not increase (previous "
+                                     "row has {}); expected strictly increasing times",
+                                     o.log_path, t.row_lines[r], num(time_[r]),
+                                     num(time_[r - 1])));
+  }
+
+  /// Blade-0 angle (angle0 + phi) at frame time t, rad.
+  double at(double t_s, const std::string& frame_label) const {
+    const double angle0 = o_.angle0_deg * std::numbers::pi / 180.0;
+    if (time_.empty())
+      return angle0 + o_.phi0_rad * std::sin(2.0 * std::numbers::pi * o_.f_Hz * t_s + o_.phase_rad);
+    const double tl = t_s + o_.log_offset_s;
+    if (tl < time_.front() || tl > time_.back())
+      throw InputError(fmt::format("{}: frame {} at t = {} s (log time {} s) is outside the angle "
+                                   "log's range [{}, {}] s; check --log-offset-s",
+                                   o_.log_path, frame_label, num(t_s), num(tl), num(time_.front()),
+                                   num(time_.back())));
+    const auto it = std::upper_bound(time_.begin(), time_.end(), tl);
+    const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(it - time_.begin()), time_.size() - 1);
+    const std::size_t lo = hi - 1;
+    const double w = (tl - time_[lo]) / (time_[hi] - time_[lo]);
+    return angle0 + (1 - w) * angle_[lo] + w * angle_[hi];
+  }
+
+ private:
+  VaneMaskOptions o_;
+  std::vector<double> time_, angle_;
+};
+
+bool frames_equal(const cv::Mat& a, const cv::Mat& b, double tol) {
+  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) <= tol;
+}
+
+/// Writes one field as the pair CSV.
+void write_pair_csv(std::ostream& os, const core::Metadata& meta, const core::VectorField& f) {
+  io::CsvWriter w(os, meta, {"x_px", "y_px", "u_px", "v_px", "flag", "peak", "peak_ratio"});
+  for (std::size_t i = 0; i < f.ny(); ++i)
+    for (std::size_t j = 0; j < f.nx(); ++j) {
+      const std::size_t k = f.index(i, j);
+      const auto fl = [](float v) { return io::CsvWriter::format_float(v); };
+      w.row(std::vector<std::string>{num(f.x_px[j]), num(f.y_px[i]), fl(f.u_px[k]), fl(f.v_px[k]),
+                                     core::flag_name(f.flag[k]), fl(f.peak[k]),
+                                     fl(f.peak_ratio[k])});
+    }
+}
+
+std::string metadata_text(const core::Metadata& m) {
+  std::string s;
+  for (const auto& [k, v] : m) s += k + ": " + v + "\n";
+  return s;
+}
+
+}  // namespace
+
+void PivJobOptions::validate() const {
+  piv.validate();
+  if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
+  const std::string ext = lower_ext(output);
+  if (ext != ".csv" && ext != ".h5" && ext != ".hdf5")
+    throw ConfigError(fmt::format("{}: output must end in .csv (one pair) or .h5 (any number "
+                                  "of pairs)",
+                                  output.string()));
+  if (ext == ".csv" && !(inputs.size() == 2 && io::is_image_extension(inputs[0]) &&
+                         io::is_image_extension(inputs[1])))
+    throw ConfigError(fmt::format("{}: CSV output holds one pair (two image files); use .h5 for "
+                                  "sequences and videos",
+                                  output.string()));
+  if (pair_spacing < 1)
+    throw ConfigError(fmt::format("pair spacing {}: must be >= 1", pair_spacing));
+  if (stride < 1) throw ConfigError(fmt::format("stride {}: must be >= 1", stride));
+  if (first_frame < 0) throw ConfigError(fmt::format("first frame {}: must be >= 0", first_frame));
+  if (last_frame >= 0 && last_frame < first_frame + pair_spacing)
+    throw ConfigError(fmt::format("frame range {}..{} holds no pair of spacing {}", first_frame,
+                                  last_frame, pair_spacing));
+  if (!(duplicate_tolerance >= 0))
+    throw ConfigError(fmt::format("duplicate tolerance {}: must be >= 0", num(duplicate_tolerance)));
+  const bool need_centre = annulus_outer_px > 0 || vane.geometry.blades > 0;
+  if (need_centre && (std::isnan(centre_x_px) || std::isnan(centre_y_px)))
+    throw ConfigError("the annulus and vane masks need the cup centre (--centre X,Y in px)");
+  if (annulus_outer_px > 0 && !(annulus_outer_px > annulus_inner_px && annulus_inner_px >= 0))
+    throw ConfigError(fmt::format("annulus radii {}..{} px: need 0 <= inner < outer",
+                                  num(annulus_inner_px), num(annulus_outer_px)));
+  if (vane.geometry.blades < 0 || vane.geometry.blades > 64)
+    throw ConfigError(fmt::format("vane blades {}: must be 0..64", vane.geometry.blades));
+  if (vane.geometry.blades > 0 &&
+      !(vane.geometry.half_width_px > 0 && vane.geometry.radius_px > vane.geometry.half_width_px))
+    throw ConfigError("vane: need half-width > 0 and radius > half-width (px)");
+  if (vane.geometry.blades > 0 && vane.log_path.empty() && !(vane.f_Hz >= 0))
+    throw ConfigError(fmt::format("vane frequency {} Hz: must be >= 0", num(vane.f_Hz)));
+  if (!(vane.margin_px >= 0)) throw ConfigError("vane margin: must be >= 0 px");
+}
+
+PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
+                          const core::ProgressCallback& progress) {
+  const auto t_start = std::chrono::steady_clock::now();
+  // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
+  o.validate();
+  io::check_output_allowed(o.output, o.force);
+  auto source = io::open_frames(o.inputs, o.fps);
+  cv::Mat static_mask;
+  if (!o.mask_image.empty()) {
+    cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
+  }
+  const VaneAngle vane_angle(o.vane);
+  const piv::PivEngine engine(o.piv);
+  const bool csv = lower_ext(o.output) == ".csv";
+
+  // Step 2: stream the frames; keep the unique frames a pair still needs.
+  struct Unique {
+    io::Frame frame;
+    cv::Mat mask;  // static + vane at this frame's time
+  };
+  std::deque<Unique> window;  // the last pair_spacing + 1 unique frames
+  std::size_t unique_count = 0;
+  PivJobSummary sum;
+  io::AtomicOutput out(o.output, o.force);
+  std::unique_ptr<io::H5File> h5;
+  core::Metadata meta = header;
+  meta.emplace_back("source", source->description());
+  for (auto& kv : o.piv.to_metadata()) meta.push_back(std::move(kv));
+  meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",
+                                         o.pair_spacing, o.stride, o.first_frame,
+                                         o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
+  if (o.annulus_outer_px > 0)
+    meta.emplace_back("mask_annulus", fmt::format("centre ({}, {}) px, r in [{}, {}] px measured",
+                                                  num(o.centre_x_px), num(o.centre_y_px),
+                                                  num(o.annulus_inner_px), num(o.annulus_outer_px)));
+  if (!o.mask_image.empty()) meta.emplace_back("mask_image", o.mask_image);
+  if (o.vane.geometry.blades > 0)
+    meta.emplace_back("mask_vane",
+                      fmt::format("{} blades, half-width {} px, radius {} px, margin {} px, "
+                                  "angle0 {} deg, phi(t) = {}",
+                                  o.vane.geometry.blades, num(o.vane.geometry.half_width_px),
+                                  num(o.vane.geometry.radius_px), num(o.vane.margin_px),
+                                  num(o.vane.angle0_deg),
+                                  o.vane.log_path.empty()
+                                      ? fmt::format("{} sin(2 pi {} t + {})", num(o.vane.phi0_rad),
+                                                    num(o.vane.f_Hz), num(o.vane.phase_rad))
+                                      : fmt::format("log {} at t + {} s", o.vane.log_path,
+                                                    num(o.vane.log_offset_s))));
+  meta.emplace_back("units", "displacements in px per pair from frame a to frame b");
+
+  std::size_t pair_index = 0;
+  const std::int64_t hint = source->size_hint();
+  io::Frame frame;
+  while (source->next(frame)) {
+    ++sum.frames_read;
+    if (frame.index < o.first_frame) continue;
+    if (o.last_frame >= 0 && frame.index > o.last_frame) break;
+    if (!window.empty() && frames_equal(window.back().frame.gray, frame.gray, o.duplicate_tolerance)) {
+      ++sum.duplicates;
+      continue;
+    }
+    if (!static_mask.empty() && static_mask.size() != frame.gray.size())
+      throw InputError(fmt::format("{}: mask is {}x{}; the frames are {}x{}", o.mask_image,
+                                   static_mask.cols, static_mask.rows, frame.gray.cols,
+                                   frame.gray.rows));
+    Unique u;
+    u.frame = frame;
+    u.frame.gray = frame.gray.clone();
+    cv::Mat m = static_mask;
+    if (o.annulus_outer_px > 0)
+      m = piv::combine_masks(m, piv::annulus_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
+                                                  o.annulus_inner_px, o.annulus_outer_px));
+    if (o.vane.geometry.blades > 0)
+      m = piv::combine_masks(m, piv::vane_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
+                                               vane_angle.at(frame.t_s, frame.label),
+                                               o.vane.geometry, o.vane.margin_px));
+    u.mask = m;
+    window.push_back(std::move(u));
+    ++unique_count;
+    if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();
+    if (window.size() < static_cast<std::size_t>(o.pair_spacing) + 1) continue;
+    const std::size_t start = unique_count - 1 - static_cast<std::size_t>(o.pair_spacing);
+    if (start % static_cast<std::size_t>(o.stride) != 0) continue;
+
+    // Step 3: one pair.
+    const Unique& a = window.front();
+    const Unique& b = window.back();
+    if (a.frame.gray.size() != b.frame.gray.size())
+      throw InputError(fmt::format("{}: frame size {}x{} differs from {} ({}x{})", b.frame.label,
+                                   b.frame.gray.cols, b.frame.gray.rows, a.frame.label,
+                                   a.frame.gray.cols, a.frame.gray.rows));
+    const piv::PivResult r = engine.process(a.frame.gray, b.frame.gray, a.mask, b.mask);
+    const core::VectorField& f = r.field;
+    const double dt = b.frame.t_s - a.frame.t_s;
+    sum.vectors_per_pair = f.size();
+    sum.valid += f.count(core::VectorFlag::kValid);
+    sum.replaced += f.count(core::VectorFlag::kReplaced);
+    sum.masked += f.count(core::VectorFlag::kMasked);
+    sum.invalid += f.count(core::VectorFlag::kInvalid);
+    if (csv) {
+      core::Metadata m2 = meta;
+      m2.emplace_back("frame_a", a.frame.label);
+      m2.emplace_back("frame_b", b.frame.label);
+      m2.emplace_back("t_a_s", num(a.frame.t_s));
+      m2.emplace_back("dt_s", num(dt));
+      write_pair_csv(out.stream(), m2, f);
+    } else {
+      if (!h5) {
+        h5 = std::make_unique<io::H5File>(io::H5File::create(out.temp_path()));
+        h5->write("/grid/x_px", {f.nx()}, f.x_px);
+        h5->write("/grid/y_px", {f.ny()}, f.y_px);
+        using T = io::H5File::Type;
+        for (const char* name : {"/pairs/u_px", "/pairs/v_px", "/pairs/peak", "/pairs/peak_ratio"})
+          h5->create_appendable(name, {f.ny(), f.nx()}, T::kFloat32, 1);
+        h5->create_appendable("/pairs/flag", {f.ny(), f.nx()}, T::kUInt8, 1);
+        h5->create_appendable("/pairs/frame_a", {}, T::kInt64);
+        h5->create_appendable("/pairs/frame_b", {}, T::kInt64);
+        h5->create_appendable("/pairs/t_a_s", {}, T::kFloat64);
+        h5->create_appendable("/pairs/dt_s", {}, T::kFloat64);
+        h5->set_attribute("/pairs/flag", "mapping", core::flag_mapping());
+      }
+      h5->append("/pairs/u_px", f.u_px.data());
+      h5->append("/pairs/v_px", f.v_px.data());
+      h5->append("/pairs/peak", f.peak.data());
+      h5->append("/pairs/peak_ratio", f.peak_ratio.data());
+      std::vector<std::uint8_t> flags(f.size());
+      for (std::size_t k = 0; k < f.size(); ++k) flags[k] = static_cast<std::uint8_t>(f.flag[k]);
+      h5->append("/pairs/flag", flags.data());
+      h5->append("/pairs/frame_a", &a.frame.index);
+      h5->append("/pairs/frame_b", &b.frame.index);
+      h5->append("/pairs/t_a_s", &a.frame.t_s);
+      h5->append("/pairs/dt_s", &dt);
+    }
+    ++pair_index;
+    ++sum.pairs;
+    if (progress) {
+      const std::size_t est = hint > 0 ? static_cast<std::size_t>(std::max<std::int64_t>(
+                                             0, (hint - 1 - o.pair_spacing) / o.stride + 1))
+                                       : 0;
+      progress(pair_index, std::max(est, pair_index));
+    }
+  }
+  if (sum.pairs == 0)
+    throw InputError(fmt::format("{}: no frame pair to process ({} frames read, {} duplicates, "
+                                 "pair spacing {}, frames {}..{})",
+                                 o.inputs.front(), sum.frames_read, sum.duplicates,
+                                 o.pair_spacing, o.first_frame,
+                                 o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
+
+  // Step 4: root attributes and commit.
+  if (h5) {
+    h5->set_attribute("/", "fps", source->fps());
+    h5->set_attribute("/", "source", source->description());
+    h5->set_attribute("/", "options", metadata_text(meta));
+    std::string conv;
+    for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
+    h5->set_attribute("/", "conventions", conv);
+    h5->set_attribute("/", "shearzone_version", kVersion);
+    h5->set_attribute("/", "duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
+    if (!std::isnan(o.centre_x_px)) {
+      h5->set_attribute("/", "centre_x_px", o.centre_x_px);
+      h5->set_attribute("/", "centre_y_px", o.centre_y_px);
+    }
+    for (const auto& [k, v] : o.attributes) {
+      double x = 0;
+      if (io::parse_number(v, false, x)) h5->set_attribute("/", k, x);
+      else h5->set_attribute("/", k, v);
+    }
+    h5->close();
+  }
+  out.commit();
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return sum;
+}
+
+}  // namespace shearzone::pipeline
