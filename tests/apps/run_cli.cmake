@@ -3,7 +3,9 @@
 #   cmake -DEXE=... -DARGS="a;b;c" -DWORKDIR=... -DEXPECT_CODE=N
 #         [-DEXPECT_STDERR=regex] [-DEXPECT_STDOUT=regex]
 #         [-DEXPECT_ABSENT=path;...] [-DEXPECT_PRESENT=path;...]
-#         [-DSETUP_FILE=path -DSETUP_TEXT=text] -P run_cli.cmake
+#         [-DSETUP_FILE=path -DSETUP_TEXT=text] [-DSETUP_ARGS=a|b|c] -P run_cli.cmake
+#
+# SETUP_ARGS runs the same executable once before the test (e.g. to render inputs).
 #
 # WORKDIR is wiped first. Paths in EXPECT_ABSENT/PRESENT are relative to WORKDIR.
 # Failure tests check exit code, a one-line stderr message, and that no output exists.
@@ -15,6 +17,15 @@ file(MAKE_DIRECTORY "${WORKDIR}")
 if(DEFINED SETUP_FILE)
   string(REPLACE "\\n" "\n" text "${SETUP_TEXT}")
   file(WRITE "${WORKDIR}/${SETUP_FILE}" "${text}")
+endif()
+
+if(DEFINED SETUP_ARGS)
+  string(REPLACE "|" ";" SETUP_ARGS "${SETUP_ARGS}")
+  execute_process(COMMAND "${EXE}" ${SETUP_ARGS} WORKING_DIRECTORY "${WORKDIR}"
+                  RESULT_VARIABLE setup_code OUTPUT_QUIET ERROR_VARIABLE setup_err)
+  if(NOT setup_code EQUAL 0)
+    message(FATAL_ERROR "setup command failed (${setup_code}): ${setup_err}")
+  endif()
 endif()
 
 execute_process(COMMAND "${EXE}" ${ARGS}

@@ -1,0 +1,202 @@
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/version.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/image.hpp"
+#include "shearzone/io/video.hpp"
+#include "shearzone/pipeline/piv_job.hpp"
+#include "shearzone/pipeline/synth_job.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Renders a synthetic clip (rotation, 256 x 192) into `dir`.
+void make_clip(const fs::path& dir, int frames, const std::string& format) {
+  pipeline::SynthJobOptions j;
+  j.synth.image.width_px = 256;
+  j.synth.image.height_px = 192;
+  j.synth.field.kind = synth::FieldKind::kRotation;
+  j.synth.field.omega_rad = 0.01;
+  j.synth.sequence.frames = frames;
+  j.format = format;
+  j.out_dir = dir;
+  pipeline::run_synth_job(j, {});
+}
+
+pipeline::PivJobOptions job(std::vector<std::string> inputs, const fs::path& out) {
+  pipeline::PivJobOptions o;
+  o.inputs = std::move(inputs);
+  o.output = out;
+  o.piv.windows_px = {32, 16};
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("a PIV pair writes the vector CSV with options and conventions", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  pipeline::SynthJobOptions s;
+  s.synth.image.width_px = 128;
+  s.synth.image.height_px = 96;
+  s.synth.field.u_px = 1.25;
+  s.synth.field.v_px = -0.5;
+  s.out_dir = tmp / "pair";
+  pipeline::run_synth_job(s, {});
+  const auto out = tmp / "vectors.csv";
+  const auto sum = pipeline::run_piv_job(
+      job({(tmp / "pair" / "A.png").string(), (tmp / "pair" / "B.png").string()}, out),
+      core::standard_metadata("test"));
+  CHECK(sum.pairs == 1);
+  const auto t = io::read_csv(out);
+  CHECK(t.columns == std::vector<std::string>{"x_px", "y_px", "u_px", "v_px", "flag", "peak",
+                                              "peak_ratio"});
+  CHECK(t.num_rows() == sum.vectors_per_pair);
+  CHECK(core::metadata_value(t.metadata, "piv_windows_px") == "32,16");
+  CHECK(core::metadata_value(t.metadata, "convention_rotation").find("counter-clockwise") !=
+        std::string::npos);
+  CHECK(core::metadata_value(t.metadata, "dt_s") == "0.04");
+  const auto u = t.numeric_column("u_px");
+  const auto flags = t.text_column("flag");
+  std::size_t good = 0;
+  for (std::size_t r = 0; r < u.size(); ++r)
+    if (flags[r] == "valid" && std::abs(u[r] - 1.25) < 0.1) ++good;
+  CHECK(good > 0.9 * u.size());
+}
+
+TEST_CASE("a video becomes an HDF5 field file in the documented layout", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  make_clip(tmp / "clip", 5, "avi");
+  auto o = job({(tmp / "clip" / "video.avi").string()}, tmp / "fields.h5");
+  o.centre_x_px = 127.5;
+  o.centre_y_px = 95.5;
+  o.attributes = {{"m_per_px", "0.0001"}, {"N", "9"}, {"sample", "steel beads"}};
+  const auto sum = pipeline::run_piv_job(o, core::standard_metadata("test"));
+  CHECK(sum.pairs == 4);
+  const auto f = io::H5File::open_read(tmp / "fields.h5");
+  const std::size_t nx = f.dims("/grid/x_px")[0], ny = f.dims("/grid/y_px")[0];
+  CHECK(nx * ny == sum.vectors_per_pair);
+  for (const char* d : {"/pairs/u_px", "/pairs/v_px", "/pairs/peak", "/pairs/peak_ratio", "/pairs/flag"})
+    CHECK(f.dims(d) == std::vector<std::size_t>{4, ny, nx});
+  CHECK(f.read<std::int64_t>("/pairs/frame_a").data == std::vector<std::int64_t>{0, 1, 2, 3});
+  CHECK(f.read<std::int64_t>("/pairs/frame_b").data == std::vector<std::int64_t>{1, 2, 3, 4});
+  const auto dt = f.read<double>("/pairs/dt_s").data;
+  for (double d : dt) CHECK(d == Approx(0.04).margin(1e-3));
+  CHECK(f.attribute_string("/pairs/flag", "mapping") == "0 valid, 1 replaced, 2 masked, 3 invalid");
+  CHECK(f.attribute_double("/", "fps") == Approx(25.0));
+  CHECK(f.attribute_double("/", "m_per_px") == 0.0001);
+  CHECK(f.attribute_double("/", "N") == 9.0);
+  CHECK(f.attribute_string("/", "sample") == "steel beads");
+  CHECK(f.attribute_double("/", "centre_x_px") == 127.5);
+  CHECK(f.attribute_string("/", "shearzone_version") == std::string(kVersion));
+  CHECK(f.attribute_string("/", "conventions").find("counter-clockwise") != std::string::npos);
+  CHECK(f.attribute_string("/", "options").find("piv_windows_px: 32,16") != std::string::npos);
+  CHECK(f.attribute_string("/", "source").find("video.avi") != std::string::npos);
+}
+
+TEST_CASE("repeated frames are skipped and counted; the fields are unchanged", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  make_clip(tmp / "clean", 4, "png");
+  // The same frames, each written three times (as some encoders repeat frames),
+  // at three times the frame rate so that the unique frames keep their times.
+  std::vector<std::string> clean, repeated;
+  for (int k = 0; k < 4; ++k) {
+    const auto src = tmp / "clean" / fmt::format("frame_{:06d}.png", k);
+    clean.push_back(src.string());
+    for (int r = 0; r < 3; ++r) {
+      const auto dst = tmp / fmt::format("rep_{:02d}.png", 3 * k + r);
+      fs::copy_file(src, dst);
+      repeated.push_back(dst.string());
+    }
+  }
+  auto a = job(clean, tmp / "clean.h5");
+  auto b = job({(tmp / "rep_*.png").string()}, tmp / "rep.h5");
+  b.fps = 75;
+  const auto sa = pipeline::run_piv_job(a, {});
+  const auto sb = pipeline::run_piv_job(b, {});
+  CHECK(sa.duplicates == 0);
+  CHECK(sb.duplicates == 8);
+  CHECK(sb.pairs == sa.pairs);
+  const auto fa = io::H5File::open_read(tmp / "clean.h5"), fb = io::H5File::open_read(tmp / "rep.h5");
+  CHECK(fa.read<float>("/pairs/u_px").data == fb.read<float>("/pairs/u_px").data);
+  CHECK(fa.read<float>("/pairs/v_px").data == fb.read<float>("/pairs/v_px").data);
+  const auto dta = fa.read<double>("/pairs/dt_s").data, dtb = fb.read<double>("/pairs/dt_s").data;
+  for (std::size_t k = 0; k < dta.size(); ++k) CHECK(dtb[k] == Approx(dta[k]));
+  CHECK(fb.read<std::int64_t>("/pairs/frame_b").data.front() == 3);  // source index of frame 1
+}
+
+TEST_CASE("pair spacing, stride and frame range select the pairs", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  make_clip(tmp / "clip", 8, "png");
+  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
+  o.pair_spacing = 2;
+  o.stride = 3;
+  o.first_frame = 1;
+  const auto s = pipeline::run_piv_job(o, {});
+  // Unique frames 1..7; pairs start at 1, 4 (and 7 has no partner): (1,3), (4,6).
+  CHECK(s.pairs == 2);
+  const auto f = io::H5File::open_read(tmp / "f.h5");
+  CHECK(f.read<std::int64_t>("/pairs/frame_a").data == std::vector<std::int64_t>{1, 4});
+  CHECK(f.read<std::int64_t>("/pairs/frame_b").data == std::vector<std::int64_t>{3, 6});
+}
+
+TEST_CASE("the vane angle can come from a log, with an offset", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  make_clip(tmp / "clip", 3, "png");
+  testing::write_file(tmp / "log.csv", "# rheometer export\ntime_s,angle_rad\n0,0\n1,0.5\n2,1.0\n");
+  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
+  o.centre_x_px = 127.5;
+  o.centre_y_px = 95.5;
+  o.vane.geometry = {4, 4, 60};
+  o.vane.log_path = (tmp / "log.csv").string();
+  o.vane.log_offset_s = 1.3;
+  CHECK(pipeline::run_piv_job(o, {}).masked > 0);
+  o.output = tmp / "g.h5";
+  o.vane.log_offset_s = 5.0;  // frame times + 5 s lie beyond the log
+  CHECK_THROWS_WITH(pipeline::run_piv_job(o, {}), Contains("outside the angle log's range"));
+  CHECK_FALSE(fs::exists(tmp / "g.h5"));
+}
+
+TEST_CASE("bad PIV inputs are errors that leave no output", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  const auto out = tmp / "v.csv";
+  io::write_image(tmp / "a.png", cv::Mat(96, 128, CV_8U, cv::Scalar(10)), false);
+  io::write_image(tmp / "b.png", cv::Mat(80, 128, CV_8U, cv::Scalar(10)), false);
+  testing::write_file(tmp / "broken.png", "not a png");
+  SECTION("mismatched sizes") {
+    CHECK_THROWS_WITH(pipeline::run_piv_job(job({(tmp / "a.png").string(), (tmp / "b.png").string()}, out), {}),
+                      Contains("b.png: image is 128x80; expected 128x96"));
+  }
+  SECTION("unreadable file") {
+    CHECK_THROWS_WITH(pipeline::run_piv_job(job({(tmp / "a.png").string(), (tmp / "broken.png").string()}, out), {}),
+                      Contains("broken.png: not a PNG, TIFF, BMP or JPEG image"));
+  }
+  SECTION("zero-frame video") {
+    { io::VideoWriter w(tmp / "empty.avi", 25, cv::Size(64, 64), "MJPG"); w.close(); }
+    CHECK_THROWS_AS(pipeline::run_piv_job(job({(tmp / "empty.avi").string()}, tmp / "v.h5"), {}),
+                    InputError);
+    CHECK_FALSE(fs::exists(tmp / "v.h5"));
+  }
+  SECTION("a mask covering everything") {
+    io::write_image(tmp / "mask.png", cv::Mat(96, 128, CV_8U, cv::Scalar(255)), false);
+    io::write_image(tmp / "c.png", cv::Mat(96, 128, CV_8U, cv::Scalar(20)), false);
+    auto o = job({(tmp / "a.png").string(), (tmp / "c.png").string()}, out);
+    o.mask_image = (tmp / "mask.png").string();
+    CHECK_THROWS_WITH(pipeline::run_piv_job(o, {}), Contains("mask covers every interrogation window"));
+  }
+  SECTION("CSV output for a video") {
+    CHECK_THROWS_WITH(pipeline::run_piv_job(job({"clip.mp4"}, out), {}),
+                      Contains("CSV output holds one pair"));
+  }
+  CHECK_FALSE(fs::exists(out));
+  for (const auto& name : testing::list_dir(tmp.path())) CHECK(name.find(".partial") == std::string::npos);
+}
