@@ -26,6 +26,22 @@ cv::Mat grid_to_pixels(const cv::Mat& values, double x0, double y0, double step,
 cv::Mat remap_image(const cv::Mat& image, const cv::Mat& map_x, const cv::Mat& map_y,
                     Interpolation method);
 
+/// What remap_coefficients() samples: the B-spline coefficients for kBSpline and
+/// kBSpline5, the image itself otherwise. Compute once per image, reuse per pass.
+cv::Mat interpolation_coefficients(const cv::Mat& image, Interpolation method);
+
+/// remap_image() on precomputed interpolation_coefficients().
+cv::Mat remap_coefficients(const cv::Mat& coefficients, const cv::Mat& map_x, const cv::Mat& map_y,
+                           Interpolation method);
+
+/// Symmetric deformation in one sweep: with D the bilinear interpolant of the grid
+/// field (grid_u, grid_v at x0 + j*step, y0 + i*step; constant beyond), writes
+/// a_out(x) = A(x - D(x)/2) and b_out(x) = B(x + D(x)/2), sampling the
+/// interpolation_coefficients() of A and B with `method`.
+void deform_pair(const cv::Mat& coef_a, const cv::Mat& coef_b, const cv::Mat& grid_u,
+                 const cv::Mat& grid_v, double x0, double y0, double step, Interpolation method,
+                 cv::Mat& a_out, cv::Mat& b_out);
+
 /// B-spline coefficients (degree 3 or 5) of an image: the prefilter along rows and
 /// columns with mirror boundaries. Exposed for tests.
 cv::Mat bspline_coefficients(const cv::Mat& image, int degree);
