@@ -20,7 +20,8 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "Only errors on stderr; no progress, no summary");
   app.add_flag("-v,--verbose", verbose, "More detail on stderr");
 
-  std::vector<Subcommand> subs = add_piv(app, ctx);
+  std::vector<Subcommand> subs = add_bench(app, ctx);
+  for (auto& s : add_piv(app, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_synth(app, ctx)) subs.push_back(std::move(s));
 
   return run_app(app, argc, argv, [&]() -> int {

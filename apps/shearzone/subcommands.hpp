@@ -16,6 +16,9 @@ struct Subcommand {
   std::function<int()> run;
 };
 
+/// `shearzone bench piv`.
+std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx);
+
 /// `shearzone piv`.
 std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx);
 

@@ -346,6 +346,9 @@ void deform_pair(const cv::Mat& coef_a, const cv::Mat& coef_b, const cv::Mat& gr
                  cv::Mat& a_out, cv::Mat& b_out) {
   SHEARZONE_CHECK(coef_a.type() == CV_32F && coef_b.type() == CV_32F && coef_a.size() == coef_b.size());
   SHEARZONE_CHECK(grid_u.type() == CV_32F && grid_v.type() == CV_32F && grid_u.size() == grid_v.size());
+  // The outputs must not share memory with the inputs (they are written while read).
+  SHEARZONE_CHECK(a_out.data == nullptr || (a_out.data != coef_a.data && a_out.data != coef_b.data));
+  SHEARZONE_CHECK(b_out.data == nullptr || (b_out.data != coef_a.data && b_out.data != coef_b.data));
   switch (method) {
     case Interpolation::kBilinear:
       deform_pair_impl<2>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out);

@@ -159,9 +159,15 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     // Every pass uses the configured interpolation: a bilinear predictor pass leaves a
     // bias (-0.05 px at half-pixel shifts) that the final passes only partly remove
     // (measured: -0.012 px after 16 + 16 px passes).
-    cv::Mat Ad = A, Bd = B;
-    if (!first && opt_.deform)
+    // (Fresh outputs each pass: deform_pair must never write into its inputs, which
+    // for bilinear and Keys interpolation are A and B themselves.)
+    cv::Mat Ad, Bd;
+    if (!first && opt_.deform) {
       deform_pair(coef_a, coef_b, pred_u, pred_v, prev.x0, prev.y0, prev.step, opt_.interpolation, Ad, Bd);
+    } else {
+      Ad = A;
+      Bd = B;
+    }
 
     // Step 3: correlate every window.
     f = VectorField{};

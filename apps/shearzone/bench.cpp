@@ -1,0 +1,38 @@
+// `shearzone bench piv`: the PIV speed-accuracy chart and failure map (CSV).
+#include <cstdio>
+#include <memory>
+
+#include "shearzone/pipeline/bench_piv.hpp"
+#include "subcommands.hpp"
+
+namespace shearzone::apps {
+
+std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
+  CLI::App* bench = root.add_subcommand("bench", "Benchmarks: speed against accuracy, as CSV");
+  bench->require_subcommand(1);
+  auto o = std::make_shared<pipeline::BenchPivOptions>();
+  auto out = std::make_shared<std::string>();
+  CLI::App* p = bench->add_subcommand("piv", "PIV settings grid on 1080p truth + failure map");
+  p->add_option("-o,--output", *out, "Output folder for the CSV files")->required();
+  p->add_flag("--force", o->force, "Replace existing files");
+  p->add_flag("--quick", o->quick, "Small grid on 960x540 (a smoke run)");
+  p->add_option("--repeats", o->timing_repeats, "Timed runs per setting (median)")
+      ->capture_default_str();
+  p->add_option("--width", o->width_px, "Pair width, px")->capture_default_str();
+  p->add_option("--height", o->height_px, "Pair height, px")->capture_default_str();
+  return {{p, [p, o, out, &ctx] {
+             o->out_dir = *out;
+             core::ProgressReporter progress("bench piv", ctx.level);
+             const auto sum = pipeline::run_piv_bench(*o, ctx.header(), progress.callback());
+             progress.finish();
+             if (ctx.level != core::LogLevel::kQuiet) {
+               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
+               if (!sum.best_line.empty()) std::printf("%s\n", sum.best_line.c_str());
+               std::printf("plot: python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
+             }
+             (void)p;
+             return kExitOk;
+           }}};
+}
+
+}  // namespace shearzone::apps
