@@ -30,7 +30,13 @@ echo "== 2. Rotating particle pair (omega = 0.01 rad/frame, counter-clockwise)"
 "$SZ" synth particles --config data-samples/synth/pair_rotation.toml -o "$OUT/pair_rotation"
 echo "== 3. Bead top view around an oscillating four-blade vane (shear zone), 25 fps MP4"
 "$SZ" synth beads --config data-samples/synth/beads_vane.toml -o "$OUT/beads_vane"
-echo "== 4. Ground-truth plots"
+echo "== 4. PIV of the bead clip, with the rotating vane masked (-> HDF5 fields)"
+"$SZ" piv "$OUT/beads_vane/video.mp4" -o "$OUT/beads_vane/fields.h5" \
+    --centre 319.5,239.5 --vane 4,6,110 --phi0-rad 0.3 --f-hz 0.5 --N 9
+echo "== 5. PIV of two real frames of moving sand (PIVlab example data, MIT)"
+"$SZ" piv data-samples/pivlab-sand/Fuerteventura_000000.jpeg \
+    data-samples/pivlab-sand/Fuerteventura_000001.jpeg -o "$OUT/sand_vectors.csv"
+echo "== 6. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png"
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png"
 

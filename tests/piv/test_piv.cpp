@@ -111,7 +111,7 @@ TEST_CASE("a solid rotation is measured to 0.03 px RMS", "[piv]") {
 // measured value so that it cannot get worse unnoticed.
 TEST_CASE("the shear zone is measured to 0.03 px RMS away from the kink at r0", "[piv]") {
   constexpr double kShearZoneResolvableRmsPx = 0.03;
-  constexpr double kShearZoneAllRmsGuardPx = 0.065;  // measured 0.060 (issue gate 0.03)
+  constexpr double kShearZoneAllRmsGuardPx = 0.065;  // measured 0.060 (issue gate 0.03, open)
   for (const auto& windows : kPassLists) {
     synth::SynthOptions s;
     s.field.kind = synth::FieldKind::kShearZone;
