@@ -123,6 +123,22 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--min-window-std", p.min_window_std,
                 "Smallest window intensity std, fraction of full scale")
       ->capture_default_str();
+  // Preprocessing
+  c->add_flag("--background", j.preprocess.background,
+              "Subtract the temporal median of the clip (static background)");
+  c->add_option("--background-frames", j.preprocess.background_frames,
+                "Frames sampled for the background median")
+      ->capture_default_str();
+  c->add_option("--intensity-cap", j.preprocess.intensity_cap,
+                "Cap intensities at median + k std (0: off)")
+      ->capture_default_str();
+  c->add_flag("--clahe", j.preprocess.clahe, "Contrast-limited adaptive histogram equalisation");
+  c->add_option("--clahe-tile", j.preprocess.clahe_tile_px, "CLAHE tile size, px")
+      ->capture_default_str();
+  c->add_option("--clahe-clip", j.preprocess.clahe_clip, "CLAHE clip limit")->capture_default_str();
+  c->add_option("--highpass", j.preprocess.highpass_sigma_px,
+                "High-pass: subtract a Gaussian blur of this sigma, px (0: off)")
+      ->capture_default_str();
   // Frames
   c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz")->capture_default_str();
   c->add_option("--first", j.first_frame, "First frame used")->capture_default_str();

@@ -12,6 +12,7 @@
 #include "shearzone/io/video.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
+#include "shearzone/synth/generator.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace shearzone;
@@ -199,4 +200,44 @@ TEST_CASE("bad PIV inputs are errors that leave no output", "[pipeline][piv]") {
   }
   CHECK_FALSE(fs::exists(out));
   for (const auto& name : testing::list_dir(tmp.path())) CHECK(name.find(".partial") == std::string::npos);
+}
+
+TEST_CASE("background subtraction frees the vectors from a static pattern", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  // Particles moving by (2.4, -1.1) px per frame under a static bright speckle.
+  synth::SynthOptions s;
+  s.image.width_px = 192;
+  s.image.height_px = 160;
+  s.field.u_px = 2.4;
+  s.field.v_px = -1.1;
+  s.sequence.frames = 8;
+  synth::FrameGenerator gen(s);
+  synth::SynthOptions st = s;
+  st.field.u_px = st.field.v_px = 0;
+  st.image.seed = 99;
+  st.image.noise = 0;
+  st.particles.diameter_px = 4;
+  const cv::Mat stat = synth::FrameGenerator(st).next();  // the static pattern
+  std::vector<std::string> files;
+  for (int k = 0; k < 8; ++k) {
+    cv::Mat f = gen.next();
+    cv::add(f, stat, f);  // saturating 8-bit add
+    const auto p = tmp / fmt::format("f{}.png", k);
+    io::write_image(p, f, false);
+    files.push_back(p.string());
+  }
+  auto mean_u = [&](bool background, const std::string& name) {
+    auto o = job(files, tmp / name);
+    o.preprocess.background = true;
+    o.preprocess.background = background;
+    pipeline::run_piv_job(o, {});
+    const auto u = io::H5File::open_read(tmp / name).read<float>("/pairs/u_px").data;
+    double m = 0;
+    for (float x : u) m += x;
+    return m / u.size();
+  };
+  const double raw = mean_u(false, "raw.h5"), clean = mean_u(true, "clean.h5");
+  INFO("mean u: raw " << raw << ", with background subtraction " << clean);
+  CHECK(std::abs(clean - 2.4) < 0.05);
+  CHECK(std::abs(raw - 2.4) > std::abs(clean - 2.4));
 }

@@ -99,6 +99,7 @@ std::string metadata_text(const core::Metadata& m) {
 
 void PivJobOptions::validate() const {
   piv.validate();
+  preprocess.validate();
   if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
   const std::string ext = lower_ext(output);
   if (ext != ".csv" && ext != ".h5" && ext != ".hdf5")
@@ -147,13 +148,33 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
   }
   const VaneAngle vane_angle(o.vane);
+
+  // The background for subtraction: the temporal median of frames sampled evenly
+  // over the selected range (a first, separate read of the source).
+  cv::Mat background;
+  if (o.preprocess.background) {
+    auto pre = io::open_frames(o.inputs, o.fps);
+    const std::int64_t hint = pre->size_hint();
+    const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
+    const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
+    const std::int64_t every =
+        span > 0 ? std::max<std::int64_t>(1, span / o.preprocess.background_frames) : 1;
+    std::vector<cv::Mat> sample;
+    io::Frame fr;
+    while (pre->next(fr) && static_cast<int>(sample.size()) < o.preprocess.background_frames) {
+      if (fr.index < o.first_frame || (last >= 0 && fr.index > last)) continue;
+      if ((fr.index - o.first_frame) % every == 0) sample.push_back(fr.gray.clone());
+    }
+    background = piv::temporal_median(sample);
+  }
   const piv::PivEngine engine(o.piv);
   const bool csv = lower_ext(o.output) == ".csv";
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
   struct Unique {
     io::Frame frame;
-    cv::Mat mask;  // static + vane at this frame's time
+    cv::Mat image;  // what PIV sees: the frame, preprocessed if asked
+    cv::Mat mask;   // static + vane at this frame's time
   };
   std::deque<Unique> window;  // the last pair_spacing + 1 unique frames
   std::size_t unique_count = 0;
@@ -163,6 +184,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   core::Metadata meta = header;
   meta.emplace_back("source", source->description());
   for (auto& kv : o.piv.to_metadata()) meta.push_back(std::move(kv));
+  for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",
                                          o.pair_spacing, o.stride, o.first_frame,
                                          o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
@@ -203,6 +225,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     Unique u;
     u.frame = frame;
     u.frame.gray = frame.gray.clone();
+    u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
     cv::Mat m = static_mask;
     if (o.annulus_outer_px > 0)
       m = piv::combine_masks(m, piv::annulus_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
@@ -226,7 +249,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       throw InputError(fmt::format("{}: frame size {}x{} differs from {} ({}x{})", b.frame.label,
                                    b.frame.gray.cols, b.frame.gray.rows, a.frame.label,
                                    a.frame.gray.cols, a.frame.gray.rows));
-    const piv::PivResult r = engine.process(a.frame.gray, b.frame.gray, a.mask, b.mask);
+    const piv::PivResult r = engine.process(a.image, b.image, a.mask, b.mask);
     const core::VectorField& f = r.field;
     const double dt = b.frame.t_s - a.frame.t_s;
     sum.vectors_per_pair = f.size();

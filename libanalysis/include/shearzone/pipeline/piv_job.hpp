@@ -31,6 +31,7 @@
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/vane.hpp"
 #include "shearzone/piv/options.hpp"
+#include "shearzone/piv/preprocess.hpp"
 
 namespace shearzone::pipeline {
 
@@ -51,6 +52,7 @@ struct VaneMaskOptions {
 
 struct PivJobOptions {
   piv::PivOptions piv;
+  piv::PreprocessOptions preprocess;
   std::vector<std::string> inputs;  ///< images, a glob, or one video
   std::filesystem::path output;     ///< .csv (one pair) or .h5
   bool force = false;
