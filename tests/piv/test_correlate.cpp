@@ -88,7 +88,7 @@ TEST_CASE("the 2-D Gaussian fit is exact on a sampled elliptic Gaussian", "[piv]
   CHECK(std::abs(p1.dx - 0.3) > 1e-3);
 }
 
-TEST_CASE("the peak ratio compares the highest peak with the next one outside 5x5", "[piv]") {
+TEST_CASE("the peak ratio compares the highest peak with the next local maximum", "[piv]") {
   const int w = 16;
   std::vector<float> plane(w * w, 0.0f);
   plane[8 * w + 8] = 0.9f;
@@ -101,4 +101,19 @@ TEST_CASE("the peak ratio compares the highest peak with the next one outside 5x
   CHECK(find_peak(plane.data(), w, 2, Subpixel::kGauss3).ratio == 1000.0f);
   std::vector<float> flat(w * w, -0.1f);
   CHECK_FALSE(find_peak(flat.data(), w, 7, Subpixel::kGauss3).found);
+}
+
+TEST_CASE("the shoulder of a broad peak is not a second peak", "[piv]") {
+  // A wide Gaussian peak (as from 20 px beads): its flanks outside 5x5 stay high but
+  // are not local maxima, so the ratio compares with the small bump only.
+  const int w = 32;
+  std::vector<float> plane(w * w);
+  for (int y = 0; y < w; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double r2 = (x - 16.0) * (x - 16.0) + (y - 16.0) * (y - 16.0);
+      plane[y * w + x] = static_cast<float>(std::exp(-r2 / 50.0));
+    }
+  plane[4 * w + 4] += 0.2f;  // a small separate bump far out
+  const Peak p = find_peak(plane.data(), w, 15, Subpixel::kGauss3);
+  CHECK(p.ratio > 4.0f);
 }

@@ -184,12 +184,24 @@ Peak find_peak(const float* corr, int w, int radius, Subpixel method) {
   p.dx = (bx - h) + ox;
   p.dy = (by - h) + oy;
   p.height = best;
-  // Step 3: second peak: the highest value outside the 5x5 square around the first.
+  // Step 3: second peak: the highest other local maximum (a value not below any of
+  // its 8 neighbours) in the search square. Local maxima, not just any value outside a
+  // fixed box, so that the shoulder of a broad peak (large particles, beads) is not
+  // mistaken for a second peak.
   float second = 0.0f;
   for (int y = h - radius; y <= h + radius; ++y)
     for (int x = h - radius; x <= h + radius; ++x) {
-      if (std::abs(x - bx) <= 2 && std::abs(y - by) <= 2) continue;
-      second = std::max(second, corr[y * w + x]);
+      if (x == bx && y == by) continue;
+      const float c = corr[y * w + x];
+      if (c <= second) continue;
+      bool local_max = true;
+      for (int dy = -1; dy <= 1 && local_max; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if ((dx || dy) && at(x + dx, y + dy) > c) {
+            local_max = false;
+            break;
+          }
+      if (local_max) second = c;
     }
   p.ratio = second > 0 ? best / second : 1000.0f;
   p.found = true;

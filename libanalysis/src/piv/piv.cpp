@@ -274,9 +274,11 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           f.peak[k] = pk.height;
           f.peak_ratio[k] = pk.ratio;
           // In the first pass a correct peak is lowered by the loss of pairs (about
-          // (1 - |dx|/W)(1 - |dy|/W)), so the height test applies after deformation only.
-          const bool low_peak = !first && pk.height < opt_.min_peak;
-          if (!pk.found || low_peak || pk.ratio < opt_.min_peak_ratio) {
+          // (1 - |dx|/W)(1 - |dy|/W)) and by the gradients a large window spans, and
+          // quasi-periodic textures (bead packings) give strong second peaks, so the
+          // height and ratio tests apply after deformation only.
+          const bool weak = !first && (pk.height < opt_.min_peak || pk.ratio < opt_.min_peak_ratio);
+          if (!pk.found || weak) {
             f.flag[k] = VectorFlag::kInvalid;
             continue;
           }

@@ -47,7 +47,7 @@ struct Peak {
   double dx = 0.0;        ///< displacement from a to b, px
   double dy = 0.0;
   float height = 0.0f;    ///< normalised correlation at the integer peak
-  float ratio = 0.0f;     ///< height over the highest value outside the 5x5 around it
+  float ratio = 0.0f;     ///< height over the highest other local maximum (1000 if none)
   bool found = false;     ///< false: no positive peak in the search region
 };
 
@@ -71,7 +71,7 @@ class Correlator {
 
 /// Locates the highest value of a shifted W x W plane within |s_x|, |s_y| <= radius
 /// of zero displacement, refines it to sub-pixel with `method` and computes the
-/// peak ratio. Neighbours wrap around (the plane is circular).
+/// peak ratio against the highest other local maximum in the square. Neighbours wrap around (the plane is circular).
 Peak find_peak(const float* corr, int w, int radius, Subpixel method);
 
 /// 3-point Gaussian fit through (-1, lo), (0, c), (1, hi): the offset of the
