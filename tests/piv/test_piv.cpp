@@ -279,3 +279,33 @@ TEST_CASE("every interpolation measures a uniform shift", "[piv]") {
     CHECK(sc.valid > 0.99 * sc.n);
   }
 }
+
+// Issue #3 asks for 0.1 px RMS on bead textures 12-20 px wide (shear zone U0 = d/2,
+// w = 2d, final window <= d). Not met: measured 0.18 px (12 px beads), 0.33 px (16 px)
+// and 0.50 px (20 px), most of it at the kink at r0 and in the fast-turning core,
+// where the shading of each bead (its highlight stays towards the light) does not
+// turn with the flow. The test guards those values (+10 %) so that they cannot get
+// worse unnoticed, and holds the issue's 0.1 px on uniform motion of the same beads.
+TEST_CASE("bead textures: uniform motion to 0.1 px, shear zone guarded", "[piv]") {
+  struct Case {
+    double d, guard;
+  };
+  for (Case c : {Case{12, 0.20}, Case{16, 0.37}, Case{20, 0.55}}) {
+    synth::SynthOptions s;
+    s.texture = synth::TextureKind::kBeads;
+    s.beads.diameter_px = c.d;
+    s.image.seed = 21;
+    s.field.kind = synth::FieldKind::kShearZone;
+    s.field.U0_px = 0.5 * c.d;
+    s.field.w_px = 2 * c.d;
+    s.field.r0_px = 120;
+    const auto shear = score(run_piv_on_synth(s, piv::PivOptions{}));
+    s.field.kind = synth::FieldKind::kUniform;
+    s.field.u_px = 2.3;
+    s.field.v_px = -1.2;
+    const auto uniform = score(run_piv_on_synth(s, piv::PivOptions{}));
+    INFO("beads " << c.d << " px: shear zone RMS " << shear.rms << ", uniform RMS " << uniform.rms);
+    CHECK(uniform.rms <= 0.1);
+    CHECK(shear.rms <= c.guard);
+  }
+}
