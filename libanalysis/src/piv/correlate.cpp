@@ -57,7 +57,7 @@ Correlator::~Correlator() {
   fftwf_destroy_plan(static_cast<fftwf_plan>(plan_inv_));
 }
 
-bool Correlator::correlate(Workspace& ws) const {
+bool Correlator::correlate(Workspace& ws, double min_variance) const {
   SHEARZONE_DCHECK(ws.w_ == w_);
   const int n = w_ * w_;
   // Step 1: zero-mean windows and their energies.
@@ -74,7 +74,7 @@ bool Correlator::correlate(Workspace& ws) const {
     ea += static_cast<double>(ws.a_[i]) * ws.a_[i];
     eb += static_cast<double>(ws.b_[i]) * ws.b_[i];
   }
-  if (!(ea > 0) || !(eb > 0)) {
+  if (!(ea > 0) || !(eb > 0) || ea <= min_variance * n || eb <= min_variance * n) {
     std::fill(ws.corr_, ws.corr_ + n, 0.0f);
     return false;
   }

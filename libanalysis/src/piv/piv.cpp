@@ -130,6 +130,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
   const cv::Mat A = to_unit_float(a_in), B = to_unit_float(b_in);
   // Interpolation coefficients (B-spline prefilter) once per pair, reused by every pass.
   cv::Mat coef_a, coef_b;
+  cv::Mat deformed_a, deformed_b;  // reused by every pass (never aliases A, B or coef_*)
   if (opt_.deform && opt_.windows_px.size() + static_cast<std::size_t>(opt_.final_pass_repeats) > 1) {
     coef_a = interpolation_coefficients(A, opt_.interpolation);
     coef_b = interpolation_coefficients(B, opt_.interpolation);
@@ -163,7 +164,10 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     // for bilinear and Keys interpolation are A and B themselves.)
     cv::Mat Ad, Bd;
     if (!first && opt_.deform) {
-      deform_pair(coef_a, coef_b, pred_u, pred_v, prev.x0, prev.y0, prev.step, opt_.interpolation, Ad, Bd);
+      deform_pair(coef_a, coef_b, pred_u, pred_v, prev.x0, prev.y0, prev.step, opt_.interpolation,
+                  deformed_a, deformed_b);
+      Ad = deformed_a;
+      Bd = deformed_b;
     } else {
       Ad = A;
       Bd = B;
@@ -223,7 +227,13 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           auto extract = [&](const cv::Mat& img, const cv::Mat& mask, int ox, int oy, float* dst) {
             double sum = 0;
             int n = 0;
+            const bool interior = x + ox >= 0 && y + oy >= 0 && x + ox + W <= size.width &&
+                                  y + oy + W <= size.height;
             for (int r = 0; r < W; ++r) {
+              if (interior) {
+                std::copy_n(img.ptr<float>(y + oy + r) + x + ox, W, dst + r * W);
+                continue;
+              }
               const int yy = std::clamp(y + oy + r, 0, size.height - 1);
               const float* src = img.ptr<float>(yy);
               for (int c = 0; c < W; ++c) {
@@ -252,21 +262,9 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           };
           extract(Ad, mask_ab, oax, oay, ws.a());
           extract(Bd, mask_ab, obx, oby, ws.b());
-          // Texture check: variance of each window.
-          auto variance = [W](const float* p) {
-            double s1 = 0, s2 = 0;
-            for (int q = 0; q < W * W; ++q) {
-              s1 += p[q];
-              s2 += static_cast<double>(p[q]) * p[q];
-            }
-            const double m = s1 / (W * W);
-            return s2 / (W * W) - m * m;
-          };
-          if (variance(ws.a()) < min_var || variance(ws.b()) < min_var) {
-            f.flag[k] = VectorFlag::kInvalid;
-            continue;
-          }
-          if (!corr.correlate(ws)) {
+          // Correlate; a window whose intensity variance is below min_window_std^2 has no
+          // texture (blank, saturated) and is invalid.
+          if (!corr.correlate(ws, min_var)) {
             f.flag[k] = VectorFlag::kInvalid;
             continue;
           }

@@ -60,8 +60,9 @@ class Correlator {
   int window() const { return w_; }
 
   /// Subtracts the means of ws.a() and ws.b() and correlates them into ws.corr().
-  /// Returns false (plane left at zero) if either window has no variance.
-  bool correlate(Workspace& ws) const;
+  /// Returns false (plane left at zero) if either window's intensity variance is not
+  /// above `min_variance` (0: any variance will do).
+  bool correlate(Workspace& ws, double min_variance = 0.0) const;
 
  private:
   int w_;
