@@ -70,6 +70,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
                 sum.vectors_per_pair, 100.0 * sum.valid / n, 100.0 * sum.replaced / n,
                 100.0 * sum.masked / n, 100.0 * sum.invalid / n, sum.seconds,
                 sum.pairs / std::max(sum.seconds, 1e-9));
+    if (j.vane.log_offset_auto)
+      std::printf("piv: angle log offset found from the video: %.3f s\n", sum.log_offset_s);
   }
   return kExitOk;
 }
@@ -172,6 +174,8 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--angle-log", j.vane.log_path, "Vane angle log CSV with columns time_s,angle_rad");
   c->add_option("--log-offset-s", j.vane.log_offset_s, "Log time = frame time + offset, s")
       ->capture_default_str();
+  c->add_flag("--log-offset-auto", j.vane.log_offset_auto,
+              "Find the log offset by matching the vane angle seen in the frames");
   // Attributes
   c->add_option("--m-per-px", s->m_per_px, "Calibration stored in the output, m per px");
   c->add_option("--N", s->n_chain, "Chain length N stored in the output");

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -240,4 +241,39 @@ TEST_CASE("background subtraction frees the vectors from a static pattern", "[pi
   INFO("mean u: raw " << raw << ", with background subtraction " << clean);
   CHECK(std::abs(clean - 2.4) < 0.05);
   CHECK(std::abs(raw - 2.4) > std::abs(clean - 2.4));
+}
+
+TEST_CASE("a log shifted by 1.3 s is aligned with the video to within one frame", "[pipeline][piv]") {
+  testing::TempDir tmp("pivjob");
+  // A 30-frame bead clip (25 fps) with a four-blade vane, phi = 0.3 sin(pi t).
+  pipeline::SynthJobOptions s;
+  s.synth.texture = synth::TextureKind::kBeads;
+  s.synth.image.width_px = 256;
+  s.synth.image.height_px = 192;
+  s.synth.beads.diameter_px = 10;
+  s.synth.field.kind = synth::FieldKind::kShearZone;
+  s.synth.field.r0_px = 70;
+  s.synth.field.w_px = 20;
+  s.synth.field.U0_px = 0.3 * std::numbers::pi * 70 / 25;  // the core turns with the vane
+  s.synth.sequence.frames = 30;
+  s.synth.sequence.oscillate_f_Hz = 0.5;
+  s.synth.vane = {4, 5.0, 70.0, 0.3, 0.0, 0.2};
+  s.out_dir = tmp / "clip";
+  pipeline::run_synth_job(s, {});
+  // The rheometer's log: its clock runs 1.3 s ahead of the video's.
+  std::string log = "time_s,angle_rad\n";
+  for (int k = 0; k <= 500; ++k) {
+    const double tau = 0.01 * k;
+    log += fmt::format("{},{}\n", tau, 0.3 * std::sin(std::numbers::pi * (tau - 1.3)));
+  }
+  testing::write_file(tmp / "log.csv", log);
+  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
+  o.centre_x_px = 127.5;
+  o.centre_y_px = 95.5;
+  o.vane.geometry = {4, 5.0, 70.0};
+  o.vane.log_path = (tmp / "log.csv").string();
+  o.vane.log_offset_auto = true;
+  const auto sum = pipeline::run_piv_job(o, {});
+  INFO("offset found: " << sum.log_offset_s << " s");
+  CHECK(std::abs(sum.log_offset_s - 1.3) < 1.0 / 25.0);
 }

@@ -19,6 +19,7 @@
 #include "shearzone/io/image.hpp"
 #include "shearzone/piv/mask.hpp"
 #include "shearzone/piv/piv.hpp"
+#include "shearzone/piv/vane_angle.hpp"
 
 namespace shearzone::pipeline {
 namespace {
@@ -48,6 +49,11 @@ class VaneAngle {
                                      o.log_path, t.row_lines[r], num(time_[r]),
                                      num(time_[r - 1])));
   }
+
+  const std::vector<double>& log_times() const { return time_; }
+  const std::vector<double>& log_angles() const { return angle_; }
+  void set_log_offset(double s) { o_.log_offset_s = s; }
+  double log_offset() const { return o_.log_offset_s; }
 
   /// Blade-0 angle (angle0 + phi) at frame time t, rad.
   double at(double t_s, const std::string& frame_label) const {
@@ -147,7 +153,33 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   if (!o.mask_image.empty()) {
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
   }
-  const VaneAngle vane_angle(o.vane);
+  VaneAngle vane_angle(o.vane);
+  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto) {
+    // Align the log with the video: the vane angle measured in each selected frame
+    // against the log at t + offset (blade symmetry: angles within +-pi/blades).
+    auto src = io::open_frames(o.inputs, o.fps);
+    const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
+    const double half = std::numbers::pi / o.vane.geometry.blades;
+    std::vector<double> ts, phis;
+    io::Frame fr;
+    while (src->next(fr)) {
+      if (fr.index < o.first_frame) continue;
+      if (o.last_frame >= 0 && fr.index > o.last_frame) break;
+      ts.push_back(fr.t_s);
+      phis.push_back(piv::estimate_vane_angle(fr.gray, o.centre_x_px, o.centre_y_px,
+                                              o.vane.geometry, a0 - half, a0 + half) - a0);
+    }
+    if (ts.empty()) throw InputError(fmt::format("{}: no frame to align the angle log with", o.inputs.front()));
+    const double off = piv::best_log_offset(ts, phis, vane_angle.log_times(), vane_angle.log_angles(),
+                                            0.25 / src->fps());
+    if (std::isnan(off))
+      throw InputError(fmt::format("{}: the angle log spans {} s, less than the clip's {} s; it "
+                                   "cannot be aligned",
+                                   o.vane.log_path,
+                                   num(vane_angle.log_times().back() - vane_angle.log_times().front()),
+                                   num(ts.back() - ts.front())));
+    vane_angle.set_log_offset(off);
+  }
 
   // The background for subtraction: the temporal median of frames sampled evenly
   // over the selected range (a first, separate read of the source).
@@ -203,8 +235,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                                   o.vane.log_path.empty()
                                       ? fmt::format("{} sin(2 pi {} t + {})", num(o.vane.phi0_rad),
                                                     num(o.vane.f_Hz), num(o.vane.phase_rad))
-                                      : fmt::format("log {} at t + {} s", o.vane.log_path,
-                                                    num(o.vane.log_offset_s))));
+                                      : fmt::format("log {} at t + {} s{}", o.vane.log_path,
+                                                    num(vane_angle.log_offset()),
+                                                    o.vane.log_offset_auto ? " (offset found from the video)" : "")));
   meta.emplace_back("units", "displacements in px per pair from frame a to frame b");
 
   std::size_t pair_index = 0;
@@ -329,6 +362,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     h5->close();
   }
   out.commit();
+  sum.log_offset_s = vane_angle.log_offset();
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return sum;
 }

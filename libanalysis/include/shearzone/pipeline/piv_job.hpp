@@ -48,6 +48,9 @@ struct VaneMaskOptions {
   double phase_rad = 0.0;    ///< phase of phi(t), rad
   std::string log_path;      ///< angle log CSV (time_s, angle_rad); empty: sinusoid
   double log_offset_s = 0.0; ///< log time = frame time + offset
+  /// Find the offset instead: the vane angle is measured in every selected frame
+  /// (piv/vane_angle.hpp) and the offset that best matches the log is used.
+  bool log_offset_auto = false;
 };
 
 struct PivJobOptions {
@@ -83,6 +86,7 @@ struct PivJobSummary {
   std::size_t pairs = 0;
   std::size_t vectors_per_pair = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
+  double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
   double seconds = 0.0;         ///< wall time of the job
 };
 

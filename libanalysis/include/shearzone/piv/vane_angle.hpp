@@ -1,0 +1,31 @@
+// shearzone/piv/vane_angle.hpp: the vane's angle seen in a frame.
+//
+// An opaque vane looks uniform where the bead layer around it is textured. The angle
+// estimate is the blade-0 direction a (CCW on screen from +x) that minimises the
+// intensity variance of the pixels under the blade template at a, searched on a grid
+// of 0.25 deg over [a_lo, a_hi] and refined by a parabola through the best three.
+// Used to align a rheometer angle log with the video (`--log-offset-s auto`).
+// Assumes a uniform vane; a textured or specular vane needs the offset given by hand.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shearzone/core/vane.hpp"
+
+namespace shearzone::piv {
+
+/// Blade-0 angle in rad within [a_lo, a_hi] (CCW on screen from +x).
+double estimate_vane_angle(const cv::Mat& frame, double cx, double cy,
+                           const core::VaneGeometry& vane, double a_lo, double a_hi);
+
+/// The offset o (s) minimising sum_k (video_angle_k - log_angle(t_k + o))^2 over the
+/// offsets for which the log covers every frame time, with log_angle linear between
+/// rows; candidates every `step_s`, then refined to step_s / 20 around the best.
+/// Returns NaN if no offset keeps every frame inside the log.
+double best_log_offset(const std::vector<double>& frame_t_s, const std::vector<double>& video_angle,
+                       const std::vector<double>& log_t_s, const std::vector<double>& log_angle,
+                       double step_s);
+
+}  // namespace shearzone::piv

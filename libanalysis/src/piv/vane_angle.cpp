@@ -1,0 +1,102 @@
+#include "shearzone/piv/vane_angle.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "shearzone/core/check.hpp"
+#include "shearzone/piv/piv.hpp"
+
+namespace shearzone::piv {
+namespace {
+
+/// Variance of the frame under the blade template at angle a.
+double variance_under_vane(const cv::Mat& f, double cx, double cy, const core::VaneGeometry& v,
+                           double a) {
+  double s1 = 0, s2 = 0;
+  std::size_t n = 0;
+  for (int k = 0; k < v.blades; ++k) {
+    const double ang = a + 2.0 * std::numbers::pi * k / v.blades;
+    const double ex = std::cos(ang), ey = -std::sin(ang);
+    // Sample the blade on a 1 px lattice in its own frame (along, across).
+    for (double along = v.half_width_px; along <= v.radius_px; along += 1.0)
+      for (double across = -v.half_width_px + 0.5; across <= v.half_width_px - 0.5; across += 1.0) {
+        const int x = static_cast<int>(std::lround(cx + along * ex - across * ey));
+        const int y = static_cast<int>(std::lround(cy + along * ey + across * ex));
+        if (x < 0 || y < 0 || x >= f.cols || y >= f.rows) continue;
+        const double val = f.at<float>(y, x);
+        s1 += val;
+        s2 += val * val;
+        ++n;
+      }
+  }
+  if (n < 2) return std::numeric_limits<double>::infinity();
+  const double m = s1 / n;
+  return s2 / n - m * m;
+}
+
+double interp_log(const std::vector<double>& t, const std::vector<double>& a, double x) {
+  const auto it = std::upper_bound(t.begin(), t.end(), x);
+  const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(it - t.begin()), t.size() - 1);
+  const std::size_t lo = hi == 0 ? 0 : hi - 1;
+  if (hi == lo) return a[lo];
+  const double w = (x - t[lo]) / (t[hi] - t[lo]);
+  return (1 - w) * a[lo] + w * a[hi];
+}
+
+}  // namespace
+
+double estimate_vane_angle(const cv::Mat& frame, double cx, double cy,
+                           const core::VaneGeometry& vane, double a_lo, double a_hi) {
+  SHEARZONE_CHECK(vane.blades > 0 && a_hi > a_lo);
+  const cv::Mat f = to_unit_float(frame);
+  const double step = 0.25 * std::numbers::pi / 180.0;
+  const int n = static_cast<int>(std::ceil((a_hi - a_lo) / step)) + 1;
+  std::vector<double> var(static_cast<std::size_t>(n));
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < n; ++k) var[static_cast<std::size_t>(k)] = variance_under_vane(f, cx, cy, vane, a_lo + k * step);
+  const int best = static_cast<int>(std::min_element(var.begin(), var.end()) - var.begin());
+  double a = a_lo + best * step;
+  if (best > 0 && best + 1 < n) {
+    const double l = var[static_cast<std::size_t>(best - 1)], c = var[static_cast<std::size_t>(best)],
+                 r = var[static_cast<std::size_t>(best + 1)];
+    const double den = l - 2 * c + r;
+    if (den > 0) a += step * std::clamp(0.5 * (l - r) / den, -0.5, 0.5);
+  }
+  return a;
+}
+
+double best_log_offset(const std::vector<double>& ft, const std::vector<double>& va,
+                       const std::vector<double>& lt, const std::vector<double>& la, double step_s) {
+  SHEARZONE_CHECK(ft.size() == va.size() && lt.size() == la.size() && !ft.empty() && lt.size() >= 2);
+  const double lo = lt.front() - ft.front(), hi = lt.back() - ft.back();
+  if (hi < lo) return std::numeric_limits<double>::quiet_NaN();
+  auto cost = [&](double o) {
+    double s = 0;
+    for (std::size_t k = 0; k < ft.size(); ++k) {
+      const double d = va[k] - interp_log(lt, la, ft[k] + o);
+      s += d * d;
+    }
+    return s;
+  };
+  double best = lo, best_cost = std::numeric_limits<double>::infinity();
+  for (double o = lo; o <= hi + 1e-12; o += step_s) {
+    const double c = cost(o);
+    if (c < best_cost) {
+      best_cost = c;
+      best = o;
+    }
+  }
+  const double fine = step_s / 20.0;
+  for (double o = std::max(lo, best - step_s); o <= std::min(hi, best + step_s); o += fine) {
+    const double c = cost(o);
+    if (c < best_cost) {
+      best_cost = c;
+      best = o;
+    }
+  }
+  return best;
+}
+
+}  // namespace shearzone::piv
