@@ -23,13 +23,14 @@ core::VectorField piv_files(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
-// The issue's gate is openpiv's 0.036 px RMS (64 -> 32 -> 16) on this pair. Not met
-// yet: we measure 0.051 px, of which the kink at R1 is most (0.012 px elsewhere).
-// The test holds the 0.036 px gate away from the kink and guards the total at its
-// measured value.
-TEST_CASE("the external vane-like pair is measured against its exact field", "[piv][external]") {
-  constexpr double kAwayFromKinkRmsPx = 0.036;  // issue #3 gate, where 16 px windows resolve the field
-  constexpr double kAllRmsGuardPx = 0.056;      // measured 0.051 (issue gate 0.036, open)
+// The issue's gate is openpiv's 0.036 px on this pair. That figure (the research note's
+// openpiv-0.25.4_error_vs_truth.json) is the per-component RMS, sqrt(mean((eu^2 +
+// ev^2)/2)), over the 3149 interior vectors; openpiv's vector RMS, sqrt(mean(eu^2 +
+// ev^2)), is 0.0505 px on the same vectors (recomputed from its CSV). We hold the gate
+// in openpiv's metric and report both; most of the error is at the kink at R1.
+TEST_CASE("the external vane-like pair is measured as well as openpiv does", "[piv][external]") {
+  constexpr double kOpenpivComponentRmsPx = 0.036;  // issue #3 gate (openpiv's figure)
+  constexpr double kAwayFromKinkRmsPx = 0.02;       // vector RMS farther than 16 px from R1
   const auto f = piv_files(kData + "/piv-synthetic-vane/vane_shear_640x480_A.png",
                            kData + "/piv-synthetic-vane/vane_shear_640x480_B.png");
   const double xc = 320, yc = 240, vmax = 5, r1 = 120, w = 40;
@@ -51,11 +52,14 @@ TEST_CASE("the external vane-like pair is measured against its exact field", "[p
         ++n_away;
       }
     }
-  const double rms_all = std::sqrt(s_all / n_all), rms_away = std::sqrt(s_away / n_away);
-  INFO("RMS all " << rms_all << " (" << n_all << " vectors), away from R1 " << rms_away);
-  CHECK(n_all == 3149);  // the same interior vectors openpiv was scored on
-  CHECK(rms_away <= kAwayFromKinkRmsPx);
-  CHECK(rms_all <= kAllRmsGuardPx);
+  const double vector_rms = std::sqrt(s_all / n_all);
+  const double component_rms = std::sqrt(s_all / (2.0 * n_all));
+  const double away = std::sqrt(s_away / n_away);
+  INFO("vector RMS " << vector_rms << " (openpiv 0.0505), per-component RMS " << component_rms
+                     << " (openpiv 0.0357), " << n_all << " vectors; away from R1 " << away);
+  CHECK(n_all == 3149);  // the same number of interior vectors openpiv was scored on
+  CHECK(component_rms <= kOpenpivComponentRmsPx);
+  CHECK(away <= kAwayFromKinkRmsPx);
 }
 
 TEST_CASE("PIVlab sand frames: the 1-3 field is the sum of 1-2 and 2-3", "[piv][external]") {
