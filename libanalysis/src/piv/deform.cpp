@@ -193,9 +193,10 @@ void prefilter_columns(cv::Mat& c, double z) {
 
 }  // namespace
 
-cv::Mat bspline_coefficients(const cv::Mat& image, int degree) {
+void bspline_coefficients(const cv::Mat& image, int degree, cv::Mat& out, cv::Mat& scratch) {
   SHEARZONE_CHECK(image.type() == CV_32F);
   SHEARZONE_CHECK(degree == 3 || degree == 5);
+  SHEARZONE_CHECK(out.data == nullptr || out.data != image.data);
   // The recursion runs along columns on whole rows at a time (contiguous memory,
   // vectorised across columns); the rows are filtered the same way on the transpose.
   auto filter_columns = [](cv::Mat& c, double z) {
@@ -206,17 +207,27 @@ cv::Mat bspline_coefficients(const cv::Mat& image, int degree) {
       prefilter_columns(s, z);
     }
   };
-  cv::Mat t;
-  cv::transpose(image, t);
-  for (double z : bspline_poles(degree)) filter_columns(t, z);  // rows of the image
-  cv::Mat c;
-  cv::transpose(t, c);
-  for (double z : bspline_poles(degree)) filter_columns(c, z);  // columns of the image
-  return c;
+  cv::transpose(image, scratch);
+  for (double z : bspline_poles(degree)) filter_columns(scratch, z);  // rows of the image
+  cv::transpose(scratch, out);
+  for (double z : bspline_poles(degree)) filter_columns(out, z);  // columns of the image
+}
+
+cv::Mat bspline_coefficients(const cv::Mat& image, int degree) {
+  cv::Mat out, scratch;
+  bspline_coefficients(image, degree, out, scratch);
+  return out;
 }
 
 bool needs_coefficients(Interpolation method) {
   return method == Interpolation::kBSpline || method == Interpolation::kBSpline5;
+}
+
+void interpolation_coefficients(const cv::Mat& image, Interpolation method, cv::Mat& out,
+                                cv::Mat& scratch) {
+  if (method == Interpolation::kBSpline) return bspline_coefficients(image, 3, out, scratch);
+  if (method == Interpolation::kBSpline5) return bspline_coefficients(image, 5, out, scratch);
+  image.copyTo(out);
 }
 
 cv::Mat interpolation_coefficients(const cv::Mat& image, Interpolation method) {

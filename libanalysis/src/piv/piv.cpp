@@ -77,6 +77,21 @@ void check_image(const cv::Mat& m, const char* which) {
 
 }  // namespace
 
+namespace {
+/// Per-thread buffers of process(): images, spline coefficients, deformed frames.
+struct PairScratch {
+  cv::Mat A, B, coef_a, coef_b, transposed, deformed_a, deformed_b;
+};
+PairScratch& pair_scratch() {
+  static thread_local PairScratch s;
+  return s;
+}
+void unit_float_into(const cv::Mat& image, cv::Mat& out) {
+  const double scale = image.depth() == CV_8U ? 1.0 / 255.0 : image.depth() == CV_16U ? 1.0 / 65535.0 : 1.0;
+  image.convertTo(out, CV_32F, scale);
+}
+}  // namespace
+
 cv::Mat to_unit_float(const cv::Mat& image) {
   cv::Mat f;
   const double scale = image.depth() == CV_8U ? 1.0 / 255.0 : image.depth() == CV_16U ? 1.0 / 65535.0 : 1.0;
@@ -127,13 +142,19 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     throw InputError(fmt::format("PIV: images of {}x{} px are smaller than the first window "
                                  "({} px)",
                                  size.width, size.height, w0));
-  const cv::Mat A = to_unit_float(a_in), B = to_unit_float(b_in);
+  // Large buffers are kept per thread and reused from pair to pair (fewer page faults).
+  PairScratch& sc = pair_scratch();
+  unit_float_into(a_in, sc.A);
+  unit_float_into(b_in, sc.B);
+  const cv::Mat A = sc.A, B = sc.B;
   // Interpolation coefficients (B-spline prefilter) once per pair, reused by every pass.
-  cv::Mat coef_a, coef_b;
-  cv::Mat deformed_a, deformed_b;  // reused by every pass (never aliases A, B or coef_*)
+  cv::Mat& coef_a = sc.coef_a;
+  cv::Mat& coef_b = sc.coef_b;
+  cv::Mat& deformed_a = sc.deformed_a;  // reused by every pass (never aliases A, B or coef_*)
+  cv::Mat& deformed_b = sc.deformed_b;
   if (opt_.deform && opt_.windows_px.size() + static_cast<std::size_t>(opt_.final_pass_repeats) > 1) {
-    coef_a = interpolation_coefficients(A, opt_.interpolation);
-    coef_b = interpolation_coefficients(B, opt_.interpolation);
+    interpolation_coefficients(A, opt_.interpolation, coef_a, sc.transposed);
+    interpolation_coefficients(B, opt_.interpolation, coef_b, sc.transposed);
   }
   const cv::Mat ia = mask_integral(mask_a), ib = mask_integral(mask_b);
   // Inside a window, pixels masked in either frame are blanked in both, so that no

@@ -29,6 +29,10 @@ cv::Mat remap_image(const cv::Mat& image, const cv::Mat& map_x, const cv::Mat& m
 /// What remap_coefficients() samples: the B-spline coefficients for kBSpline and
 /// kBSpline5, the image itself otherwise. Compute once per image, reuse per pass.
 cv::Mat interpolation_coefficients(const cv::Mat& image, Interpolation method);
+/// The same into caller-owned buffers (reused when their size fits): `out` must not
+/// share memory with `image`; `scratch` is working space.
+void interpolation_coefficients(const cv::Mat& image, Interpolation method, cv::Mat& out,
+                                cv::Mat& scratch);
 
 /// remap_image() on precomputed interpolation_coefficients().
 cv::Mat remap_coefficients(const cv::Mat& coefficients, const cv::Mat& map_x, const cv::Mat& map_y,
@@ -45,5 +49,6 @@ void deform_pair(const cv::Mat& coef_a, const cv::Mat& coef_b, const cv::Mat& gr
 /// B-spline coefficients (degree 3 or 5) of an image: the prefilter along rows and
 /// columns with mirror boundaries. Exposed for tests.
 cv::Mat bspline_coefficients(const cv::Mat& image, int degree);
+void bspline_coefficients(const cv::Mat& image, int degree, cv::Mat& out, cv::Mat& scratch);
 
 }  // namespace shearzone::piv
