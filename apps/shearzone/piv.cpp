@@ -19,6 +19,7 @@ struct PivCli {
   std::string config;
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
+  std::string grey = "luma";
   bool no_deform = false;
   std::vector<double> centre, annulus, vane;
   std::vector<std::string> attrs;
@@ -33,6 +34,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
   j.piv.deform = !s.no_deform;
+  j.grey = io::grey_mode_from_name(s.grey);
   if (!s.centre.empty()) {
     j.centre_x_px = s.centre[0];
     j.centre_y_px = s.centre[1];
@@ -143,6 +145,8 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   // Frames
   c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz")->capture_default_str();
+  c->add_option("--grey", s->grey, "Colour to grey: luma, mean, red, green or blue")
+      ->capture_default_str();
   c->add_option("--first", j.first_frame, "First frame used")->capture_default_str();
   c->add_option("--last", j.last_frame, "Last frame used (-1: to the end)")->capture_default_str();
   c->add_option("--spacing", j.pair_spacing, "Pair spacing k: pairs (i, i+k)")->capture_default_str();

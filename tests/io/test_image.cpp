@@ -82,3 +82,16 @@ TEST_CASE("write_image refuses 16-bit JPEG and unknown extensions", "[io][image]
                     Contains("unsupported image extension \".gif\""));
   CHECK(testing::list_dir(dir.path()).empty());
 }
+
+TEST_CASE("colour to grey: luma, mean or one channel", "[io][image]") {
+  testing::TempDir dir("img");
+  cv::Mat colour(4, 4, CV_8UC3, cv::Scalar(30, 60, 240));  // B, G, R
+  io::write_image(dir / "c.png", colour, false);
+  auto grey = [&](io::GreyMode m) { return io::read_image_gray(dir / "c.png", nullptr, m).at<std::uint8_t>(1, 1); };
+  CHECK(grey(io::GreyMode::kRed) == 240);
+  CHECK(grey(io::GreyMode::kGreen) == 60);
+  CHECK(grey(io::GreyMode::kBlue) == 30);
+  CHECK(grey(io::GreyMode::kMean) == 110);
+  CHECK(grey(io::GreyMode::kLuma) == 110);  // 0.299*240 + 0.587*60 + 0.114*30 = 110.6 -> 110 or 111
+  CHECK_THROWS_WITH(io::grey_mode_from_name("grn"), Contains("expected one of: luma, mean, red, green, blue"));
+}

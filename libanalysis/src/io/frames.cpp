@@ -16,7 +16,9 @@ namespace {
 
 class VideoSource : public FrameSource {
  public:
-  explicit VideoSource(const std::string& path) : reader_(path), path_(path) {}
+  VideoSource(const std::string& path, GreyMode grey) : reader_(path), path_(path) {
+    reader_.set_grey_mode(grey);
+  }
   bool next(Frame& f) override {
     const std::int64_t k = reader_.next_index();
     if (!reader_.read(f.gray, f.t_s)) return false;
@@ -39,12 +41,12 @@ class VideoSource : public FrameSource {
 
 class ImageSequenceSource : public FrameSource {
  public:
-  ImageSequenceSource(std::vector<std::string> paths, double fps)
-      : paths_(std::move(paths)), fps_(fps) {}
+  ImageSequenceSource(std::vector<std::string> paths, double fps, GreyMode grey)
+      : paths_(std::move(paths)), fps_(fps), grey_(grey) {}
   bool next(Frame& f) override {
     if (next_ >= paths_.size()) return false;
     const std::string& p = paths_[next_];
-    f.gray = read_image_gray(p);
+    f.gray = read_image_gray(p, nullptr, grey_);
     if (size_.width == 0) size_ = f.gray.size();
     if (f.gray.size() != size_)
       throw InputError(fmt::format("{}: image is {}x{}; expected {}x{} like the first frame ({})",
@@ -66,6 +68,7 @@ class ImageSequenceSource : public FrameSource {
  private:
   std::vector<std::string> paths_;
   double fps_;
+  GreyMode grey_;
   std::size_t next_ = 0;
   cv::Size size_{0, 0};
 };
@@ -84,10 +87,11 @@ std::vector<std::string> expand_glob(const std::string& pattern) {
   return out;
 }
 
-std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps) {
+std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
+                                         GreyMode grey) {
   if (inputs.empty()) throw ConfigError("no input frames given");
   if (inputs.size() == 1 && is_video_extension(inputs[0]))
-    return std::make_unique<VideoSource>(inputs[0]);
+    return std::make_unique<VideoSource>(inputs[0], grey);
   if (!(fps > 0) || !std::isfinite(fps))
     throw ConfigError(fmt::format("fps = {}: must be > 0 for an image sequence", fps));
   std::vector<std::string> paths;
@@ -109,7 +113,7 @@ std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs,
                                    ".jpg) or a video (.mp4, .avi, .mov, .mkv)",
                                    p));
   }
-  return std::make_unique<ImageSequenceSource>(std::move(paths), fps);
+  return std::make_unique<ImageSequenceSource>(std::move(paths), fps, grey);
 }
 
 }  // namespace shearzone::io

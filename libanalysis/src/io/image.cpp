@@ -78,17 +78,51 @@ bool is_image_extension(const std::filesystem::path& path) {
          e == ".jpeg";
 }
 
-cv::Mat to_gray(const cv::Mat& image) {
+GreyMode grey_mode_from_name(const std::string& name) {
+  for (GreyMode m : {GreyMode::kLuma, GreyMode::kMean, GreyMode::kRed, GreyMode::kGreen, GreyMode::kBlue})
+    if (name == grey_mode_name(m)) return m;
+  throw ConfigError(fmt::format(
+      "unknown grey conversion \"{}\"; expected one of: luma, mean, red, green, blue", name));
+}
+
+const char* grey_mode_name(GreyMode mode) {
+  switch (mode) {
+    case GreyMode::kLuma: return "luma";
+    case GreyMode::kMean: return "mean";
+    case GreyMode::kRed: return "red";
+    case GreyMode::kGreen: return "green";
+    case GreyMode::kBlue: return "blue";
+  }
+  return "?";
+}
+
+cv::Mat to_gray(const cv::Mat& image, GreyMode mode) {
   if (image.channels() == 1) return image;
-  cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else if (image.channels() == 4) cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-  else
+  if (image.channels() != 3 && image.channels() != 4)
     throw InputError(fmt::format("image has {} channels; expected 1, 3 or 4", image.channels()));
+  cv::Mat grey;
+  switch (mode) {
+    case GreyMode::kLuma:
+      cv::cvtColor(image, grey, image.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+      break;
+    case GreyMode::kMean: {
+      std::vector<cv::Mat> ch;
+      cv::split(image, ch);
+      cv::Mat acc;
+      cv::add(ch[0], ch[1], acc, cv::noArray(), CV_32F);
+      cv::add(acc, ch[2], acc, cv::noArray(), CV_32F);
+      acc.convertTo(grey, image.depth(), 1.0 / 3.0);
+      break;
+    }
+    case GreyMode::kRed: cv::extractChannel(image, grey, 2); break;  // OpenCV order: B, G, R
+    case GreyMode::kGreen: cv::extractChannel(image, grey, 1); break;
+    case GreyMode::kBlue: cv::extractChannel(image, grey, 0); break;
+  }
   return grey;
 }
 
-cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, int* bit_depth) {
+cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, int* bit_depth,
+                          GreyMode mode) {
   const Format f = sniff(bytes);
   if (f == Format::kUnknown)
     throw InputError(fmt::format("{}: not a PNG, TIFF, BMP or JPEG image", source));
@@ -108,14 +142,14 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
                                  source, raw.elemSize1()));
   if (bit_depth) *bit_depth = raw.depth() == CV_8U ? 8 : 16;
   try {
-    return to_gray(raw);
+    return to_gray(raw, mode);
   } catch (const InputError& e) {
     throw InputError(fmt::format("{}: {}", source, e.what()));
   }
 }
 
-cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth) {
-  return decode_image_gray(read_file_bytes(path, "file"), path.string(), bit_depth);
+cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth, GreyMode mode) {
+  return decode_image_gray(read_file_bytes(path, "file"), path.string(), bit_depth, mode);
 }
 
 std::string encode_image(const cv::Mat& image, const std::filesystem::path& path) {

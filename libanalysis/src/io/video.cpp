@@ -81,7 +81,7 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
   // The FFmpeg back-end reports the presentation time of the frame just read.
   t_s = cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
   if (!std::isfinite(t_s) || t_s < 0) t_s = static_cast<double>(next_) / info_.fps;
-  gray = frame.depth() == CV_8U ? to_gray(frame) : cv::Mat();
+  gray = frame.depth() == CV_8U ? to_gray(frame, grey_mode_) : cv::Mat();
   if (gray.empty())
     throw InputError(fmt::format("{}: frame {}: unsupported sample depth; expected 8-bit video",
                                  path_, next_));

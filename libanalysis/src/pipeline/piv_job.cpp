@@ -148,7 +148,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
   o.validate();
   io::check_output_allowed(o.output, o.force);
-  auto source = io::open_frames(o.inputs, o.fps);
+  auto source = io::open_frames(o.inputs, o.fps, o.grey);
   cv::Mat static_mask;
   if (!o.mask_image.empty()) {
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
@@ -157,7 +157,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto) {
     // Align the log with the video: the vane angle measured in each selected frame
     // against the log at t + offset (blade symmetry: angles within +-pi/blades).
-    auto src = io::open_frames(o.inputs, o.fps);
+    auto src = io::open_frames(o.inputs, o.fps, o.grey);
     const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
     const double half = std::numbers::pi / o.vane.geometry.blades;
     std::vector<double> ts, phis;
@@ -185,7 +185,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // over the selected range (a first, separate read of the source).
   cv::Mat background;
   if (o.preprocess.background) {
-    auto pre = io::open_frames(o.inputs, o.fps);
+    auto pre = io::open_frames(o.inputs, o.fps, o.grey);
     const std::int64_t hint = pre->size_hint();
     const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
     const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
@@ -215,6 +215,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   std::unique_ptr<io::H5File> h5;
   core::Metadata meta = header;
   meta.emplace_back("source", source->description());
+  meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
   for (auto& kv : o.piv.to_metadata()) meta.push_back(std::move(kv));
   for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",

@@ -13,6 +13,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "shearzone/io/image.hpp"
+
 namespace shearzone::io {
 
 struct Frame {
@@ -41,7 +43,8 @@ class FrameSource {
 /// order given. `fps` sets the time base of image sequences (t = index / fps).
 /// Throws InputError for a missing file, a pattern that matches nothing, or an
 /// unsupported extension; ConfigError for an empty input list.
-std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps);
+std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
+                                         GreyMode grey = GreyMode::kLuma);
 
 /// Expands a glob pattern; the matches, sorted. Empty if nothing matches.
 std::vector<std::string> expand_glob(const std::string& pattern);

@@ -17,16 +17,24 @@
 
 namespace shearzone::io {
 
+/// How colour becomes grey: ITU-R BT.601 luma (default), the mean of the channels, or
+/// one channel (for a coloured light or a stained sample).
+enum class GreyMode { kLuma, kMean, kRed, kGreen, kBlue };
+/// "luma", "mean", "red", "green", "blue"; ConfigError lists them for another name.
+GreyMode grey_mode_from_name(const std::string& name);
+const char* grey_mode_name(GreyMode mode);
+
 /// Reads an image as single-channel grey, CV_8U or CV_16U as stored.
 /// `bit_depth` (optional) receives 8 or 16.
-cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth = nullptr);
+cv::Mat read_image_gray(const std::filesystem::path& path, int* bit_depth = nullptr,
+                        GreyMode mode = GreyMode::kLuma);
 
 /// Decodes an in-memory image file (`source` names it in messages).
 cv::Mat decode_image_gray(const std::string& bytes, const std::string& source,
-                          int* bit_depth = nullptr);
+                          int* bit_depth = nullptr, GreyMode mode = GreyMode::kLuma);
 
 /// Colour (3 or 4 channels, BGR order) to grey; grey images pass through.
-cv::Mat to_gray(const cv::Mat& image);
+cv::Mat to_gray(const cv::Mat& image, GreyMode mode = GreyMode::kLuma);
 
 /// Encodes `image` (CV_8U or CV_16U, 1 or 3 channels) in the format given by the
 /// extension of `path` (.png, .tif/.tiff, .bmp, .jpg/.jpeg). JPEG and BMP are

@@ -18,6 +18,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "shearzone/io/image.hpp"
+
 namespace cv {
 class VideoCapture;
 class VideoWriter;
@@ -47,6 +49,8 @@ class VideoReader {
   /// Returns false at the declared end of the video. Throws InputError if a frame
   /// before the declared end cannot be decoded (a truncated or corrupt file).
   bool read(cv::Mat& gray, double& t_s);
+  /// Colour-to-grey conversion of read() (luma by default).
+  void set_grey_mode(GreyMode mode) { grey_mode_ = mode; }
   /// Index of the frame the next read() returns.
   std::int64_t next_index() const { return next_; }
 
@@ -55,6 +59,7 @@ class VideoReader {
   std::unique_ptr<cv::VideoCapture> cap_;
   VideoInfo info_;
   std::int64_t next_ = 0;
+  GreyMode grey_mode_ = GreyMode::kLuma;
 };
 
 class VideoWriter {

@@ -30,6 +30,7 @@
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/vane.hpp"
+#include "shearzone/io/image.hpp"
 #include "shearzone/piv/options.hpp"
 #include "shearzone/piv/preprocess.hpp"
 
@@ -60,6 +61,7 @@ struct PivJobOptions {
   std::filesystem::path output;     ///< .csv (one pair) or .h5
   bool force = false;
   double fps = 25.0;                ///< time base of image sequences, Hz
+  io::GreyMode grey = io::GreyMode::kLuma;  ///< colour-to-grey conversion
   std::int64_t first_frame = 0;     ///< first source frame used
   std::int64_t last_frame = -1;     ///< last source frame used (-1: to the end)
   int pair_spacing = 1;             ///< k: pairs (i, i + k) of unique frames
