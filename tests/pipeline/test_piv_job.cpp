@@ -43,6 +43,30 @@ pipeline::PivJobOptions job(std::vector<std::string> inputs, const fs::path& out
   return o;
 }
 
+/// A bead clip (25 fps) around a four-blade vane (half-width 5 px, radius 70 px)
+/// oscillating as phi = 0.3 sin(pi t), with a shear zone whose rigid core turns with
+/// the vane.
+pipeline::SynthJobOptions vane_bead_clip(const fs::path& dir, int width, int height,
+                                         double bead_px, double w_px, int frames,
+                                         const std::string& format) {
+  pipeline::SynthJobOptions s;
+  s.synth.texture = synth::TextureKind::kBeads;
+  s.synth.image.width_px = width;
+  s.synth.image.height_px = height;
+  s.synth.beads.diameter_px = bead_px;
+  s.synth.field.kind = synth::FieldKind::kShearZone;
+  s.synth.field.r0_px = 70;
+  s.synth.field.w_px = w_px;
+  s.synth.field.U0_px = 0.3 * std::numbers::pi * 70 / 25;  // the core turns with the vane
+  s.synth.sequence.frames = frames;
+  s.synth.sequence.oscillate_f_Hz = 0.5;
+  s.synth.vane = {4, 5.0, 70.0, 0.3, 0.0, 0.2};
+  s.format = format;
+  s.out_dir = dir;
+  pipeline::run_synth_job(s, {});
+  return s;
+}
+
 }  // namespace
 
 TEST_CASE("a PIV pair writes the vector CSV with options and conventions", "[pipeline][piv]") {
@@ -245,21 +269,7 @@ TEST_CASE("background subtraction frees the vectors from a static pattern", "[pi
 
 TEST_CASE("a log shifted by 1.3 s is aligned with the video to within one frame", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
-  // A 30-frame bead clip (25 fps) with a four-blade vane, phi = 0.3 sin(pi t).
-  pipeline::SynthJobOptions s;
-  s.synth.texture = synth::TextureKind::kBeads;
-  s.synth.image.width_px = 256;
-  s.synth.image.height_px = 192;
-  s.synth.beads.diameter_px = 10;
-  s.synth.field.kind = synth::FieldKind::kShearZone;
-  s.synth.field.r0_px = 70;
-  s.synth.field.w_px = 20;
-  s.synth.field.U0_px = 0.3 * std::numbers::pi * 70 / 25;  // the core turns with the vane
-  s.synth.sequence.frames = 30;
-  s.synth.sequence.oscillate_f_Hz = 0.5;
-  s.synth.vane = {4, 5.0, 70.0, 0.3, 0.0, 0.2};
-  s.out_dir = tmp / "clip";
-  pipeline::run_synth_job(s, {});
+  vane_bead_clip(tmp / "clip", 256, 192, 10, 20, 30, "png");
   // The rheometer's log: its clock runs 1.3 s ahead of the video's.
   std::string log = "time_s,angle_rad\n";
   for (int k = 0; k <= 500; ++k) {
@@ -284,21 +294,7 @@ TEST_CASE("a log shifted by 1.3 s is aligned with the video to within one frame"
 TEST_CASE("PIV of a rendered bead clip recovers the field it was made of", "[pipeline][piv]") {
   constexpr double kClipRmsPx = 0.15;  // measured 0.13 px (mp4v compression, 12 px beads, kink at r0)
   testing::TempDir tmp("pivjob");
-  pipeline::SynthJobOptions s;
-  s.synth.texture = synth::TextureKind::kBeads;
-  s.synth.image.width_px = 320;
-  s.synth.image.height_px = 240;
-  s.synth.beads.diameter_px = 12;
-  s.synth.field.kind = synth::FieldKind::kShearZone;
-  s.synth.field.r0_px = 70;
-  s.synth.field.w_px = 30;
-  s.synth.field.U0_px = 0.3 * std::numbers::pi * 70 / 25;  // the core turns with the vane
-  s.synth.sequence.frames = 8;
-  s.synth.sequence.oscillate_f_Hz = 0.5;
-  s.synth.vane = {4, 5.0, 70.0, 0.3, 0.0, 0.2};
-  s.format = "mp4";
-  s.out_dir = tmp / "clip";
-  pipeline::run_synth_job(s, {});
+  const auto s = vane_bead_clip(tmp / "clip", 320, 240, 12, 30, 8, "mp4");
   auto o = job({(tmp / "clip" / "video.mp4").string()}, tmp / "f.h5");
   o.piv.windows_px = {64, 32, 16};
   o.centre_x_px = 159.5;
