@@ -250,23 +250,22 @@ std::vector<std::string> CsvTable::text_column(std::string_view name) const {
 
 // ---- Writer -----------------------------------------------------------------------
 
-std::string CsvWriter::format_number(double value) {
+namespace {
+/// Shortest text that reads back to exactly `value` (std::to_chars round trip).
+template <class T>
+std::string shortest_text(T value, const char* fallback_format) {
   if (std::isnan(value)) return "nan";
   if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
   char buf[64];
   auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), value);
-  if (ec != std::errc()) return fmt::format("{:.17g}", value);
+  if (ec != std::errc()) return fmt::format(fmt::runtime(fallback_format), value);
   return std::string(buf, ptr);
 }
+}  // namespace
 
-std::string CsvWriter::format_float(float value) {
-  if (std::isnan(value)) return "nan";
-  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
-  char buf[32];
-  auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), value);
-  if (ec != std::errc()) return fmt::format("{:.9g}", value);
-  return std::string(buf, ptr);
-}
+std::string CsvWriter::format_number(double value) { return shortest_text(value, "{:.17g}"); }
+
+std::string CsvWriter::format_float(float value) { return shortest_text(value, "{:.9g}"); }
 
 std::string CsvWriter::quote(std::string_view field, char separator) {
   const bool needs = field.find_first_of(std::string{'"', '\r', '\n', separator}) !=

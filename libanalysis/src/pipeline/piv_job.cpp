@@ -66,11 +66,7 @@ class VaneAngle {
                                    "log's range [{}, {}] s; check --log-offset-s",
                                    o_.log_path, frame_label, num(t_s), num(tl), num(time_.front()),
                                    num(time_.back())));
-    const auto it = std::upper_bound(time_.begin(), time_.end(), tl);
-    const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(it - time_.begin()), time_.size() - 1);
-    const std::size_t lo = hi - 1;
-    const double w = (tl - time_[lo]) / (time_[hi] - time_[lo]);
-    return angle0 + (1 - w) * angle_[lo] + w * angle_[hi];
+    return angle0 + piv::interpolate_log(time_, angle_, tl);
   }
 
  private:

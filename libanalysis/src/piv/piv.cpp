@@ -94,8 +94,7 @@ void unit_float_into(const cv::Mat& image, cv::Mat& out) {
 
 cv::Mat to_unit_float(const cv::Mat& image) {
   cv::Mat f;
-  const double scale = image.depth() == CV_8U ? 1.0 / 255.0 : image.depth() == CV_16U ? 1.0 / 65535.0 : 1.0;
-  image.convertTo(f, CV_32F, scale);
+  unit_float_into(image, f);
   return f;
 }
 

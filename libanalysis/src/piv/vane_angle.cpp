@@ -36,15 +36,6 @@ double variance_under_vane(const cv::Mat& f, double cx, double cy, const core::V
   return s2 / n - m * m;
 }
 
-double interp_log(const std::vector<double>& t, const std::vector<double>& a, double x) {
-  const auto it = std::upper_bound(t.begin(), t.end(), x);
-  const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(it - t.begin()), t.size() - 1);
-  const std::size_t lo = hi == 0 ? 0 : hi - 1;
-  if (hi == lo) return a[lo];
-  const double w = (x - t[lo]) / (t[hi] - t[lo]);
-  return (1 - w) * a[lo] + w * a[hi];
-}
-
 }  // namespace
 
 double estimate_vane_angle(const cv::Mat& frame, double cx, double cy,
@@ -67,6 +58,16 @@ double estimate_vane_angle(const cv::Mat& frame, double cx, double cy,
   return a;
 }
 
+double interpolate_log(const std::vector<double>& t, const std::vector<double>& a, double x) {
+  SHEARZONE_CHECK(t.size() == a.size() && !t.empty());
+  const auto it = std::upper_bound(t.begin(), t.end(), x);
+  const std::size_t hi = std::min<std::size_t>(static_cast<std::size_t>(it - t.begin()), t.size() - 1);
+  const std::size_t lo = hi == 0 ? 0 : hi - 1;
+  if (hi == lo) return a[lo];
+  const double w = std::clamp((x - t[lo]) / (t[hi] - t[lo]), 0.0, 1.0);
+  return (1 - w) * a[lo] + w * a[hi];
+}
+
 double best_log_offset(const std::vector<double>& ft, const std::vector<double>& va,
                        const std::vector<double>& lt, const std::vector<double>& la, double step_s) {
   SHEARZONE_CHECK(ft.size() == va.size() && lt.size() == la.size() && !ft.empty() && lt.size() >= 2);
@@ -75,7 +76,7 @@ double best_log_offset(const std::vector<double>& ft, const std::vector<double>&
   auto cost = [&](double o) {
     double s = 0;
     for (std::size_t k = 0; k < ft.size(); ++k) {
-      const double d = va[k] - interp_log(lt, la, ft[k] + o);
+      const double d = va[k] - interpolate_log(lt, la, ft[k] + o);
       s += d * d;
     }
     return s;

@@ -20,6 +20,10 @@ namespace shearzone::piv {
 double estimate_vane_angle(const cv::Mat& frame, double cx, double cy,
                            const core::VaneGeometry& vane, double a_lo, double a_hi);
 
+/// Linear interpolation of a log (strictly increasing times `t`, values `a`) at x;
+/// the end values hold outside the range.
+double interpolate_log(const std::vector<double>& t, const std::vector<double>& a, double x);
+
 /// The offset o (s) minimising sum_k (video_angle_k - log_angle(t_k + o))^2 over the
 /// offsets for which the log covers every frame time, with log_angle linear between
 /// rows; candidates every `step_s`, then refined to step_s / 20 around the best.
