@@ -19,8 +19,23 @@ struct Subcommand {
 /// `shearzone bench piv`.
 std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx);
 
+/// `shearzone collapse erf` (`parent` is the `collapse` subcommand).
+std::vector<Subcommand> add_collapse_erf(CLI::App& parent, Context& ctx);
+
+/// `shearzone collapse fss` (`parent` is the `collapse` subcommand).
+std::vector<Subcommand> add_collapse_fss(CLI::App& parent, Context& ctx);
+
+/// `shearzone fit erf|power`.
+std::vector<Subcommand> add_fit(CLI::App& root, Context& ctx);
+
 /// `shearzone piv`.
 std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx);
+
+/// `shearzone profile`.
+std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx);
+
+/// `shearzone width`.
+std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 
 /// `shearzone synth particles|beads`.
 std::vector<Subcommand> add_synth(CLI::App& root, Context& ctx);

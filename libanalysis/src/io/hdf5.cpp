@@ -229,6 +229,30 @@ void H5File::read_raw(const std::string& dataset, std::int64_t mem_type, void* d
                             dataset));
 }
 
+void H5File::read_record_raw(const std::string& dataset, std::size_t index, std::int64_t mem_type,
+                             void* out) const {
+  const std::vector<std::size_t> d = dims(dataset);
+  if (d.empty() || index >= d[0])
+    fail(path_, fmt::format("dataset \"{}\": record {} requested, {} present", dataset, index,
+                            d.empty() ? 0 : d[0]));
+  Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
+  Handle fspace(H5Dget_space(dset.get()));
+  std::vector<hsize_t> start(d.size(), 0), count(d.begin(), d.end());
+  start[0] = index;
+  count[0] = 1;
+  H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
+  Handle mspace(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr));
+  if (H5Dread(dset.get(), mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, out) < 0)
+    fail(path_, fmt::format("dataset \"{}\": record {} unreadable (file corrupt?)", dataset, index));
+}
+
+void H5File::read_record(const std::string& d, std::size_t i, float* o) const {
+  read_record_raw(d, i, H5T_NATIVE_FLOAT, o);
+}
+void H5File::read_record(const std::string& d, std::size_t i, std::uint8_t* o) const {
+  read_record_raw(d, i, H5T_NATIVE_UINT8, o);
+}
+
 void H5File::read_into(const std::string& d, float* o) const { read_raw(d, H5T_NATIVE_FLOAT, o); }
 void H5File::read_into(const std::string& d, double* o) const {
   read_raw(d, H5T_NATIVE_DOUBLE, o);

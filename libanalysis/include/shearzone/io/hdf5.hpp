@@ -80,6 +80,10 @@ class H5File {
 
   /// Dimensions of a dataset.
   std::vector<std::size_t> dims(const std::string& dataset) const;
+  /// Reads record `index` of a dataset [n, record_dims...] into `out` (the product
+  /// of record_dims elements): the streaming counterpart of append().
+  void read_record(const std::string& dataset, std::size_t index, float* out) const;
+  void read_record(const std::string& dataset, std::size_t index, std::uint8_t* out) const;
   template <class T>
   H5Array<T> read(const std::string& dataset) const {
     H5Array<T> a;
@@ -113,6 +117,8 @@ class H5File {
   void write_raw(const std::string& dataset, const std::vector<std::size_t>& dims,
                  std::int64_t mem_type, std::int64_t file_type, const void* data);
   void read_raw(const std::string& dataset, std::int64_t mem_type, void* data) const;
+  void read_record_raw(const std::string& dataset, std::size_t index, std::int64_t mem_type,
+                       void* out) const;
   void append_raw(const std::string& dataset, std::int64_t mem_type, const void* record);
   void read_into(const std::string& dataset, float* out) const;
   void read_into(const std::string& dataset, double* out) const;

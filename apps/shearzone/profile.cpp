@@ -1,0 +1,111 @@
+// `shearzone profile`: PIV fields -> radial profile v(r) (CSV) and its per-group
+// companion. Flags map onto pipeline::ProfileJobOptions; --config FILE.toml sets them.
+#include <cstdio>
+#include <memory>
+
+#include "shearzone/pipeline/profile_job.hpp"
+#include "subcommands.hpp"
+
+namespace shearzone::apps {
+namespace {
+
+struct ProfileCli {
+  pipeline::ProfileJobOptions job;
+  std::string input, output, config, noise_ref;
+  std::vector<double> centre, radii, detect_range, phase_range, noise_region;
+};
+
+int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
+  if (!s.config.empty()) apply_toml_config(c, s.config);
+  require_option(c, "output");
+  auto& j = s.job;
+  j.input = s.input;
+  j.output = s.output;
+  j.noise_ref = s.noise_ref;
+  if (!s.centre.empty()) {
+    j.centre_x_px = s.centre[0];
+    j.centre_y_px = s.centre[1];
+  }
+  if (!s.radii.empty()) {
+    j.vane_radius_px = s.radii[0];
+    j.cup_radius_px = s.radii[1];
+  }
+  if (!s.detect_range.empty()) {
+    j.detect_min_radius_px = s.detect_range[0];
+    j.detect_max_radius_px = s.detect_range[1];
+  }
+  if (!s.phase_range.empty()) {
+    j.phase_min_deg = s.phase_range[0];
+    j.phase_max_deg = s.phase_range[1];
+  }
+  if (!s.noise_region.empty()) {
+    j.noise_min_m = s.noise_region[0];
+    j.noise_max_m = s.noise_region[1];
+  }
+  core::ProgressReporter progress("profile: pairs", ctx.level);
+  const auto sum = pipeline::run_profile_job(j, ctx.header(), progress.callback());
+  progress.finish();
+  if (ctx.level != core::LogLevel::kQuiet) {
+    std::printf("profile: %zu of %zu pairs in %zu group%s, %zu bins of %.4g m from %.4g to %.4g m "
+                "-> %s\n",
+                sum.pairs_used, sum.pairs_read, sum.groups, sum.groups == 1 ? "" : "s", sum.bins,
+                sum.bin_m, sum.Rv_m, sum.R_m, j.output.string().c_str());
+    std::printf("profile: centre (%.2f, %.2f) px [%s], %.4g m/px, noise floor %.3g m/s\n",
+                sum.centre_x_px, sum.centre_y_px, sum.geometry_source.c_str(), sum.m_per_px,
+                sum.noise_floor_m_per_s);
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
+  auto s = std::make_shared<ProfileCli>();
+  auto& j = s->job;
+  CLI::App* c = root.add_subcommand(
+      "profile", "Radial velocity profile v(r) of PIV fields (HDF5 clip or CSV pair) -> CSV");
+  c->add_option("input", s->input, "Fields: .h5 from `shearzone piv`, or a single-pair .csv")
+      ->required();
+  c->add_option("-o,--output", s->output, "Profile CSV (a <stem>_groups.csv is written beside it)");
+  c->add_option("--config", s->config, "TOML file setting any of these options by long name");
+  c->add_flag("--force", j.force, "Replace existing outputs");
+  // Geometry and calibration
+  c->add_option("--centre", s->centre, "Cup centre X,Y in px (default: the file's attributes)")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--radii-px", s->radii, "Vane radius R_v and cup radius R, px")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--detect-cup", j.detect_cup_frame,
+                "Find centre and R from the cup rim in this image or video (first frame)");
+  c->add_option("--detect-radius-px", s->detect_range, "Rim radius search range MIN,MAX, px")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--m-per-px", j.m_per_px, "Scale, m per px (default: the file's m_per_px)");
+  c->add_option("--cup-radius-m", j.cup_radius_m, "Cup inner radius R in m: scale = R_m / R_px");
+  // Bins
+  c->add_option("--bin-m", j.bin_m, "Bin width, m");
+  c->add_option("--bin-px", j.bin_px, "Bin width, px");
+  c->add_option("--bead-diameter-m", j.bead_diameter_m, "Bead diameter; default bin = d/2, m")
+      ->capture_default_str();
+  c->add_flag("--exclude-replaced", j.exclude_replaced, "Drop `replaced` vectors too");
+  // Selection
+  c->add_option("--f-hz", j.f_Hz, "Oscillation frequency, Hz (default: the file's f_Hz)");
+  c->add_option("--t0-s", j.t0_s, "Time of an upward zero crossing of phi(t), s")
+      ->capture_default_str();
+  c->add_option("--cycles", j.cycles, "Cycles to average, e.g. 5,7,9 (default: all)")->delimiter(',');
+  c->add_option("--phase-range-deg", s->phase_range, "Phase window MIN,MAX in deg (0..360)")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_flag("--group-by-pair", j.group_by_pair, "Bootstrap groups are pairs, not cycles");
+  c->add_option("--dt-s", j.dt_s, "Time step of a CSV pair, s");
+  // Noise
+  c->add_option("--noise-ref", s->noise_ref, "Static reference fields (.h5 or .csv) for the noise floor");
+  c->add_option("--noise-region-m", s->noise_region,
+                "Radii MIN,MAX (m) of a region that does not move (default: outer 15 %)")
+      ->expected(2)
+      ->delimiter(',');
+  return {{c, [c, s, &ctx] { return run_profile(*c, *s, ctx); }}};
+}
+
+}  // namespace shearzone::apps

@@ -1,0 +1,66 @@
+// `shearzone width`: radial profiles -> shear-zone width r_c with a bootstrap interval.
+#include <cstdio>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/pipeline/profile_job.hpp"
+#include "subcommands.hpp"
+
+namespace shearzone::apps {
+namespace {
+
+struct WidthCli {
+  pipeline::WidthJobOptions job;
+  std::vector<std::string> inputs, tags;
+  std::string output, config;
+};
+
+int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
+  if (!s.config.empty()) apply_toml_config(c, s.config);
+  require_option(c, "output");
+  auto& j = s.job;
+  j.inputs.assign(s.inputs.begin(), s.inputs.end());
+  j.output = s.output;
+  for (const auto& kv : s.tags) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError(fmt::format("--tag \"{}\": expected KEY=VALUE", kv));
+    j.tags.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+  }
+  const auto rows = pipeline::run_width_job(j, ctx.header());
+  int usable = 0;
+  for (const auto& r : rows) {
+    usable += r.status == "ok";
+    if (!r.advice.empty()) std::fprintf(stderr, "shearzone: warning: %s\n", r.advice.c_str());
+    if (ctx.level != core::LogLevel::kQuiet)
+      std::printf("width: %s: r_c = %.5g m (%s)\n", r.label.c_str(), r.rc_m, r.status.c_str());
+  }
+  if (ctx.level != core::LogLevel::kQuiet)
+    std::printf("width: %zu profile%s, %d ok -> %s\n", rows.size(), rows.size() == 1 ? "" : "s",
+                usable, j.output.string().c_str());
+  return kExitOk;
+}
+
+}  // namespace
+
+std::vector<Subcommand> add_width(CLI::App& root, Context& ctx) {
+  auto s = std::make_shared<WidthCli>();
+  auto& j = s->job;
+  CLI::App* c = root.add_subcommand("width", "Shear-zone width r_c of radial profiles -> CSV");
+  c->add_option("inputs", s->inputs, "Profile CSVs of `shearzone profile`")->required();
+  c->add_option("-o,--output", s->output, "Widths CSV");
+  c->add_option("--config", s->config, "TOML file setting any of these options by long name");
+  c->add_flag("--force", j.force, "Replace an existing output");
+  c->add_option("--tag", s->tags, "N=VALUE or phi0_rad=VALUE for every row (default: from the profile)");
+  c->add_option("--vc", j.v_c_m_per_s, "Threshold velocity v_c, m/s")->capture_default_str();
+  c->add_option("--noise-factor", j.noise_factor, "noise_limited when v_c < this x noise floor")
+      ->capture_default_str();
+  c->add_option("--bootstrap", j.bootstrap, "Bootstrap resamples (0: no interval)")->capture_default_str();
+  c->add_option("--confidence", j.confidence, "Two-sided confidence level")->capture_default_str();
+  c->add_option("--seed", j.seed, "Bootstrap seed")->capture_default_str();
+  return {{c, [c, s, &ctx] { return run_width(*c, *s, ctx); }}};
+}
+
+}  // namespace shearzone::apps

@@ -1,0 +1,87 @@
+// shearzone/pipeline/profile_job.hpp: `shearzone profile` and `shearzone width`.
+//
+// profile: a PIV field file (HDF5 clip in the layout of `shearzone piv`, or a
+// single-pair CSV) -> radial profile CSV (columns in README, "Profiles") plus a
+// companion `<stem>_groups.csv` with the mean |v| per group (cycle or pair) and bin,
+// which `width` resamples for its bootstrap.
+//
+// width: profile CSVs -> one row per profile: label, tags, r_c, its bootstrap
+// interval, status, noise floor and pair count.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+
+namespace shearzone::pipeline {
+
+inline constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
+
+struct ProfileJobOptions {
+  std::filesystem::path input;   ///< fields .h5 or a single-pair .csv
+  std::filesystem::path output;  ///< profile .csv
+  bool force = false;
+  // Geometry (px). Priority: given here > field-file attributes > detection.
+  double centre_x_px = kUnset, centre_y_px = kUnset;
+  double vane_radius_px = kUnset;  ///< R_v: first bin edge (0 when unknown)
+  double cup_radius_px = kUnset;   ///< R: last bin edge
+  std::string detect_cup_frame;    ///< image (or video: first frame) to find the rim in
+  double detect_min_radius_px = kUnset, detect_max_radius_px = kUnset;
+  // Calibration. Priority: m_per_px > attribute m_per_px > cup_radius_m / R_px.
+  double m_per_px = kUnset;
+  double cup_radius_m = kUnset;
+  // Bins. Priority: bin_m > bin_px > bead_diameter_m / 2.
+  double bin_m = kUnset, bin_px = kUnset;
+  double bead_diameter_m = 2.4e-3;  ///< the paper's steel beads
+  bool exclude_replaced = false;
+  // Pair selection (needs f: given or attribute f_Hz).
+  double f_Hz = kUnset;
+  double t0_s = 0.0;             ///< time of an upward zero crossing of phi(t)
+  std::vector<int> cycles;       ///< empty: all
+  double phase_min_deg = 0.0, phase_max_deg = 360.0;
+  bool group_by_pair = false;    ///< bootstrap groups: pairs instead of cycles
+  double dt_s = kUnset;          ///< pair time step of a CSV field (required there)
+  // Noise floor: a static reference field file, or a region (m); default: the
+  // outer 15 % of the annulus.
+  std::filesystem::path noise_ref;
+  double noise_min_m = kUnset, noise_max_m = kUnset;
+  void validate() const;
+};
+
+struct ProfileJobSummary {
+  std::size_t pairs_read = 0, pairs_used = 0, groups = 0, bins = 0;
+  double centre_x_px = 0, centre_y_px = 0, m_per_px = 0, R_m = 0, Rv_m = 0, bin_m = 0;
+  double noise_floor_m_per_s = 0;
+  std::string geometry_source;
+};
+
+ProfileJobSummary run_profile_job(const ProfileJobOptions& options, const core::Metadata& header,
+                                  const core::ProgressCallback& progress = {});
+
+struct WidthJobOptions {
+  std::vector<std::filesystem::path> inputs;  ///< profile CSVs
+  std::filesystem::path output;               ///< widths CSV
+  bool force = false;
+  std::vector<std::pair<std::string, std::string>> tags;  ///< KEY=VALUE for every row
+  double v_c_m_per_s = 4e-5;
+  double noise_factor = 3.0;
+  int bootstrap = 2000;
+  double confidence = 0.95;
+  std::uint64_t seed = 1;
+};
+
+struct WidthRow {
+  std::string label, status, advice;
+  double rc_m = 0;
+};
+
+/// Returns one row per input (status and, for noise_limited, the advice text).
+std::vector<WidthRow> run_width_job(const WidthJobOptions& options, const core::Metadata& header);
+
+}  // namespace shearzone::pipeline

@@ -1,0 +1,121 @@
+// shearzone/profile/radial_profile.hpp: the mean bead velocity v(r) against the
+// distance r from the cup axis, averaged over the angle and over pairs.
+//
+// Each vector of a field (displacement in px over dt seconds) becomes a velocity in
+// m/s, u * m_per_px / dt, decomposed about the cup centre with the project's
+// convention (core/conventions.hpp: v_theta > 0 counter-clockwise as the camera
+// sees it, v_r > 0 outwards). Vectors are binned by r: bin k covers
+// [r_min + k w, r_min + (k+1) w) and is reported at its centre. Masked and invalid
+// vectors are excluded and counted; `replaced` vectors (interpolated from valid
+// neighbours) are used unless exclude_replaced is set.
+//
+// Per bin: mean |v| (the paper's v(r)), mean v_theta, mean v_r, RMS of |v|, the
+// standard error of mean |v| and the counts. The standard error is the spread of
+// the per-group means (a group is an oscillation cycle or a pair) over the square
+// root of the number of groups, because vectors of one pair are correlated; with a
+// single group it falls back to the spread of the vectors over sqrt(n) (which
+// understates it).
+//
+// Noise floor: |v| of pure PIV noise is not zero. With Gaussian noise of standard
+// deviation sigma per component, |v| follows a Rayleigh law of mean
+// sigma sqrt(pi/2), which averaging does not remove. v_noise is that mean, with
+// sigma estimated either from a region (by default the outer 15 % of the annulus,
+// where the pile is jammed) as the scatter of the radial component v_r there (the
+// azimuthal flow of the cup does not feed v_r, so the estimate holds even where the
+// ring still moves; real radial fluctuations of the beads count as noise, which
+// errs on the safe side), or, per bin, as the mean |v| of a static reference
+// measurement.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "shearzone/core/vector_field.hpp"
+
+namespace shearzone::profile {
+
+struct ProfileOptions {
+  double centre_x_px = 0, centre_y_px = 0;  ///< cup centre, px
+  double m_per_px = 0;                      ///< scale, m per px (> 0)
+  double r_min_m = 0;                       ///< first bin edge (the vane radius), m
+  double r_max_m = 0;                       ///< last bin edge (the cup radius R), m
+  double bin_m = 0;                         ///< bin width, m (> 0)
+  bool exclude_replaced = false;            ///< also drop `replaced` vectors
+  /// Throws ConfigError naming the option.
+  void validate() const;
+  std::size_t num_bins() const;
+  double bin_centre_m(std::size_t k) const;
+};
+
+struct ProfileBin {
+  double r_m = 0;
+  double v_abs = 0, v_theta = 0, v_r = 0;  ///< means, m/s
+  double v_abs_rms = 0;                    ///< sqrt(mean |v|^2), m/s
+  double v_abs_sem = 0;                    ///< standard error of v_abs, m/s
+  double v_noise = 0;                      ///< noise floor of v_abs, m/s
+  std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
+};
+
+/// Per group (cycle or pair) and bin: the mean |v| and its count, for the
+/// bootstrap of the shear-zone width.
+struct GroupBin {
+  int group = 0;
+  std::size_t bin = 0;
+  double v_abs = 0;  ///< mean |v| of the group in the bin, m/s
+  std::size_t n_vectors = 0;
+};
+
+struct RadialProfile {
+  std::vector<ProfileBin> bins;
+  std::vector<GroupBin> groups;  ///< group-major, bins with data only
+  std::size_t n_pairs = 0;
+  std::size_t n_groups = 0;
+  double noise_sigma_m_per_s = 0;  ///< per-component noise (outer-region method), m/s
+};
+
+/// Accumulates fields pair by pair (a clip is never held whole).
+class ProfileAccumulator {
+ public:
+  explicit ProfileAccumulator(ProfileOptions options);
+  /// Adds one pair: displacements in px over dt_s seconds, tagged with `group`.
+  /// Throws InputError if dt_s is not positive or the arrays do not match the grid.
+  void add(const core::VectorField& field, double dt_s, int group);
+  std::size_t num_pairs() const { return n_pairs_; }
+  const ProfileOptions& options() const { return opt_; }
+
+  /// Noise from the bins whose centre lies in [noise_r_min_m, noise_r_max_m] (a
+  /// region that does not move). Throws NoResultError if no usable vector lies there.
+  RadialProfile finish_with_region_noise(double noise_r_min_m, double noise_r_max_m) const;
+  /// Noise per bin as the mean |v| of `reference` (a static measurement processed
+  /// with the same options); bins the reference does not cover get its overall mean.
+  RadialProfile finish_with_reference_noise(const ProfileAccumulator& reference) const;
+
+ private:
+  struct Sums {
+    double s_abs = 0, s_abs2 = 0, s_theta = 0, s_r = 0;
+    std::size_t n = 0, masked = 0, invalid = 0;
+  };
+  struct NoiseSums {
+    double s = 0, s2 = 0;  // radial velocity component
+    std::size_t n = 0;
+  };
+  RadialProfile finish_common() const;
+
+  ProfileOptions opt_;
+  std::vector<Sums> bins_;
+  std::vector<int> group_ids_;                    // in first-seen order
+  std::vector<std::vector<Sums>> group_bins_;     // [group][bin]
+  std::vector<NoiseSums> noise_by_bin_;          // v_r sums per bin
+  std::size_t n_pairs_ = 0;
+};
+
+/// Oscillation cycle and phase of a time t (s) for a vane angle
+/// phi(t) = phi0 sin(2 pi f (t - t0)): cycle = floor(f (t - t0)), phase in degrees
+/// in [0, 360). t0 is the time of an upward zero crossing.
+struct CyclePhase {
+  int cycle = 0;
+  double phase_deg = 0;
+};
+CyclePhase cycle_phase(double t_s, double f_Hz, double t0_s);
+
+}  // namespace shearzone::profile

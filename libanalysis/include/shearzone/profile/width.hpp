@@ -1,0 +1,63 @@
+// shearzone/profile/width.hpp: the shear-zone width r_c of a radial profile.
+//
+// r_c is the first radius, scanning outwards from the vane, at which the mean |v|
+// drops below the threshold v_c (the paper: 4e-5 m/s), with linear interpolation
+// between the two bins that bracket the crossing. Bins without vectors are skipped.
+// Status:
+//   ok            a crossing was found;
+//   never_below   |v| stays above v_c up to the last bin: r_c = R is reported;
+//   below_at_vane the first bin is already below v_c: r_c = its centre is reported;
+//   noise_limited v_c < 3 x the noise floor of |v| (the median of v_noise over the
+//                 bins): |v| cannot fall below v_c for a physical reason, so the
+//                 r_c found (reported) cannot be trusted. This status wins over
+//                 the others.
+// Confidence interval: percentile bootstrap over the groups (cycles or pairs) of
+// the profile, resampled with replacement; with a single group, a parametric
+// bootstrap of the bin means from their standard errors. Seeded: deterministic.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "shearzone/profile/radial_profile.hpp"
+
+namespace shearzone::profile {
+
+enum class WidthStatus { kOk, kNeverBelow, kBelowAtVane, kNoiseLimited };
+const char* width_status_name(WidthStatus s);
+
+struct WidthOptions {
+  double v_c_m_per_s = 4e-5;   ///< threshold velocity
+  double noise_factor = 3.0;   ///< noise_limited when v_c < noise_factor * v_noise
+  int bootstrap = 2000;        ///< resamples (0: no interval)
+  double confidence = 0.95;    ///< two-sided level of the interval
+  std::uint64_t seed = 1;      ///< bootstrap seed
+  void validate() const;
+};
+
+/// What the width needs from a profile (a RadialProfile, or one read back from CSV).
+struct WidthInput {
+  std::vector<double> r_m, v_abs, v_abs_sem;  ///< per bin
+  std::vector<std::size_t> n_vectors;         ///< per bin (0: no data, skipped)
+  std::vector<double> v_noise;                ///< per bin noise floor, m/s
+  double R_m = 0;                             ///< cup radius (r_c when never below)
+  std::vector<GroupBin> groups;               ///< per-group bin means (may be empty)
+  static WidthInput from_profile(const RadialProfile& p, double R_m);
+};
+
+struct WidthResult {
+  double rc_m = 0, ci_low_m = 0, ci_high_m = 0;
+  WidthStatus status = WidthStatus::kOk;
+  double v_noise_m_per_s = 0;  ///< the noise floor used for the status
+  int bootstrap_groups = 0;    ///< groups resampled (0: parametric or none)
+};
+
+/// The scan alone: r_c of bin means `v` at radii `r` (bins with n = 0 skipped).
+double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
+               const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status);
+
+/// r_c, its bootstrap interval and its status.
+WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& options);
+
+}  // namespace shearzone::profile

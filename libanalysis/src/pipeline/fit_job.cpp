@@ -1,0 +1,329 @@
+#include "shearzone/pipeline/fit_job.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+std::string num(double v) { return std::isfinite(v) ? io::CsvWriter::format_number(v) : ""; }
+
+std::string model_name(FitModel m) { return m == FitModel::kErf ? "erf" : "power"; }
+
+}  // namespace
+
+std::string unit_of_column(const std::string& column) {
+  const auto u = column.find('_');
+  return u == std::string::npos ? "" : column.substr(u + 1);
+}
+
+std::filesystem::path sibling_output(const std::filesystem::path& output, const std::string& suffix) {
+  auto p = output;
+  p.replace_filename(output.stem().string() + suffix + output.extension().string());
+  return p;
+}
+
+void FitJobOptions::validate() const {
+  fit.validate();
+  if (x_column.empty() || y_column.empty()) throw ConfigError("fit: --x and --y are required");
+  if (output.empty()) throw ConfigError("fit: --output is required");
+  if (!(group_rtol >= 0) || !std::isfinite(group_rtol))
+    throw ConfigError(fmt::format("--group-rtol {}: must be >= 0", group_rtol));
+  if (model != FitModel::kPower && !std::isnan(subtract_at))
+    throw ConfigError("--subtract-at applies to power-law fits only");
+  if (model != FitModel::kPower && space != fit::PowerSpace::kLinear)
+    throw ConfigError("--space applies to power-law fits only");
+  if (!std::isnan(subtract_at) && !std::isfinite(subtract_at))
+    throw ConfigError("--subtract-at: must be a finite number");
+}
+
+GroupedData read_grouped(const std::filesystem::path& input, const std::string& x_column,
+                         const std::string& y_column, const std::string& sigma_column,
+                         const std::string& group_column, double group_rtol) {
+  const io::CsvTable t = io::read_csv(input);
+  const std::string src = input.string();
+  const std::size_t cx = t.column_index(x_column), cy = t.column_index(y_column);
+  const bool has_sigma = !sigma_column.empty();
+  const std::size_t cs = has_sigma ? t.column_index(sigma_column) : 0;
+  const bool has_group = !group_column.empty();
+  const std::size_t cg = has_group ? t.column_index(group_column) : 0;
+  const bool has_status = t.has_column("status");
+  const std::size_t cst = has_status ? t.column_index("status") : 0;
+  if (t.num_rows() == 0)
+    throw InputError(fmt::format("{}:{}: the table has no data rows after the header", src,
+                                 t.header_line));
+
+  GroupedData g;
+  g.x_unit = unit_of_column(x_column);
+  g.y_unit = unit_of_column(y_column);
+  struct Row {
+    std::string key;
+    double gv;
+    double x, y, s;
+  };
+  std::vector<Row> rows;
+  bool numeric_groups = true;
+  for (std::size_t r = 0; r < t.num_rows(); ++r) {
+    if (has_status && t.rows[r][cst] != "ok") {
+      ++g.skipped_rows;
+      continue;
+    }
+    Row row;
+    row.x = t.number(r, cx);
+    row.y = t.number(r, cy);
+    row.s = 1.0;
+    if (has_sigma) {
+      row.s = t.number(r, cs);
+      if (!(row.s > 0))
+        throw InputError(fmt::format("{}:{}: column \"{}\": {} is not a positive uncertainty",
+                                     src, t.row_lines[r], sigma_column, t.rows[r][cs]));
+    }
+    row.key = has_group ? t.rows[r][cg] : "all";
+    row.gv = std::nan("");
+    if (has_group) {
+      double v = 0;
+      if (io::parse_number(row.key, t.decimal_comma, v) && std::isfinite(v)) row.gv = v;
+      else numeric_groups = false;
+      if (row.key.empty())
+        throw InputError(fmt::format("{}:{}: column \"{}\": empty group value", src,
+                                     t.row_lines[r], group_column));
+    }
+    rows.push_back(row);
+  }
+  if (rows.empty())
+    throw InputError(fmt::format("{}:{}: no row has status \"ok\"", src, t.header_line));
+
+  // Group ids: numeric values clustered within the relative tolerance (sorted), or
+  // text in order of first appearance.
+  std::vector<std::size_t> gid(rows.size());
+  if (has_group && numeric_groups) {
+    std::vector<double> vals;
+    for (const auto& r : rows) vals.push_back(r.gv);
+    std::sort(vals.begin(), vals.end());
+    vals.erase(std::unique(vals.begin(), vals.end()), vals.end());
+    std::vector<double> firsts;  // first (smallest) value of each cluster
+    std::map<double, std::size_t> cluster_of;
+    for (double v : vals) {
+      if (firsts.empty() ||
+          std::fabs(v - firsts.back()) > group_rtol * std::max(std::fabs(v), std::fabs(firsts.back())))
+        firsts.push_back(v);
+      cluster_of[v] = firsts.size() - 1;
+    }
+    std::vector<double> sum(firsts.size(), 0.0);
+    std::vector<std::size_t> cnt(firsts.size(), 0);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      gid[i] = cluster_of[rows[i].gv];
+      sum[gid[i]] += rows[i].gv;
+      ++cnt[gid[i]];
+    }
+    for (std::size_t c = 0; c < firsts.size(); ++c) {
+      const double mean = sum[c] / static_cast<double>(cnt[c]);
+      g.group_values.push_back(mean);
+      g.labels.push_back(io::CsvWriter::format_number(mean));
+    }
+  } else {
+    std::map<std::string, std::size_t> index;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      auto it = index.find(rows[i].key);
+      if (it == index.end()) {
+        it = index.emplace(rows[i].key, g.labels.size()).first;
+        g.labels.push_back(rows[i].key);
+        g.group_values.push_back(std::nan(""));
+      }
+      gid[i] = it->second;
+    }
+  }
+  const std::size_t ng = g.labels.size();
+  g.x.resize(ng);
+  g.y.resize(ng);
+  g.sigma.resize(ng);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    g.x[gid[i]].push_back(rows[i].x);
+    g.y[gid[i]].push_back(rows[i].y);
+    if (has_sigma) g.sigma[gid[i]].push_back(rows[i].s);
+  }
+  return g;
+}
+
+FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) {
+  o.validate();
+  FitJobSummary sum;
+  sum.long_csv = o.output;
+  sum.wide_csv = sibling_output(o.output, "_wide");
+  sum.summary_csv = sibling_output(o.output, "_summary");
+  for (const auto& p : {sum.long_csv, sum.wide_csv, sum.summary_csv})
+    io::check_output_allowed(p, o.force);
+
+  const GroupedData g = read_grouped(o.input, o.x_column, o.y_column, o.sigma_column,
+                                     o.group_column, o.group_rtol);
+  const bool erf = o.model == FitModel::kErf;
+  const std::vector<std::string> names =
+      erf ? std::vector<std::string>{"rc0", "rcinf", "phi_c", "W"} : std::vector<std::string>{"A", "k"};
+  const std::string ux = g.x_unit, uy = g.y_unit;
+  std::vector<std::string> units;
+  if (erf) {
+    units = {uy.empty() ? "as y" : uy, uy.empty() ? "as y" : uy, ux.empty() ? "as x" : ux,
+             ux.empty() ? "as x" : ux};
+  } else {
+    units = {uy.empty() || ux.empty() ? "as y at x = 1" : fmt::format("{} at x = 1 {}", uy, ux), "1"};
+  }
+
+  for (std::size_t k = 0; k < g.labels.size(); ++k) {
+    FitGroupResult gr;
+    gr.group = g.labels[k];
+    std::vector<double> x = g.x[k], y = g.y[k], s = g.sigma[k];
+    std::string note;
+    if (erf) {
+      gr.fit = fit::fit_erf(x, y, s, o.fit);
+    } else {
+      bool have_ref = true;
+      if (!std::isnan(o.subtract_at)) {
+        double s0 = 0;
+        have_ref = fit::subtract_at(x, y, s, o.subtract_at, o.subtract_rtol, &gr.y0, &s0);
+        if (have_ref) note = fmt::format(" (y - y(x={}) with y(x={}) = {:.6g})", num(o.subtract_at),
+                                         num(o.subtract_at), gr.y0);
+      }
+      if (!have_ref) {
+        gr.fit.status = fit::FitStatus::kTooFewPoints;
+        gr.fit.message = fmt::format("no point at x = {} to subtract", num(o.subtract_at));
+      } else {
+        gr.fit = fit::fit_power(x, y, s, o.space, o.fit);
+        const auto other = o.space == fit::PowerSpace::kLinear ? fit::PowerSpace::kLog : fit::PowerSpace::kLinear;
+        gr.alternative = fit::fit_power(x, y, s, other, o.fit);
+        gr.has_alternative = true;
+      }
+    }
+    const std::string title = fmt::format("{} {}{}", model_name(o.model),
+                                          o.group_column.empty() ? std::string("(all rows)")
+                                                                 : o.group_column + " = " + gr.group,
+                                          note);
+    sum.report += fmt::format("== {}: status {}{}\n", title, fit::status_name(gr.fit.status),
+                              gr.fit.message.empty() ? "" : " (" + gr.fit.message + ")");
+    if (gr.fit.has_result) sum.report += fit::fit_report(gr.fit.result, title);
+    if (gr.has_alternative && gr.alternative.has_result) {
+      const bool alt_log = o.space == fit::PowerSpace::kLinear;
+      const auto& a = gr.alternative.result;
+      sum.report += fmt::format("    for comparison, {} fit: A = {:.6g} +/- {:.3g}, k = {:.6g} +/- {:.3g} (status {})\n",
+                                alt_log ? "log-log straight-line" : "linear-space NLS", a.values[0],
+                                a.std_errors[0], a.values[1], a.std_errors[1],
+                                fit::status_name(gr.alternative.status));
+    }
+    sum.report += "\n";
+    if (gr.fit.usable()) ++sum.usable;
+    sum.groups.push_back(std::move(gr));
+  }
+
+  // Header: the standard block and every option.
+  core::Metadata meta = header;
+  meta.emplace_back("fit_model", model_name(o.model));
+  meta.emplace_back("input", o.input.string());
+  meta.emplace_back("x_column", o.x_column);
+  meta.emplace_back("y_column", o.y_column);
+  meta.emplace_back("sigma_column", o.sigma_column.empty() ? "none (unit weights)" : o.sigma_column);
+  meta.emplace_back("group_column", o.group_column.empty() ? "none" : o.group_column);
+  meta.emplace_back("group_rtol", num(o.group_rtol));
+  meta.emplace_back("absolute_sigma", o.fit.absolute_sigma ? "true" : "false");
+  meta.emplace_back("loss", fit::loss_name(o.fit.loss));
+  meta.emplace_back("loss_scale", num(o.fit.loss_scale));
+  meta.emplace_back("confidence", num(o.fit.confidence));
+  meta.emplace_back("interval", o.fit.absolute_sigma ? "value +/- z*SE (normal quantile)"
+                                                     : "value +/- t(dof)*SE (Student t quantile)");
+  meta.emplace_back("bootstrap", std::to_string(o.fit.bootstrap));
+  meta.emplace_back("seed", std::to_string(o.fit.seed));
+  meta.emplace_back("tolerance", num(o.fit.tolerance));
+  meta.emplace_back("max_iterations", std::to_string(o.fit.max_iterations));
+  if (erf) {
+    meta.emplace_back("model", "y = rc0 + (rcinf - rc0) * (1 + erf((x - phi_c)/W))/2; W = sqrt(2) * Gaussian sigma");
+  } else {
+    meta.emplace_back("model", "y = A * x^k");
+    meta.emplace_back("space", o.space == fit::PowerSpace::kLog ? "log" : "linear");
+    meta.emplace_back("subtract_at", std::isnan(o.subtract_at) ? "none" : num(o.subtract_at));
+  }
+  if (g.skipped_rows > 0) meta.emplace_back("skipped_rows_status_not_ok", std::to_string(g.skipped_rows));
+
+  io::AtomicOutput out_long(sum.long_csv, o.force), out_wide(sum.wide_csv, o.force),
+      out_sum(sum.summary_csv, o.force);
+  const bool boot = o.fit.bootstrap > 0;
+  {
+    std::vector<std::string> cols = {"group", "parameter", "value", "std_error", "ci_low", "ci_high", "unit"};
+    if (boot) {
+      cols.push_back("boot_low");
+      cols.push_back("boot_high");
+    }
+    io::CsvWriter w(out_long.stream(), meta, cols);
+    for (const auto& gr : sum.groups) {
+      if (!gr.fit.has_result) continue;
+      const auto& r = gr.fit.result;
+      for (std::size_t k = 0; k < names.size(); ++k) {
+        std::vector<std::string> row = {gr.group, names[k], num(r.values[k]), num(r.std_errors[k]),
+                                        num(r.ci_low[k]), num(r.ci_high[k]), units[k]};
+        if (boot) {
+          row.push_back(num(r.boot_low[k]));
+          row.push_back(num(r.boot_high[k]));
+        }
+        w.row(row);
+      }
+    }
+  }
+  {
+    core::Metadata wm = meta;
+    std::vector<std::string> cols = {"group"};
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      cols.push_back(names[k]);
+      cols.push_back(names[k] + "_se");
+      wm.emplace_back("unit_" + names[k], units[k]);
+      wm.emplace_back("unit_" + names[k] + "_se", units[k]);
+    }
+    cols.push_back("status");
+    io::CsvWriter w(out_wide.stream(), wm, cols);
+    for (const auto& gr : sum.groups) {
+      std::vector<std::string> row = {gr.group};
+      for (std::size_t k = 0; k < names.size(); ++k) {
+        row.push_back(gr.fit.has_result ? num(gr.fit.result.values[k]) : "");
+        row.push_back(gr.fit.has_result ? num(gr.fit.result.std_errors[k]) : "");
+      }
+      row.push_back(fit::status_name(gr.fit.status));
+      w.row(row);
+    }
+  }
+  {
+    core::Metadata sm = meta;
+    sm.emplace_back("units", "n, p, dof, iterations: counts; chi2 .. cond, corr_*: dimensionless");
+    std::vector<std::string> cols = {"group", "status", "message", "n", "p", "dof", "chi2",
+                                     "reduced_chi2", "aic", "aicc", "bic", "cond", "cond_scaled",
+                                     "iterations", "termination"};
+    for (std::size_t a = 0; a < names.size(); ++a)
+      for (std::size_t b = a + 1; b < names.size(); ++b) cols.push_back("corr_" + names[a] + "_" + names[b]);
+    io::CsvWriter w(out_sum.stream(), sm, cols);
+    for (const auto& gr : sum.groups) {
+      const auto& r = gr.fit.result;
+      const bool h = gr.fit.has_result;
+      std::vector<std::string> row = {gr.group, fit::status_name(gr.fit.status), gr.fit.message};
+      if (h) {
+        for (double v : {double(r.n), double(r.p), double(r.dof), r.chi2, r.reduced_chi2, r.aic,
+                         r.aicc, r.bic, r.cond, r.cond_scaled, double(r.iterations)})
+          row.push_back(num(v));
+        row.push_back(r.termination);
+      } else {
+        row.insert(row.end(), 12, "");
+      }
+      const std::size_t p = names.size();
+      for (std::size_t a = 0; a < p; ++a)
+        for (std::size_t b = a + 1; b < p; ++b) row.push_back(h ? num(r.correlation[a * p + b]) : "");
+      w.row(row);
+    }
+  }
+  out_long.commit();
+  out_wide.commit();
+  out_sum.commit();
+  return sum;
+}
+
+}  // namespace shearzone::pipeline

@@ -1,0 +1,529 @@
+#include "shearzone/pipeline/profile_job.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/vector_field.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/frames.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/profile/geometry.hpp"
+#include "shearzone/profile/radial_profile.hpp"
+#include "shearzone/profile/width.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+std::string num(double v) { return io::CsvWriter::format_number(v); }
+bool set(double v) { return !std::isnan(v); }
+
+bool is_csv(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e == ".csv";
+}
+
+/// A source of pairs: an HDF5 clip (streamed) or one CSV pair.
+class FieldSource {
+ public:
+  virtual ~FieldSource() = default;
+  virtual std::size_t size() const = 0;
+  /// Pair k: the field and its time (t_a, dt).
+  virtual void read(std::size_t k, core::VectorField& f, double& t_a, double& dt) = 0;
+  /// A numeric root attribute, NaN if absent.
+  virtual double attribute(const std::string& name) const = 0;
+  virtual std::string text_attribute(const std::string& name) const = 0;
+};
+
+class H5Source final : public FieldSource {
+ public:
+  explicit H5Source(const std::filesystem::path& path) : h5_(io::H5File::open_read(path)), path_(path) {
+    for (const char* d : {"/grid/x_px", "/grid/y_px", "/pairs/u_px", "/pairs/v_px", "/pairs/flag",
+                          "/pairs/t_a_s", "/pairs/dt_s"})
+      if (!h5_.exists(d))
+        throw InputError(fmt::format("{}: dataset \"{}\" missing: not a field file of `shearzone piv`",
+                                     path.string(), d));
+    x_ = h5_.read<double>("/grid/x_px").data;
+    y_ = h5_.read<double>("/grid/y_px").data;
+    t_a_ = h5_.read<double>("/pairs/t_a_s").data;
+    dt_ = h5_.read<double>("/pairs/dt_s").data;
+    const auto d = h5_.dims("/pairs/u_px");
+    if (d.size() != 3 || d[1] != y_.size() || d[2] != x_.size() || t_a_.size() != d[0] ||
+        dt_.size() != d[0])
+      throw InputError(fmt::format("{}: /pairs/u_px has the wrong shape for the grid ({} x {})",
+                                   path.string(), y_.size(), x_.size()));
+    n_ = d[0];
+  }
+  std::size_t size() const override { return n_; }
+  void read(std::size_t k, core::VectorField& f, double& t_a, double& dt) override {
+    if (f.x_px.empty()) {
+      f.x_px = x_;
+      f.y_px = y_;
+      f.resize_to_grid();
+      flags_.resize(f.size());
+    }
+    h5_.read_record("/pairs/u_px", k, f.u_px.data());
+    h5_.read_record("/pairs/v_px", k, f.v_px.data());
+    h5_.read_record("/pairs/flag", k, flags_.data());
+    for (std::size_t i = 0; i < flags_.size(); ++i) {
+      if (flags_[i] > 3)
+        throw InputError(fmt::format("{}: /pairs/flag[{}] = {}: expected 0..3", path_.string(), k,
+                                     static_cast<int>(flags_[i])));
+      f.flag[i] = static_cast<core::VectorFlag>(flags_[i]);
+    }
+    t_a = t_a_[k];
+    dt = dt_[k];
+  }
+  double attribute(const std::string& name) const override {
+    if (!h5_.has_attribute("/", name)) return kUnset;
+    try {
+      return h5_.attribute_double("/", name);
+    } catch (const InputError&) {
+      double v = 0;
+      return io::parse_number(h5_.attribute_string("/", name), false, v) ? v : kUnset;
+    }
+  }
+  std::string text_attribute(const std::string& name) const override {
+    if (!h5_.has_attribute("/", name)) return {};
+    try {
+      return h5_.attribute_string("/", name);
+    } catch (const InputError&) {
+      return num(h5_.attribute_double("/", name));
+    }
+  }
+
+ private:
+  io::H5File h5_;
+  std::filesystem::path path_;
+  std::vector<double> x_, y_, t_a_, dt_;
+  std::vector<std::uint8_t> flags_;
+  std::size_t n_ = 0;
+};
+
+class CsvSource final : public FieldSource {
+ public:
+  CsvSource(const std::filesystem::path& path, double dt) : dt_(dt) {
+    const io::CsvTable t = io::read_csv(path);
+    if (t.num_rows() == 0) throw InputError(fmt::format("{}: no vectors", path.string()));
+    const auto x = t.numeric_column("x_px"), y = t.numeric_column("y_px");
+    const auto u = t.numeric_column("u_px"), v = t.numeric_column("v_px");
+    const auto fl = t.text_column("flag");
+    std::vector<double> xs = x, ys = y;
+    std::sort(xs.begin(), xs.end());
+    xs.erase(std::unique(xs.begin(), xs.end()), xs.end());
+    std::sort(ys.begin(), ys.end());
+    ys.erase(std::unique(ys.begin(), ys.end()), ys.end());
+    if (xs.size() * ys.size() != t.num_rows())
+      throw InputError(fmt::format("{}: {} rows do not fill a regular grid of {} x {} points",
+                                   path.string(), t.num_rows(), xs.size(), ys.size()));
+    f_.x_px = xs;
+    f_.y_px = ys;
+    f_.resize_to_grid();
+    for (std::size_t r = 0; r < t.num_rows(); ++r) {
+      const auto j = static_cast<std::size_t>(std::lower_bound(xs.begin(), xs.end(), x[r]) - xs.begin());
+      const auto i = static_cast<std::size_t>(std::lower_bound(ys.begin(), ys.end(), y[r]) - ys.begin());
+      const std::size_t k = f_.index(i, j);
+      f_.u_px[k] = static_cast<float>(u[r]);
+      f_.v_px[k] = static_cast<float>(v[r]);
+      bool ok = false;
+      for (auto flag : {core::VectorFlag::kValid, core::VectorFlag::kReplaced, core::VectorFlag::kMasked,
+                        core::VectorFlag::kInvalid})
+        if (fl[r] == core::flag_name(flag)) {
+          f_.flag[k] = flag;
+          ok = true;
+        }
+      if (!ok)
+        throw InputError(fmt::format("{}:{}: column \"flag\": \"{}\": expected valid, replaced, "
+                                     "masked or invalid",
+                                     path.string(), t.row_lines[r], fl[r]));
+    }
+    for (const auto& kv : t.metadata) meta_[kv.first] = kv.second;
+  }
+  std::size_t size() const override { return 1; }
+  void read(std::size_t, core::VectorField& f, double& t_a, double& dt) override {
+    f = f_;
+    t_a = 0;
+    dt = dt_;
+  }
+  double attribute(const std::string& name) const override {
+    auto it = meta_.find(name);
+    double v = 0;
+    return it != meta_.end() && io::parse_number(it->second, false, v) ? v : kUnset;
+  }
+  std::string text_attribute(const std::string& name) const override {
+    auto it = meta_.find(name);
+    return it == meta_.end() ? std::string() : it->second;
+  }
+
+ private:
+  core::VectorField f_;
+  double dt_;
+  std::map<std::string, std::string> meta_;
+};
+
+std::unique_ptr<FieldSource> open_fields(const std::filesystem::path& path, double dt_s) {
+  if (is_csv(path)) {
+    if (!set(dt_s))
+      throw ConfigError(fmt::format("{}: a CSV field holds one pair without its time step: give "
+                                    "--dt-s (pair spacing / fps)",
+                                    path.string()));
+    return std::make_unique<CsvSource>(path, dt_s);
+  }
+  return std::make_unique<H5Source>(path);
+}
+
+cv::Mat first_frame(const std::string& path) {
+  auto src = io::open_frames({path}, 25.0);
+  io::Frame fr;
+  if (!src->next(fr)) throw InputError(fmt::format("{}: no frame to detect the cup in", path));
+  return fr.gray;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return kUnset;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+void ProfileJobOptions::validate() const {
+  if (set(dt_s) && !(dt_s > 0)) throw ConfigError(fmt::format("--dt-s {}: must be positive", dt_s));
+  if (!(phase_min_deg >= 0 && phase_max_deg <= 360 && phase_min_deg < phase_max_deg))
+    throw ConfigError(fmt::format("--phase-range-deg {} {}: expected 0 <= min < max <= 360",
+                                  phase_min_deg, phase_max_deg));
+  if (set(noise_min_m) != set(noise_max_m) || (set(noise_min_m) && !(noise_min_m < noise_max_m)))
+    throw ConfigError("--noise-region-m: expected two radii, min < max, in m");
+  if (!(bead_diameter_m > 0)) throw ConfigError("--bead-diameter-m: must be positive");
+}
+
+ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metadata& header,
+                                  const core::ProgressCallback& progress) {
+  o.validate();
+  auto src = open_fields(o.input, o.dt_s);
+  ProfileJobSummary sum;
+
+  // Geometry: given > attributes > detection.
+  double cx = o.centre_x_px, cy = o.centre_y_px, R_px = o.cup_radius_px, Rv_px = o.vane_radius_px;
+  sum.geometry_source = "given";
+  if (!o.detect_cup_frame.empty() && (!set(cx) || !set(R_px))) {
+    const double lo = set(o.detect_min_radius_px) ? o.detect_min_radius_px : 50.0;
+    const double hi = set(o.detect_max_radius_px) ? o.detect_max_radius_px : 5000.0;
+    const auto c = profile::detect_cup_circle(first_frame(o.detect_cup_frame), lo, hi);
+    if (!set(cx)) {
+      cx = c.centre_x_px;
+      cy = c.centre_y_px;
+    }
+    if (!set(R_px)) R_px = c.radius_px;
+    sum.geometry_source = fmt::format("rim detected in {} (rms {} px, {} edge px)", o.detect_cup_frame,
+                                      num(c.rms_residual_px), c.edge_points);
+  }
+  if (!set(cx)) {
+    cx = src->attribute("centre_x_px");
+    cy = src->attribute("centre_y_px");
+    sum.geometry_source = "field attributes";
+  }
+  if (!set(R_px)) R_px = src->attribute("cup_radius_px");
+  if (!set(Rv_px)) Rv_px = src->attribute("vane_radius_px");
+  if (!set(Rv_px)) Rv_px = 0.0;
+  if (!set(cx) || !set(cy))
+    throw ConfigError(fmt::format("{}: no cup centre: give --centre X Y or --detect-cup FRAME (the "
+                                  "file has no centre_x_px/centre_y_px attributes)",
+                                  o.input.string()));
+  double m_per_px = o.m_per_px;
+  if (!set(m_per_px) && !set(o.cup_radius_m)) m_per_px = src->attribute("m_per_px");
+  if (!set(m_per_px)) {
+    if (!set(o.cup_radius_m))
+      throw ConfigError(fmt::format("{}: no scale: give --m-per-px or --cup-radius-m (with the cup "
+                                    "radius in px)",
+                                    o.input.string()));
+    if (!set(R_px))
+      throw ConfigError("--cup-radius-m needs the cup radius in px: give --radii-px RV R or "
+                        "--detect-cup FRAME");
+    m_per_px = profile::m_per_px_from_radius(o.cup_radius_m, R_px);
+  }
+  if (!set(R_px)) {
+    if (!set(o.cup_radius_m))
+      throw ConfigError("no cup radius: give --radii-px RV R, --detect-cup FRAME or --cup-radius-m");
+    R_px = o.cup_radius_m / m_per_px;
+  }
+  profile::ProfileOptions po;
+  po.centre_x_px = cx;
+  po.centre_y_px = cy;
+  po.m_per_px = m_per_px;
+  po.r_min_m = Rv_px * m_per_px;
+  po.r_max_m = R_px * m_per_px;
+  po.bin_m = set(o.bin_m) ? o.bin_m : (set(o.bin_px) ? o.bin_px * m_per_px : 0.5 * o.bead_diameter_m);
+  po.exclude_replaced = o.exclude_replaced;
+  po.validate();
+
+  // Pair selection.
+  const double f = set(o.f_Hz) ? o.f_Hz : src->attribute("f_Hz");
+  const bool selecting = !o.cycles.empty() || o.phase_min_deg > 0 || o.phase_max_deg < 360;
+  if (selecting && !(f > 0))
+    throw ConfigError("--cycles / --phase-range-deg need the oscillation frequency: give --f-hz "
+                      "(the field file has no f_Hz attribute)");
+  const bool by_cycle = f > 0 && !o.group_by_pair;
+
+  profile::ProfileAccumulator acc(po);
+  core::VectorField field;
+  std::vector<double> dts;
+  const std::size_t n = src->size();
+  for (std::size_t k = 0; k < n; ++k) {
+    double t_a = 0, dt = 0;
+    src->read(k, field, t_a, dt);
+    ++sum.pairs_read;
+    int group = static_cast<int>(k);
+    if (f > 0) {
+      const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, o.t0_s);
+      if (!o.cycles.empty() && std::find(o.cycles.begin(), o.cycles.end(), cp.cycle) == o.cycles.end())
+        continue;
+      if (cp.phase_deg < o.phase_min_deg || cp.phase_deg >= o.phase_max_deg) continue;
+      if (by_cycle) group = cp.cycle;
+    }
+    if (!(dt > 0))
+      throw InputError(fmt::format("{}: pair {}: dt_s = {}: expected a positive time step",
+                                   o.input.string(), k, dt));
+    acc.add(field, dt, group);
+    dts.push_back(dt);
+    ++sum.pairs_used;
+    if (progress) progress(k + 1, n);
+  }
+  if (sum.pairs_used == 0)
+    throw NoResultError(fmt::format("{}: no pair selected ({} read): check --cycles, "
+                                    "--phase-range-deg, --t0-s and f",
+                                    o.input.string(), sum.pairs_read));
+
+  profile::RadialProfile p;
+  std::string noise_method;
+  if (!o.noise_ref.empty()) {
+    auto ref = open_fields(o.noise_ref, o.dt_s);
+    profile::ProfileAccumulator racc(po);
+    const double dt_main = median(dts);
+    core::VectorField rf;
+    for (std::size_t k = 0; k < ref->size(); ++k) {
+      double t_a = 0, dt = 0;
+      ref->read(k, rf, t_a, dt);
+      // The reference is static: its displacements are noise in px per pair; convert
+      // them with the time step of the measurement so that both floors compare.
+      racc.add(rf, dt_main, static_cast<int>(k));
+    }
+    p = acc.finish_with_reference_noise(racc);
+    noise_method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)",
+                               o.noise_ref.string(), ref->size());
+  } else {
+    const double lo = set(o.noise_min_m) ? o.noise_min_m : po.r_max_m - 0.15 * (po.r_max_m - po.r_min_m);
+    const double hi = set(o.noise_max_m) ? o.noise_max_m : po.r_max_m;
+    p = acc.finish_with_region_noise(lo, hi);
+    noise_method = fmt::format("sigma*sqrt(pi/2), sigma from the component scatter in {} <= r <= {} m",
+                               num(lo), num(hi));
+  }
+  sum.groups = p.n_groups;
+  sum.bins = p.bins.size();
+  sum.centre_x_px = cx;
+  sum.centre_y_px = cy;
+  sum.m_per_px = m_per_px;
+  sum.R_m = po.r_max_m;
+  sum.Rv_m = po.r_min_m;
+  sum.bin_m = po.bin_m;
+  sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;
+
+  core::Metadata meta = header;
+  meta.emplace_back("input", o.input.string());
+  meta.emplace_back("geometry_source", sum.geometry_source);
+  meta.emplace_back("centre_x_px", num(cx));
+  meta.emplace_back("centre_y_px", num(cy));
+  meta.emplace_back("m_per_px", num(m_per_px));
+  meta.emplace_back("Rv_m", num(po.r_min_m));
+  meta.emplace_back("R_m", num(po.r_max_m));
+  meta.emplace_back("bin_m", num(po.bin_m));
+  meta.emplace_back("r_m", "bin centre; bin k covers [Rv + k bin, Rv + (k+1) bin)");
+  meta.emplace_back("replaced_vectors", o.exclude_replaced ? "excluded (counted as invalid)" : "used");
+  meta.emplace_back("f_Hz", set(f) ? num(f) : "unknown");
+  meta.emplace_back("t0_s", num(o.t0_s));
+  std::string cyc;
+  for (int c : o.cycles) cyc += (cyc.empty() ? "" : ",") + std::to_string(c);
+  meta.emplace_back("cycles", cyc.empty() ? "all" : cyc);
+  meta.emplace_back("phase_range_deg", num(o.phase_min_deg) + "," + num(o.phase_max_deg));
+  meta.emplace_back("groups", by_cycle ? "cycles" : "pairs");
+  meta.emplace_back("n_pairs", std::to_string(sum.pairs_used));
+  meta.emplace_back("n_groups", std::to_string(p.n_groups));
+  meta.emplace_back("dt_s", num(median(dts)));
+  const double fps = src->attribute("fps");
+  if (set(fps)) meta.emplace_back("fps", num(fps));
+  meta.emplace_back("noise_method", noise_method);
+  meta.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
+  for (const char* tag : {"N", "phi0_rad"}) {
+    const std::string v = src->text_attribute(tag);
+    if (!v.empty()) meta.emplace_back(tag, v);
+  }
+  meta.emplace_back("v_abs_sem_m_per_s",
+                    "standard deviation of the group means / sqrt(groups) (one group: of the "
+                    "vectors / sqrt(n))");
+
+  const std::filesystem::path groups_path =
+      o.output.parent_path() / (o.output.stem().string() + "_groups.csv");
+  io::AtomicOutput out(o.output, o.force);
+  io::AtomicOutput gout(groups_path, o.force);
+  {
+    io::CsvWriter w(out.stream(), meta,
+                    {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s",
+                     "v_abs_sem_m_per_s", "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
+    for (const auto& b : p.bins)
+      w.row(std::vector<double>{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise,
+                                static_cast<double>(b.n_vectors), static_cast<double>(b.n_masked),
+                                static_cast<double>(b.n_invalid)});
+  }
+  {
+    core::Metadata gm = header;
+    gm.emplace_back("profile", o.output.filename().string());
+    gm.emplace_back("group", by_cycle ? "oscillation cycle" : "pair index");
+    io::CsvWriter w(gout.stream(), gm, {"group", "r_m", "v_abs_m_per_s", "n_vectors"});
+    for (const auto& g : p.groups)
+      w.row(std::vector<double>{static_cast<double>(g.group), p.bins[g.bin].r_m, g.v_abs,
+                                static_cast<double>(g.n_vectors)});
+  }
+  out.commit();
+  gout.commit();
+  return sum;
+}
+
+// ---- width ------------------------------------------------------------------------
+
+namespace {
+
+std::string meta_value(const io::CsvTable& t, const std::string& key) {
+  for (const auto& [k, v] : t.metadata)
+    if (k == key) return v;
+  return {};
+}
+
+double meta_number(const io::CsvTable& t, const std::string& key) {
+  double v = 0;
+  const std::string s = meta_value(t, key);
+  return !s.empty() && io::parse_number(s, false, v) ? v : kUnset;
+}
+
+}  // namespace
+
+std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metadata& header) {
+  if (o.inputs.empty()) throw ConfigError("width: no profile given");
+  profile::WidthOptions wo;
+  wo.v_c_m_per_s = o.v_c_m_per_s;
+  wo.noise_factor = o.noise_factor;
+  wo.bootstrap = o.bootstrap;
+  wo.confidence = o.confidence;
+  wo.seed = o.seed;
+  wo.validate();
+  io::check_output_allowed(o.output, o.force);
+
+  struct Row {
+    std::string label, N, phi0;
+    profile::WidthResult res;
+    std::string n_pairs;
+  };
+  std::vector<Row> rows;
+  std::vector<WidthRow> report;
+  for (const auto& path : o.inputs) {
+    const io::CsvTable t = io::read_csv(path);
+    if (t.num_rows() == 0) throw InputError(fmt::format("{}: the profile has no rows", path.string()));
+    profile::WidthInput in;
+    in.r_m = t.numeric_column("r_m");
+    in.v_abs = t.numeric_column("v_abs_m_per_s");
+    in.v_abs_sem = t.numeric_column("v_abs_sem_m_per_s");
+    in.v_noise = t.numeric_column("v_noise_m_per_s");
+    for (double x : t.numeric_column("n_vectors")) {
+      if (!(x >= 0 && x == std::floor(x)))
+        throw InputError(fmt::format("{}: column \"n_vectors\": {} is not a count", path.string(), x));
+      in.n_vectors.push_back(static_cast<std::size_t>(x));
+    }
+    in.R_m = meta_number(t, "R_m");
+    if (!set(in.R_m)) {
+      const double bin = meta_number(t, "bin_m");
+      in.R_m = in.r_m.back() + (set(bin) ? 0.5 * bin : 0.0);
+    }
+    const std::filesystem::path gpath = path.parent_path() / (path.stem().string() + "_groups.csv");
+    if (std::filesystem::exists(gpath)) {
+      const io::CsvTable g = io::read_csv(gpath);
+      const auto grp = g.numeric_column("group"), r = g.numeric_column("r_m"),
+                 v = g.numeric_column("v_abs_m_per_s"), nv = g.numeric_column("n_vectors");
+      for (std::size_t k = 0; k < g.num_rows(); ++k) {
+        // Bin index from the radius (same bins as the profile).
+        const auto it = std::min_element(in.r_m.begin(), in.r_m.end(), [&](double a, double b) {
+          return std::abs(a - r[k]) < std::abs(b - r[k]);
+        });
+        if (std::abs(*it - r[k]) > 1e-9 * std::max(1.0, std::abs(r[k])) + 1e-12)
+          throw InputError(fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.row_lines[k],
+                                       num(r[k]), path.string()));
+        in.groups.push_back({static_cast<int>(grp[k]), static_cast<std::size_t>(it - in.r_m.begin()), v[k],
+                             static_cast<std::size_t>(nv[k])});
+      }
+    }
+    Row row;
+    row.label = path.stem().string();
+    row.res = profile::shear_zone_width(in, wo);
+    row.N = meta_value(t, "N");
+    row.phi0 = meta_value(t, "phi0_rad");
+    for (const auto& [k, v] : o.tags) {
+      if (k == "N") row.N = v;
+      else if (k == "phi0_rad") row.phi0 = v;
+    }
+    row.n_pairs = meta_value(t, "n_pairs");
+    WidthRow wr;
+    wr.label = row.label;
+    wr.status = profile::width_status_name(row.res.status);
+    wr.rc_m = row.res.rc_m;
+    if (row.res.status == profile::WidthStatus::kNoiseLimited) {
+      // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
+      const double sigma = meta_number(t, "noise_sigma_m_per_s");
+      const double dt = meta_number(t, "dt_s"), fps = meta_number(t, "fps");
+      std::string k_text = "a larger pair spacing";
+      if (set(sigma) && set(dt) && set(fps) && sigma > 0) {
+        const double k0 = std::max(1.0, std::round(dt * fps));
+        const double k = std::ceil(5.0 * sigma * dt * fps / o.v_c_m_per_s);
+        k_text = fmt::format("pair spacing k >= {} (now {})", num(std::max(k, k0 + 1)), num(k0));
+      }
+      wr.advice = fmt::format(
+          "{}: v_c = {} m/s is below {} x the noise floor {} m/s: r_c cannot be trusted; re-run "
+          "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS",
+          path.string(), num(o.v_c_m_per_s), num(o.noise_factor), num(row.res.v_noise_m_per_s), k_text);
+    }
+    report.push_back(wr);
+    rows.push_back(std::move(row));
+  }
+  for (const auto& [k, v] : o.tags)
+    if (k != "N" && k != "phi0_rad")
+      throw ConfigError(fmt::format("--tag {}={}: only N and phi0_rad are width columns", k, v));
+
+  core::Metadata meta = header;
+  meta.emplace_back("v_c_m_per_s", num(o.v_c_m_per_s));
+  meta.emplace_back("noise_factor", num(o.noise_factor));
+  meta.emplace_back("bootstrap", std::to_string(o.bootstrap));
+  meta.emplace_back("confidence", num(o.confidence));
+  meta.emplace_back("seed", std::to_string(o.seed));
+  meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
+                            "interpolation between bin centres; never_below: R");
+  meta.emplace_back("rc_ci", "percentile bootstrap over the profile's groups (cycles or pairs); "
+                             "one group: parametric from the bin standard errors");
+  io::AtomicOutput out(o.output, o.force);
+  {
+    io::CsvWriter w(out.stream(), meta,
+                    {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
+                     "v_noise_m_per_s", "n_pairs"});
+    for (const auto& r : rows)
+      w.row(std::vector<std::string>{r.label, r.N, r.phi0, num(r.res.rc_m), num(r.res.ci_low_m),
+                                     num(r.res.ci_high_m), profile::width_status_name(r.res.status),
+                                     num(r.res.v_noise_m_per_s), r.n_pairs});
+  }
+  out.commit();
+  return report;
+}
+
+}  // namespace shearzone::pipeline

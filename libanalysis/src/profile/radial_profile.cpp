@@ -1,0 +1,200 @@
+#include "shearzone/profile/radial_profile.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/conventions.hpp"
+#include "shearzone/core/error.hpp"
+
+namespace shearzone::profile {
+
+using core::VectorFlag;
+
+void ProfileOptions::validate() const {
+  auto positive = [](const char* what, double v) {
+    if (!(std::isfinite(v) && v > 0))
+      throw ConfigError(fmt::format("profile: {} = {}: must be a positive number", what, v));
+  };
+  if (!std::isfinite(centre_x_px) || !std::isfinite(centre_y_px))
+    throw ConfigError("profile: the cup centre is not set (give --centre, --detect-cup, or a "
+                      "field file with centre_x_px/centre_y_px attributes)");
+  positive("m_per_px", m_per_px);
+  positive("bin width (m)", bin_m);
+  positive("r_max (the cup radius, m)", r_max_m);
+  if (!(std::isfinite(r_min_m) && r_min_m >= 0 && r_min_m < r_max_m))
+    throw ConfigError(fmt::format("profile: r_min = {} m must satisfy 0 <= r_min < r_max = {} m",
+                                  r_min_m, r_max_m));
+  if ((r_max_m - r_min_m) / bin_m > 1e5)
+    throw ConfigError(fmt::format("profile: bin width {} m gives more than 1e5 bins", bin_m));
+}
+
+std::size_t ProfileOptions::num_bins() const {
+  return static_cast<std::size_t>(std::ceil((r_max_m - r_min_m) / bin_m - 1e-9));
+}
+
+double ProfileOptions::bin_centre_m(std::size_t k) const {
+  return r_min_m + (static_cast<double>(k) + 0.5) * bin_m;
+}
+
+ProfileAccumulator::ProfileAccumulator(ProfileOptions options) : opt_(options) {
+  opt_.validate();
+  bins_.resize(opt_.num_bins());
+  noise_by_bin_.resize(opt_.num_bins());
+}
+
+void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int group) {
+  if (!(std::isfinite(dt_s) && dt_s > 0))
+    throw InputError(fmt::format("profile: pair time step {} s: expected a positive number", dt_s));
+  const std::size_t n = f.size();
+  if (f.u_px.size() != n || f.v_px.size() != n || f.flag.size() != n)
+    throw InputError("profile: field arrays do not match the grid");
+  auto it = std::find(group_ids_.begin(), group_ids_.end(), group);
+  std::size_t gi = static_cast<std::size_t>(it - group_ids_.begin());
+  if (it == group_ids_.end()) {
+    group_ids_.push_back(group);
+    group_bins_.emplace_back(bins_.size());
+  }
+  std::vector<Sums>& gb = group_bins_[gi];
+  const double scale = opt_.m_per_px / dt_s;  // px per pair -> m/s
+  for (std::size_t i = 0; i < f.ny(); ++i)
+    for (std::size_t j = 0; j < f.nx(); ++j) {
+      const double x = f.x_px[j], y = f.y_px[i];
+      const double r_m = std::hypot(x - opt_.centre_x_px, y - opt_.centre_y_px) * opt_.m_per_px;
+      if (r_m < opt_.r_min_m || r_m >= opt_.r_max_m) continue;
+      const auto b = static_cast<std::size_t>((r_m - opt_.r_min_m) / opt_.bin_m);
+      if (b >= bins_.size()) continue;
+      const std::size_t k = f.index(i, j);
+      const VectorFlag fl = f.flag[k];
+      if (fl == VectorFlag::kMasked) {
+        ++bins_[b].masked;
+        ++gb[b].masked;
+        continue;
+      }
+      if (fl == VectorFlag::kInvalid || (opt_.exclude_replaced && fl == VectorFlag::kReplaced)) {
+        ++bins_[b].invalid;
+        ++gb[b].invalid;
+        continue;
+      }
+      const double u = f.u_px[k] * scale, v = f.v_px[k] * scale;
+      const auto pc = core::polar_from_cartesian(x, y, u, v, opt_.centre_x_px, opt_.centre_y_px);
+      const double a = std::hypot(u, v);
+      for (Sums* s : {&bins_[b], &gb[b]}) {
+        s->s_abs += a;
+        s->s_abs2 += a * a;
+        s->s_theta += pc.v_theta;
+        s->s_r += pc.v_r;
+        ++s->n;
+      }
+      NoiseSums& ns = noise_by_bin_[b];
+      ns.s += pc.v_r;
+      ns.s2 += pc.v_r * pc.v_r;
+      ++ns.n;
+    }
+  ++n_pairs_;
+}
+
+RadialProfile ProfileAccumulator::finish_common() const {
+  RadialProfile p;
+  p.n_pairs = n_pairs_;
+  p.n_groups = group_ids_.size();
+  p.bins.resize(bins_.size());
+  for (std::size_t b = 0; b < bins_.size(); ++b) {
+    const Sums& s = bins_[b];
+    ProfileBin& o = p.bins[b];
+    o.r_m = opt_.bin_centre_m(b);
+    o.n_vectors = s.n;
+    o.n_masked = s.masked;
+    o.n_invalid = s.invalid;
+    if (s.n == 0) continue;
+    const double n = static_cast<double>(s.n);
+    o.v_abs = s.s_abs / n;
+    o.v_theta = s.s_theta / n;
+    o.v_r = s.s_r / n;
+    o.v_abs_rms = std::sqrt(s.s_abs2 / n);
+    // Standard error: spread of the group means when there are two or more groups.
+    std::vector<double> means;
+    for (std::size_t g = 0; g < group_bins_.size(); ++g)
+      if (group_bins_[g][b].n > 0)
+        means.push_back(group_bins_[g][b].s_abs / static_cast<double>(group_bins_[g][b].n));
+    if (means.size() >= 2) {
+      double m = 0;
+      for (double x : means) m += x;
+      m /= static_cast<double>(means.size());
+      double ss = 0;
+      for (double x : means) ss += (x - m) * (x - m);
+      o.v_abs_sem = std::sqrt(ss / static_cast<double>(means.size() - 1)) /
+                    std::sqrt(static_cast<double>(means.size()));
+    } else if (s.n >= 2) {
+      const double var = std::max(0.0, (s.s_abs2 - s.s_abs * s.s_abs / n) / (n - 1));
+      o.v_abs_sem = std::sqrt(var / n);
+    }
+  }
+  for (std::size_t g = 0; g < group_bins_.size(); ++g)
+    for (std::size_t b = 0; b < bins_.size(); ++b) {
+      const Sums& s = group_bins_[g][b];
+      if (s.n == 0) continue;
+      p.groups.push_back({group_ids_[g], b, s.s_abs / static_cast<double>(s.n), s.n});
+    }
+  return p;
+}
+
+RadialProfile ProfileAccumulator::finish_with_region_noise(double lo_m, double hi_m) const {
+  RadialProfile p = finish_common();
+  NoiseSums t;
+  for (std::size_t b = 0; b < bins_.size(); ++b) {
+    const double r = opt_.bin_centre_m(b);
+    if (r < lo_m || r > hi_m) continue;
+    const NoiseSums& s = noise_by_bin_[b];
+    t.s += s.s;
+    t.s2 += s.s2;
+    t.n += s.n;
+  }
+  if (t.n < 2)
+    throw NoResultError(fmt::format(
+        "profile: no usable vector in the noise region {} <= r <= {} m (bin centres); give "
+        "--noise-region-m inside the measured annulus or a static --noise-ref",
+        lo_m, hi_m));
+  const double n = static_cast<double>(t.n);
+  p.noise_sigma_m_per_s = std::sqrt(std::max(0.0, (t.s2 - t.s * t.s / n) / (n - 1)));
+  const double floor = p.noise_sigma_m_per_s * std::sqrt(std::numbers::pi / 2.0);
+  for (auto& b : p.bins) b.v_noise = floor;
+  return p;
+}
+
+RadialProfile ProfileAccumulator::finish_with_reference_noise(const ProfileAccumulator& ref) const {
+  RadialProfile p = finish_common();
+  const RadialProfile r = ref.finish_common();
+  double s = 0;
+  std::size_t n = 0;
+  for (const auto& b : r.bins) {
+    s += b.v_abs * static_cast<double>(b.n_vectors);
+    n += b.n_vectors;
+  }
+  if (n == 0)
+    throw NoResultError("profile: the static reference has no usable vector in the annulus");
+  const double overall = s / static_cast<double>(n);
+  for (std::size_t b = 0; b < p.bins.size(); ++b) {
+    // Same bins when the options match; otherwise look the radius up.
+    const double rm = p.bins[b].r_m;
+    const ProfileBin* match = nullptr;
+    for (const auto& rb : r.bins)
+      if (std::abs(rb.r_m - rm) <= 0.5 * ref.options().bin_m) {
+        match = &rb;
+        break;
+      }
+    p.bins[b].v_noise = match && match->n_vectors > 0 ? match->v_abs : overall;
+  }
+  p.noise_sigma_m_per_s = overall / std::sqrt(std::numbers::pi / 2.0);
+  return p;
+}
+
+CyclePhase cycle_phase(double t_s, double f_Hz, double t0_s) {
+  const double c = (t_s - t0_s) * f_Hz;
+  const double fl = std::floor(c);
+  return {static_cast<int>(fl), 360.0 * (c - fl)};
+}
+
+}  // namespace shearzone::profile

@@ -1,0 +1,146 @@
+// profile and width jobs end to end: rendered frames -> PIV -> v(r) -> r_c.
+#include <cmath>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/pipeline/piv_job.hpp"
+#include "shearzone/pipeline/profile_job.hpp"
+#include "shearzone/pipeline/synth_job.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using namespace shearzone::testing;
+using Catch::Matchers::Contains;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Renders frames of a field and runs PIV (32 -> 16 px) to `out` (.csv or .h5).
+void synth_and_piv(const fs::path& dir, synth::FieldKind kind, double omega, int frames,
+                   const fs::path& out) {
+  pipeline::SynthJobOptions s;
+  s.synth.image.width_px = 256;
+  s.synth.image.height_px = 256;
+  s.synth.field.kind = kind;
+  s.synth.field.omega_rad = omega;
+  s.synth.field.u_px = 0;
+  s.synth.field.v_px = 0;
+  s.synth.sequence.frames = frames;
+  s.synth.image.seed = 11;
+  s.out_dir = dir;
+  pipeline::run_synth_job(s, {});
+  pipeline::PivJobOptions p;
+  if (frames == 2) p.inputs = {(dir / "A.png").string(), (dir / "B.png").string()};
+  else p.inputs = {(dir / "frame_*.png").string()};
+  p.output = out;
+  p.piv.windows_px = {32, 16};
+  p.centre_x_px = p.centre_y_px = 127.5;
+  p.attributes = {{"N", "9"}, {"phi0_rad", "0.25"}};
+  pipeline::run_piv_job(p, {});
+}
+
+}  // namespace
+
+TEST_CASE("a static texture measured by PIV is noise_limited, never a silent r_c = R",
+          "[pipeline][profile]") {
+  // Issue #4 ("Noise"): a static pair; the lab's calibration (R = 34 mm over 500 px,
+  // 25 fps): v_c = 4e-5 m/s is 0.015 px per pair, below the PIV noise.
+  TempDir tmp("static");
+  synth_and_piv(tmp / "in", synth::FieldKind::kUniform, 0, 2, tmp / "v.csv");
+  pipeline::ProfileJobOptions o;
+  o.input = tmp / "v.csv";
+  o.output = tmp / "profile.csv";
+  o.centre_x_px = o.centre_y_px = 127.5;
+  o.vane_radius_px = 20;
+  o.cup_radius_px = 100;
+  o.cup_radius_m = 0.034 * 100 / 500;
+  o.dt_s = 0.04;
+  const auto sum = pipeline::run_profile_job(o, {});
+  CHECK(sum.pairs_used == 1);
+  CHECK(fs::exists(tmp / "profile_groups.csv"));
+  pipeline::WidthJobOptions w;
+  w.inputs = {o.output};
+  w.output = tmp / "widths.csv";
+  const auto rows = pipeline::run_width_job(w, {});
+  REQUIRE(rows.size() == 1);
+  CHECK(rows[0].status == "noise_limited");
+  CHECK_THAT(rows[0].advice, Contains("pair spacing"));
+  const auto t = io::read_csv(w.output);
+  CHECK(t.text_column("rc_status")[0] == "noise_limited");
+}
+
+TEST_CASE("an HDF5 clip of a solid rotation gives v_theta = omega r", "[pipeline][profile]") {
+  TempDir tmp("rot");
+  constexpr double kOmega = 0.02;  // rad per frame
+  synth_and_piv(tmp / "in", synth::FieldKind::kRotation, kOmega, 5, tmp / "f.h5");
+  pipeline::ProfileJobOptions o;
+  o.input = tmp / "f.h5";
+  o.output = tmp / "p.csv";
+  o.vane_radius_px = 16;
+  o.cup_radius_px = 80;
+  o.m_per_px = 1e-4;
+  o.bin_px = 8;
+  o.f_Hz = 1.0;  // 4 pairs within one cycle at 25 fps
+  const auto sum = pipeline::run_profile_job(o, {});
+  CHECK(sum.pairs_used == 4);
+  CHECK(sum.groups == 1);
+  CHECK(sum.geometry_source == "field attributes");
+  const auto t = io::read_csv(o.output);
+  const auto r = t.numeric_column("r_m"), vt = t.numeric_column("v_theta_m_per_s");
+  const auto va = t.numeric_column("v_abs_m_per_s");
+  // r_m is the bin centre, but a bin holds the vectors of an 8 px grid whose mean
+  // radius differs from it by up to a few px: the expectation is omega times the
+  // mean radius of the grid points in the bin (taken from the file's grid).
+  const auto h5 = io::H5File::open_read(o.input);
+  const auto gx = h5.read<double>("/grid/x_px").data, gy = h5.read<double>("/grid/y_px").data;
+  std::vector<double> rsum(r.size(), 0.0), rn(r.size(), 0.0);
+  for (double y : gy)
+    for (double x : gx) {
+      const double rr = std::hypot(x - 127.5, y - 127.5);
+      if (rr < 16 || rr >= 80) continue;
+      const auto b = static_cast<std::size_t>((rr - 16) / 8);
+      rsum[b] += rr;
+      rn[b] += 1;
+    }
+  // PIV of this field is good to 0.03 px RMS (issue #3 gate); averaged over a bin of
+  // 64-220 vectors the mean is good to 0.01 px per pair, i.e. 2.5e-5 m/s here.
+  constexpr double kTolMPerS = 0.01 * 1e-4 * 25;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    REQUIRE(rn[k] > 0);
+    const double expect = kOmega * (rsum[k] / rn[k]) * 1e-4 * 25;  // omega r px/frame -> m/s
+    CHECK(vt[k] == Approx(expect).margin(kTolMPerS));
+    CHECK(va[k] >= vt[k] - 1e-12);
+  }
+  bool has_n = false;
+  for (const auto& [k, v] : t.metadata) has_n |= k == "N" && v == "9";
+  CHECK(has_n);
+  // Selecting cycles needs f; cycle 3 does not exist.
+  o.f_Hz = std::nan("");
+  o.cycles = {3};
+  o.force = true;
+  CHECK_THROWS_WITH(pipeline::run_profile_job(o, {}), Contains("frequency"));
+  o.f_Hz = 1.0;
+  CHECK_THROWS_AS(pipeline::run_profile_job(o, {}), NoResultError);
+}
+
+TEST_CASE("width rejects a broken profile with file and line, and writes nothing",
+          "[pipeline][profile]") {
+  TempDir tmp("bad");
+  write_file(tmp / "p.csv",
+             "r_m,v_abs_m_per_s,v_theta_m_per_s,v_r_m_per_s,v_abs_rms_m_per_s,v_abs_sem_m_per_s,"
+             "v_noise_m_per_s,n_vectors,n_masked,n_invalid\n"
+             "0.01,1e-3,1e-3,0,1e-3,1e-5,1e-6,10,0,0\n"
+             "0.02,nan,1e-3,0,1e-3,1e-5,1e-6,10,0,0\n");
+  pipeline::WidthJobOptions w;
+  w.inputs = {tmp / "p.csv"};
+  w.output = tmp / "w.csv";
+  CHECK_THROWS_WITH(pipeline::run_width_job(w, {}), Contains("p.csv:3") && Contains("v_abs_m_per_s"));
+  CHECK_FALSE(fs::exists(w.output));
+  write_file(tmp / "q.csv", "r_m,v_abs_m_per_s\n0.01,1e-3\n");
+  w.inputs = {fs::path(tmp / "q.csv")};
+  CHECK_THROWS_WITH(pipeline::run_width_job(w, {}), Contains("v_abs_sem_m_per_s"));
+  CHECK_FALSE(fs::exists(w.output));
+}
