@@ -36,7 +36,15 @@ echo "== 4. PIV of the bead clip, with the rotating vane masked (-> HDF5 fields)
 echo "== 5. PIV of two real frames of moving sand (PIVlab example data, MIT)"
 "$SZ" piv data-samples/pivlab-sand/Fuerteventura_000000.jpeg \
     data-samples/pivlab-sand/Fuerteventura_000001.jpeg -o "$OUT/sand_vectors.csv"
-echo "== 6. Ground-truth plots"
+echo "== 6. Radial profile v(r) of the clip and the shear-zone width r_c"
+# The toy clip moves fast (the cup is 235 px = 34 mm, 2 s of a 0.5 Hz cycle), so the
+# threshold is set where its profile crosses: v_c = 2 mm/s instead of the paper's 40 um/s.
+"$SZ" profile "$OUT/beads_vane/fields.h5" -o "$OUT/beads_vane/profile.csv" \
+    --radii-px 110,235 --cup-radius-m 0.034 --group-by-pair
+"$SZ" width "$OUT/beads_vane/profile.csv" -o "$OUT/beads_vane/widths.csv" --vc 2e-3
+"$PY" scripts/plot_fig2.py profiles "$OUT/beads_vane/fig2a_profile.png" \
+    "$OUT/beads_vane/profile.csv" --vc 2e-3
+echo "== 7. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png"
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png"
 

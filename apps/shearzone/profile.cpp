@@ -97,6 +97,9 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
   c->add_option("--phase-range-deg", s->phase_range, "Phase window MIN,MAX in deg (0..360)")
       ->expected(2)
       ->delimiter(',');
+  c->add_option("--phase-bins", j.phase_bins,
+                "Phase-resolved: K profiles <stem>_phaseKK.csv over equal phase bins")
+      ->capture_default_str();
   c->add_flag("--group-by-pair", j.group_by_pair, "Bootstrap groups are pairs, not cycles");
   c->add_option("--dt-s", j.dt_s, "Time step of a CSV pair, s");
   // Noise

@@ -117,6 +117,19 @@ TEST_CASE("an HDF5 clip of a solid rotation gives v_theta = omega r", "[pipeline
   bool has_n = false;
   for (const auto& [k, v] : t.metadata) has_n |= k == "N" && v == "9";
   CHECK(has_n);
+  // Phase-resolved: 2 phase bins of 180 deg at f = 1 Hz: the 4 pairs (mid-times
+  // 0.02-0.14 s, phases 7-50 deg) all fall in the first; the second is empty.
+  o.phase_bins = 2;
+  o.force = true;
+  CHECK_THROWS_WITH(pipeline::run_profile_job(o, {}), Contains("no pair in phase bin 1"));
+  CHECK_FALSE(fs::exists(tmp / "p_phase00.csv"));
+  o.f_Hz = 5.0;  // phases 36-252 deg: 2 pairs in each half cycle
+  o.phase_bins = 2;
+  const auto ph = pipeline::run_profile_job(o, {});
+  CHECK(ph.pairs_used == 4);
+  CHECK(fs::exists(tmp / "p_phase00.csv"));
+  CHECK(fs::exists(tmp / "p_phase01_groups.csv"));
+  o.phase_bins = 0;
   // Selecting cycles needs f; cycle 3 does not exist.
   o.f_Hz = std::nan("");
   o.cycles = {3};

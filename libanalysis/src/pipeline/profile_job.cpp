@@ -202,6 +202,8 @@ void ProfileJobOptions::validate() const {
   if (set(noise_min_m) != set(noise_max_m) || (set(noise_min_m) && !(noise_min_m < noise_max_m)))
     throw ConfigError("--noise-region-m: expected two radii, min < max, in m");
   if (!(bead_diameter_m > 0)) throw ConfigError("--bead-diameter-m: must be positive");
+  if (phase_bins < 0 || phase_bins > 360)
+    throw ConfigError(fmt::format("--phase-bins {}: expected 0..360", phase_bins));
 }
 
 ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metadata& header,
@@ -266,13 +268,17 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
 
   // Pair selection.
   const double f = set(o.f_Hz) ? o.f_Hz : src->attribute("f_Hz");
-  const bool selecting = !o.cycles.empty() || o.phase_min_deg > 0 || o.phase_max_deg < 360;
+  const bool selecting =
+      !o.cycles.empty() || o.phase_min_deg > 0 || o.phase_max_deg < 360 || o.phase_bins > 0;
   if (selecting && !(f > 0))
-    throw ConfigError("--cycles / --phase-range-deg need the oscillation frequency: give --f-hz "
-                      "(the field file has no f_Hz attribute)");
+    throw ConfigError("--cycles / --phase-range-deg / --phase-bins need the oscillation frequency: "
+                      "give --f-hz (the field file has no f_Hz attribute)");
   const bool by_cycle = f > 0 && !o.group_by_pair;
+  const int nphase = std::max(1, o.phase_bins);
+  const double phase_w = (o.phase_max_deg - o.phase_min_deg) / nphase;
 
-  profile::ProfileAccumulator acc(po);
+  std::vector<profile::ProfileAccumulator> accs(static_cast<std::size_t>(nphase),
+                                                profile::ProfileAccumulator(po));
   core::VectorField field;
   std::vector<double> dts;
   const std::size_t n = src->size();
@@ -281,17 +287,20 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     src->read(k, field, t_a, dt);
     ++sum.pairs_read;
     int group = static_cast<int>(k);
+    std::size_t ph = 0;
     if (f > 0) {
       const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, o.t0_s);
       if (!o.cycles.empty() && std::find(o.cycles.begin(), o.cycles.end(), cp.cycle) == o.cycles.end())
         continue;
       if (cp.phase_deg < o.phase_min_deg || cp.phase_deg >= o.phase_max_deg) continue;
       if (by_cycle) group = cp.cycle;
+      ph = std::min(static_cast<std::size_t>(nphase - 1),
+                    static_cast<std::size_t>((cp.phase_deg - o.phase_min_deg) / phase_w));
     }
     if (!(dt > 0))
       throw InputError(fmt::format("{}: pair {}: dt_s = {}: expected a positive time step",
                                    o.input.string(), k, dt));
-    acc.add(field, dt, group);
+    accs[ph].add(field, dt, group);
     dts.push_back(dt);
     ++sum.pairs_used;
     if (progress) progress(k + 1, n);
@@ -301,11 +310,14 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
                                     "--phase-range-deg, --t0-s and f",
                                     o.input.string(), sum.pairs_read));
 
-  profile::RadialProfile p;
+  // Noise floor: a static reference, or a region of each profile.
+  std::unique_ptr<profile::ProfileAccumulator> racc;
   std::string noise_method;
+  const double noise_lo = set(o.noise_min_m) ? o.noise_min_m : po.r_max_m - 0.15 * (po.r_max_m - po.r_min_m);
+  const double noise_hi = set(o.noise_max_m) ? o.noise_max_m : po.r_max_m;
   if (!o.noise_ref.empty()) {
     auto ref = open_fields(o.noise_ref, o.dt_s);
-    profile::ProfileAccumulator racc(po);
+    racc = std::make_unique<profile::ProfileAccumulator>(po);
     const double dt_main = median(dts);
     core::VectorField rf;
     for (std::size_t k = 0; k < ref->size(); ++k) {
@@ -313,27 +325,21 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
       ref->read(k, rf, t_a, dt);
       // The reference is static: its displacements are noise in px per pair; convert
       // them with the time step of the measurement so that both floors compare.
-      racc.add(rf, dt_main, static_cast<int>(k));
+      racc->add(rf, dt_main, static_cast<int>(k));
     }
-    p = acc.finish_with_reference_noise(racc);
     noise_method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)",
                                o.noise_ref.string(), ref->size());
   } else {
-    const double lo = set(o.noise_min_m) ? o.noise_min_m : po.r_max_m - 0.15 * (po.r_max_m - po.r_min_m);
-    const double hi = set(o.noise_max_m) ? o.noise_max_m : po.r_max_m;
-    p = acc.finish_with_region_noise(lo, hi);
-    noise_method = fmt::format("sigma*sqrt(pi/2), sigma from the component scatter in {} <= r <= {} m",
-                               num(lo), num(hi));
+    noise_method = fmt::format("sigma*sqrt(pi/2), sigma = scatter of v_r in {} <= r <= {} m",
+                               num(noise_lo), num(noise_hi));
   }
-  sum.groups = p.n_groups;
-  sum.bins = p.bins.size();
   sum.centre_x_px = cx;
   sum.centre_y_px = cy;
   sum.m_per_px = m_per_px;
   sum.R_m = po.r_max_m;
   sum.Rv_m = po.r_min_m;
   sum.bin_m = po.bin_m;
-  sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;
+  sum.bins = po.num_bins();
 
   core::Metadata meta = header;
   meta.emplace_back("input", o.input.string());
@@ -351,15 +357,11 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   std::string cyc;
   for (int c : o.cycles) cyc += (cyc.empty() ? "" : ",") + std::to_string(c);
   meta.emplace_back("cycles", cyc.empty() ? "all" : cyc);
-  meta.emplace_back("phase_range_deg", num(o.phase_min_deg) + "," + num(o.phase_max_deg));
   meta.emplace_back("groups", by_cycle ? "cycles" : "pairs");
-  meta.emplace_back("n_pairs", std::to_string(sum.pairs_used));
-  meta.emplace_back("n_groups", std::to_string(p.n_groups));
   meta.emplace_back("dt_s", num(median(dts)));
   const double fps = src->attribute("fps");
   if (set(fps)) meta.emplace_back("fps", num(fps));
   meta.emplace_back("noise_method", noise_method);
-  meta.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
   for (const char* tag : {"N", "phi0_rad"}) {
     const std::string v = src->text_attribute(tag);
     if (!v.empty()) meta.emplace_back(tag, v);
@@ -368,30 +370,50 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
                     "standard deviation of the group means / sqrt(groups) (one group: of the "
                     "vectors / sqrt(n))");
 
-  const std::filesystem::path groups_path =
-      o.output.parent_path() / (o.output.stem().string() + "_groups.csv");
-  io::AtomicOutput out(o.output, o.force);
-  io::AtomicOutput gout(groups_path, o.force);
-  {
-    io::CsvWriter w(out.stream(), meta,
-                    {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s",
-                     "v_abs_sem_m_per_s", "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
-    for (const auto& b : p.bins)
-      w.row(std::vector<double>{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise,
-                                static_cast<double>(b.n_vectors), static_cast<double>(b.n_masked),
-                                static_cast<double>(b.n_invalid)});
+  // One profile (and its groups file) per phase bin; all appear together or none.
+  std::vector<std::unique_ptr<io::AtomicOutput>> outs;
+  for (int ph = 0; ph < nphase; ++ph) {
+    std::filesystem::path path = o.output;
+    if (nphase > 1)
+      path = o.output.parent_path() /
+             fmt::format("{}_phase{:02d}{}", o.output.stem().string(), ph, o.output.extension().string());
+    const std::filesystem::path gpath = path.parent_path() / (path.stem().string() + "_groups.csv");
+    const auto& acc = accs[static_cast<std::size_t>(ph)];
+    const double plo = o.phase_min_deg + ph * phase_w, phi = plo + phase_w;
+    if (acc.num_pairs() == 0)
+      throw NoResultError(fmt::format("{}: no pair in phase bin {} ({}-{} deg): use fewer --phase-bins",
+                                      o.input.string(), ph, num(plo), num(phi)));
+    const profile::RadialProfile p = racc ? acc.finish_with_reference_noise(*racc)
+                                          : acc.finish_with_region_noise(noise_lo, noise_hi);
+    sum.groups += p.n_groups;
+    if (ph == 0) sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;
+    core::Metadata m = meta;
+    m.emplace_back("phase_range_deg", num(plo) + "," + num(phi));
+    m.emplace_back("n_pairs", std::to_string(p.n_pairs));
+    m.emplace_back("n_groups", std::to_string(p.n_groups));
+    m.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
+    outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
+    {
+      io::CsvWriter w(outs.back()->stream(), m,
+                      {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s",
+                       "v_abs_sem_m_per_s", "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
+      for (const auto& b : p.bins)
+        w.row(std::vector<double>{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise,
+                                  static_cast<double>(b.n_vectors), static_cast<double>(b.n_masked),
+                                  static_cast<double>(b.n_invalid)});
+    }
+    outs.push_back(std::make_unique<io::AtomicOutput>(gpath, o.force));
+    {
+      core::Metadata gm = header;
+      gm.emplace_back("profile", path.filename().string());
+      gm.emplace_back("group", by_cycle ? "oscillation cycle" : "pair index");
+      io::CsvWriter w(outs.back()->stream(), gm, {"group", "r_m", "v_abs_m_per_s", "n_vectors"});
+      for (const auto& g : p.groups)
+        w.row(std::vector<double>{static_cast<double>(g.group), p.bins[g.bin].r_m, g.v_abs,
+                                  static_cast<double>(g.n_vectors)});
+    }
   }
-  {
-    core::Metadata gm = header;
-    gm.emplace_back("profile", o.output.filename().string());
-    gm.emplace_back("group", by_cycle ? "oscillation cycle" : "pair index");
-    io::CsvWriter w(gout.stream(), gm, {"group", "r_m", "v_abs_m_per_s", "n_vectors"});
-    for (const auto& g : p.groups)
-      w.row(std::vector<double>{static_cast<double>(g.group), p.bins[g.bin].r_m, g.v_abs,
-                                static_cast<double>(g.n_vectors)});
-  }
-  out.commit();
-  gout.commit();
+  for (auto& out : outs) out->commit();
   return sum;
 }
 

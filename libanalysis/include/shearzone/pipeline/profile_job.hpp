@@ -45,6 +45,9 @@ struct ProfileJobOptions {
   double t0_s = 0.0;             ///< time of an upward zero crossing of phi(t)
   std::vector<int> cycles;       ///< empty: all
   double phase_min_deg = 0.0, phase_max_deg = 360.0;
+  /// Phase-resolved profiles: K equal phase bins over the phase range, one output
+  /// `<stem>_phaseKK.csv` each (0: one profile over the whole range).
+  int phase_bins = 0;
   bool group_by_pair = false;    ///< bootstrap groups: pairs instead of cycles
   double dt_s = kUnset;          ///< pair time step of a CSV field (required there)
   // Noise floor: a static reference field file, or a region (m); default: the
