@@ -44,7 +44,22 @@ echo "== 6. Radial profile v(r) of the clip and the shear-zone width r_c"
 "$SZ" width "$OUT/beads_vane/profile.csv" -o "$OUT/beads_vane/widths.csv" --vc 2e-3
 "$PY" scripts/plot_fig2.py profiles "$OUT/beads_vane/fig2a_profile.png" \
     "$OUT/beads_vane/profile.csv" --vc 2e-3
-echo "== 7. Ground-truth plots"
+echo "== 7. Fits and collapse of r_c(phi0) for four chain lengths (data-samples/widths)"
+T=data-samples/widths/rc_phi0_synthetic.csv
+F="$OUT/fits"
+mkdir -p "$F"
+"$SZ" fit erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/erf.csv" -q
+"$SZ" fit power "$F/erf_wide.csv" --x group --y W --sigma W_se -o "$F/W_power.csv"
+"$SZ" fit power "$F/erf_wide.csv" --x group --y rcinf --sigma rcinf_se --subtract-at 1 \
+    -o "$F/rcinf_power.csv" -q
+"$SZ" collapse erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/collapse_erf" -q
+"$SZ" collapse fss "$F/collapse_erf/collapsed.csv" --x phi0_rad --y r_tilde --dy r_tilde_sigma \
+    --L N --fix b=0 --start 0.3,0.5,0 -o "$F/collapse_fss"
+"$PY" scripts/plot_fig2.py rc "$F/fig2c_rc.png" "$T" "$F/erf_wide.csv"
+"$PY" scripts/plot_fig2.py scaling "$F/fig2d_W.png" "$F/erf_wide.csv" "$F/W_power.csv"
+"$PY" scripts/plot_fig2.py collapse "$F/fig2e_collapse.png" "$F/collapse_erf/collapsed.csv" \
+    "$F/collapse_erf/master.csv"
+echo "== 8. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png"
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png"
 

@@ -114,11 +114,16 @@ std::vector<Subcommand> add_collapse_fss(CLI::App& parent, Context& ctx) {
                 "Column of the error of y (none: dy = 1, rescaled so that S_min = 1)");
   c->add_option("--L", j.L_column, "Column of the system size L (e.g. chain length N)");
   c->add_option("--sizes", j.sizes, "Use only these L values (comma-separated)")->delimiter(',');
-  c->add_option("--x-window", s->window, "Terms of S only for scaled x in [LO, HI]")->expected(2);
-  c->add_option("--start", s->start, "Start point X_C A B of the simplex")->expected(3);
+  c->add_option("--x-window", s->window, "Terms of S only for scaled x in [LO, HI]")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--start", s->start, "Start point X_C A B of the simplex")
+      ->expected(3)
+      ->delimiter(',');
   c->add_option("--step", s->step,
                 "Initial simplex steps DXC DA DB (default: 1% of the x range, 0.01, 0.01)")
-      ->expected(3);
+      ->expected(3)
+      ->delimiter(',');
   c->add_option("--fix", s->fix, "Fix a parameter: NAME or NAME=VALUE, NAME in x_c, a, b (repeatable)");
   c->add_option("--tolerance", f.tolerance, "Stop when the simplex size < this, in steps")
       ->capture_default_str();

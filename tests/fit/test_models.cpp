@@ -75,6 +75,18 @@ TEST_CASE("erf degeneracies are statuses", "[fit]") {
            c.status == FitStatus::kSingularCovariance));
     CHECK_FALSE(c.usable());
   }
+  SECTION("transition sharper than the sampling") {
+    // W = 0.01 against a spacing of 0.09: at most one point inside phi_c +- W.
+    const std::vector<double> q = {1.0, 3.0, 0.52, 0.01};
+    const auto x = grid(0.0, 1.0, 12);
+    testing::Gauss g(4);
+    auto y = erf_data(x, q);
+    for (double& v : y) v += 0.01 * g();
+    const CurveFit c = fit_erf(x, y, {});
+    INFO(status_name(c.status) << " " << c.message);
+    CHECK(c.status == FitStatus::kTransitionUnresolved);
+    CHECK_FALSE(c.usable());
+  }
   SECTION("no convergence") {
     const auto x = grid(0.0, 1.0, 12);
     testing::Gauss g(5);

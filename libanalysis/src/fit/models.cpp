@@ -80,6 +80,7 @@ const char* status_name(FitStatus s) {
     case FitStatus::kTooFewPoints: return "too_few_points";
     case FitStatus::kFlatData: return "flat_data";
     case FitStatus::kTransitionOutsideRange: return "transition_outside_range";
+    case FitStatus::kTransitionUnresolved: return "transition_unresolved";
     case FitStatus::kNonPositiveValues: return "nonpositive_values";
     case FitStatus::kNoConvergence: return "no_convergence";
     case FitStatus::kSingularCovariance: return "singular_covariance";
@@ -141,6 +142,18 @@ CurveFit fit_erf(const std::vector<double>& x, const std::vector<double>& y,
       c.status = FitStatus::kTransitionOutsideRange;
       c.message = fmt::format("phi_c = {:.6g} lies outside the sampled x range [{:.6g}, {:.6g}]",
                               phic, *lo, *hi);
+    } else {
+      // A transition sharper than the sampling: with fewer than two points inside
+      // phi_c +- W, the data fix neither W nor phi_c (their errors blow up), only
+      // that W is below the local spacing of x.
+      const double W = c.result.values[3];
+      const auto inside = std::count_if(x.begin(), x.end(), [&](double v) { return std::abs(v - phic) < W; });
+      if (inside < 2) {
+        c.status = FitStatus::kTransitionUnresolved;
+        c.message = fmt::format("only {} point(s) within phi_c +- W = {:.6g} +- {:.6g}: the transition "
+                                "is sharper than the sampling of x; sample phi0 more finely there",
+                                inside, phic, W);
+      }
     }
   }
   return c;

@@ -54,8 +54,11 @@ GroupedData read_grouped(const std::filesystem::path& input, const std::string& 
   const std::size_t cs = has_sigma ? t.column_index(sigma_column) : 0;
   const bool has_group = !group_column.empty();
   const std::size_t cg = has_group ? t.column_index(group_column) : 0;
-  const bool has_status = t.has_column("status");
-  const std::size_t cst = has_status ? t.column_index("status") : 0;
+  // A status column (`status` of our fit tables, `rc_status` of widths.csv): rows
+  // that are not `ok` are skipped and counted.
+  const char* status_col = t.has_column("status") ? "status" : "rc_status";
+  const bool has_status = t.has_column(status_col);
+  const std::size_t cst = has_status ? t.column_index(status_col) : 0;
   if (t.num_rows() == 0)
     throw InputError(fmt::format("{}:{}: the table has no data rows after the header", src,
                                  t.header_line));

@@ -53,12 +53,13 @@ enum class FitStatus {
   kTooFewPoints,            ///< fewer points than parameters (+1 when σ is estimated)
   kFlatData,                ///< y does not vary: nothing to fit
   kTransitionOutsideRange,  ///< erf: fitted phi_c outside [min x, max x]
+  kTransitionUnresolved,    ///< erf: fewer than 2 points within phi_c +- W (W not measured)
   kNonPositiveValues,       ///< power law: x <= 0, or y <= 0 in log space
   kNoConvergence,           ///< the solver failed or did not converge
   kSingularCovariance,      ///< rank-deficient Jacobian: no standard errors
 };
 /// "ok", "too_few_points", "flat_data", "transition_outside_range",
-/// "nonpositive_values", "no_convergence", "singular_covariance".
+/// "transition_unresolved", "nonpositive_values", "no_convergence", "singular_covariance".
 const char* status_name(FitStatus s);
 
 struct CurveFit {
