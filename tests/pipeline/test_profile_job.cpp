@@ -9,6 +9,7 @@
 #include "shearzone/pipeline/piv_job.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
+#include "shearzone/synth/generator.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace shearzone;
@@ -156,4 +157,62 @@ TEST_CASE("width rejects a broken profile with file and line, and writes nothing
   w.inputs = {fs::path(tmp / "q.csv")};
   CHECK_THROWS_WITH(pipeline::run_width_job(w, {}), Contains("v_abs_sem_m_per_s"));
   CHECK_FALSE(fs::exists(w.output));
+}
+
+// End to end against the truth: an oscillating shear zone rendered as frames, PIV,
+// profile, width. The mean |v| at radius r > r0 is U0 exp(-(r - r0)/w) <|s_k|> (s_k the
+// pairs' displacement scales), so v_c can be placed to give r_c = 75 px exactly.
+TEST_CASE("an oscillating shear zone gives the r_c of its exact field", "[pipeline][profile]") {
+  TempDir tmp("osc");
+  pipeline::SynthJobOptions s;
+  s.synth.image.width_px = 256;
+  s.synth.image.height_px = 256;
+  s.synth.image.seed = 12;
+  s.synth.field.kind = synth::FieldKind::kShearZone;
+  s.synth.field.r0_px = 40;
+  s.synth.field.w_px = 25;
+  s.synth.field.U0_px = 3;
+  s.synth.sequence.frames = 26;  // one cycle at f = 1 Hz, 25 fps
+  s.synth.sequence.oscillate_f_Hz = 1.0;
+  s.out_dir = tmp / "in";
+  pipeline::run_synth_job(s, {});
+  synth::FrameGenerator gen(s.synth);
+  double mean_abs_scale = 0;
+  for (int k = 0; k + 1 < s.synth.sequence.frames; ++k) mean_abs_scale += std::abs(gen.frame_time(k).pair_scale);
+  mean_abs_scale /= s.synth.sequence.frames - 1;
+  pipeline::PivJobOptions p;
+  p.inputs = {(tmp / "in" / "frame_*.png").string()};
+  p.output = tmp / "f.h5";
+  p.piv.windows_px = {32, 16};
+  p.centre_x_px = p.centre_y_px = 127.5;
+  p.attributes = {{"f_Hz", "1"}};
+  pipeline::run_piv_job(p, {});
+  pipeline::ProfileJobOptions o;
+  o.input = p.output;
+  o.output = tmp / "p.csv";
+  o.vane_radius_px = 40;
+  o.cup_radius_px = 112;
+  o.m_per_px = 1e-4;
+  o.bin_px = 4;
+  o.group_by_pair = true;
+  pipeline::run_profile_job(o, {});
+  constexpr double kTruthPx = 75.0;
+  const double vc_px = 3 * mean_abs_scale * std::exp(-(kTruthPx - 40) / 25);  // px per frame
+  pipeline::WidthJobOptions w;
+  w.inputs = {o.output};
+  w.output = tmp / "w.csv";
+  w.v_c_m_per_s = vc_px * 1e-4 * 25;
+  const auto rows = pipeline::run_width_job(w, {});
+  REQUIRE(rows.size() == 1);
+  CHECK(rows[0].status == "ok");
+  // Linear interpolation and bin averaging: w_bin^2/(6 w) = 0.1 px; PIV noise raises
+  // mean |v| near the reversals (|v| of noise does not average out) by ~1 %, i.e.
+  // w * 0.01 = 0.25 px of r_c: 0.5 px in all (under 1 % of r_c).
+  constexpr double kTolPx = 0.5;
+  INFO("r_c " << rows[0].rc_m / 1e-4 << " px, truth " << kTruthPx << " px, <|s|> " << mean_abs_scale);
+  CHECK(std::abs(rows[0].rc_m / 1e-4 - kTruthPx) <= kTolPx);
+  const auto t = io::read_csv(w.output);
+  const double lo = t.numeric_column("rc_ci_low_m")[0] / 1e-4, hi = t.numeric_column("rc_ci_high_m")[0] / 1e-4;
+  CHECK(lo <= rows[0].rc_m / 1e-4);
+  CHECK(hi >= rows[0].rc_m / 1e-4);
 }
