@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -165,6 +166,23 @@ PowerSpace parse_power_space(const std::string& name) {
   throw ConfigError(fmt::format("--space \"{}\": expected linear or log", name));
 }
 
+namespace {
+
+/// Unweighted least-squares line y = b + k x: returns (b, k). x must vary.
+std::pair<double, double> line_through(const std::vector<double>& x, const std::vector<double>& y) {
+  const double mx = std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  const double my = std::accumulate(y.begin(), y.end(), 0.0) / static_cast<double>(y.size());
+  double sxy = 0, sxx = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxy += (x[i] - mx) * (y[i] - my);
+    sxx += (x[i] - mx) * (x[i] - mx);
+  }
+  const double k = sxy / sxx;
+  return {my - k * mx, k};
+}
+
+}  // namespace
+
 CurveFit fit_power(const std::vector<double>& x, const std::vector<double>& y,
                    const std::vector<double>& sigma, PowerSpace space, const FitOptions& o) {
   constexpr int p = PowerLaw::kParams;
@@ -194,30 +212,17 @@ CurveFit fit_power(const std::vector<double>& x, const std::vector<double>& y,
     if (!sigma.empty())
       for (std::size_t i = 0; i < y.size(); ++i) ls.push_back(sigma[i] / y[i]);
     // Start: unweighted line through the logs.
-    const double mx = std::accumulate(lx.begin(), lx.end(), 0.0) / static_cast<double>(lx.size());
-    const double my = std::accumulate(ly.begin(), ly.end(), 0.0) / static_cast<double>(ly.size());
-    double sxy = 0, sxx = 0;
-    for (std::size_t i = 0; i < lx.size(); ++i) {
-      sxy += (lx[i] - mx) * (ly[i] - my);
-      sxx += (lx[i] - mx) * (lx[i] - mx);
-    }
-    const double k = sxy / sxx;
+    const auto [b, k] = line_through(lx, ly);
     c.result = solve(curve_problem(LogPower{}, lx, ly, ls, {"A", "k"},
                                    {Transform::kLog, Transform::kIdentity}),
-                     {std::exp(my - k * mx), k}, o);
+                     {std::exp(b), k}, o);
   } else {
     double k = 1.0, a = 1.0;
     if (all_positive) {
       for (std::size_t i = 0; i < y.size(); ++i) ly[i] = std::log(y[i]);
-      const double mx = std::accumulate(lx.begin(), lx.end(), 0.0) / static_cast<double>(lx.size());
-      const double my = std::accumulate(ly.begin(), ly.end(), 0.0) / static_cast<double>(ly.size());
-      double sxy = 0, sxx = 0;
-      for (std::size_t i = 0; i < lx.size(); ++i) {
-        sxy += (lx[i] - mx) * (ly[i] - my);
-        sxx += (lx[i] - mx) * (lx[i] - mx);
-      }
-      k = sxy / sxx;
-      a = std::exp(my - k * mx);
+      const auto [b, slope] = line_through(lx, ly);
+      k = slope;
+      a = std::exp(b);
     } else {
       // Mixed signs: the line through log|y| of the points with y != 0, sign of the mean.
       double mean = 0;
