@@ -28,6 +28,9 @@ std::vector<Subcommand> add_collapse_fss(CLI::App& parent, Context& ctx);
 /// `shearzone fit erf|power`.
 std::vector<Subcommand> add_fit(CLI::App& root, Context& ctx);
 
+/// `shearzone laos`.
+std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx);
+
 /// `shearzone piv`.
 std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx);
 

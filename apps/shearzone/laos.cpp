@@ -1,0 +1,131 @@
+// `shearzone laos`: oscillation logs -> harmonics, tan δ, Chebyshev measures per
+// amplitude (CSV folder). Flags map onto pipeline::LaosJobOptions; --config FILE.toml
+// sets them.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/pipeline/laos_job.hpp"
+#include "subcommands.hpp"
+
+namespace shearzone::apps {
+namespace {
+
+struct LaosCli {
+  pipeline::LaosJobOptions job;
+  std::vector<std::string> inputs, tags, cycles;
+  std::string output, config, format = "auto", strain_col, stress_col;
+  bool no_drift = false, no_split = false;
+};
+
+int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
+  if (!s.config.empty()) apply_toml_config(c, s.config);
+  require_option(c, "output");
+  auto& j = s.job;
+  for (const auto& p : s.inputs) j.inputs.emplace_back(p);
+  j.output = s.output;
+  for (const auto& kv : s.tags) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError(fmt::format("--tag \"{}\": expected KEY=VALUE", kv));
+    j.tags.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+  }
+  j.read.format = io::log_format_from_name(s.format);
+  if (!s.strain_col.empty() || !s.stress_col.empty()) {
+    if (s.strain_col.empty() || s.stress_col.empty())
+      throw ConfigError("--strain and --stress go together; expected both column names");
+    j.read.quantity = io::LogQuantity::kStrainStress;
+    j.read.angle_column = s.strain_col;
+    j.read.torque_column = s.stress_col;
+  }
+  j.analysis.drift = !s.no_drift;
+  j.analysis.split_amplitudes = !s.no_split;
+  for (const auto& cy : s.cycles) {
+    if (cy == "all") {
+      j.analysis.all_cycles = true;
+      continue;
+    }
+    std::size_t used = 0;
+    int v = 0;
+    try {
+      v = std::stoi(cy, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != cy.size() || v < 1)
+      throw ConfigError(fmt::format("--cycles \"{}\": expected cycle numbers >= 1 or \"all\"", cy));
+    j.analysis.cycles.push_back(v);
+  }
+  const auto sum = pipeline::run_laos_job(j, ctx.header());
+  if (ctx.level != core::LogLevel::kQuiet) {
+    const bool ss = sum.stress_strain;
+    std::printf("laos: %zu log%s, %zu amplitude%s%s -> %s\n", sum.logs, sum.logs == 1 ? "" : "s",
+                sum.rows.size(), sum.rows.size() == 1 ? "" : "s",
+                sum.skipped_blocks ? fmt::format(" ({} ramp block(s) without a complete cycle skipped)",
+                                                 sum.skipped_blocks)
+                                         .c_str()
+                                   : "",
+                j.output.string().c_str());
+    std::printf("  %3s %-10s %10s %11s %11s %11s %9s %8s %6s %3s %6s  %s\n", "#", "segment",
+                ss ? "gamma0" : "phi0/rad", ss ? "sig_max/Pa" : "tau_max/Nm", ss ? "G'1/Pa" : "K'1/Nm/rad",
+                ss ? "G''1/Pa" : "K''1/Nm/rad", "tan_d", "I3/I1", "phi_d", "M", "cycles", "status");
+    for (const auto& r : sum.rows)
+      std::printf("  %3zu %-10.10s %10.4g %11.4g %11.4g %11.4g %9.4g %8.3g %6.3f %3d %3d/%-2d  %s\n",
+                  r.amplitude, r.segment.c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
+                  r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, r.status.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
+  auto s = std::make_shared<LaosCli>();
+  auto& j = s->job;
+  CLI::App* c = root.add_subcommand(
+      "laos", "LAOS analysis of torque/angle logs: harmonics, tan delta, Chebyshev measures -> CSVs");
+  c->add_option("logs", s->inputs, "Oscillation logs (CSV/TSV, RheoCompass, TRIOS, RepTate .laos)")
+      ->required();
+  c->add_option("-o,--output", s->output, "Output folder (summary.csv, cycles.csv, harmonics.csv, lissajous_NN.csv)");
+  c->add_option("--config", s->config, "TOML file setting any of these options by long name");
+  c->add_flag("--force", j.force, "Replace existing outputs");
+  c->add_option("--tag", s->tags, "KEY=VALUE for every summary row (N=45: chain length)");
+  // Reading
+  c->add_option("--format", s->format, "auto, csv, anton-paar, trios, reptate")->capture_default_str();
+  c->add_option("--time-col", j.read.time_column, "Time column of a CSV log (empty: none)")
+      ->capture_default_str();
+  c->add_option("--angle-col", j.read.angle_column, "Angle column of a CSV log")->capture_default_str();
+  c->add_option("--torque-col", j.read.torque_column, "Torque column of a CSV log")
+      ->capture_default_str();
+  c->add_option("--interval-col", j.read.interval_column, "Column whose changes start a new segment");
+  c->add_option("--time-unit", j.read.time_unit, "s or ms (default: from the column name)");
+  c->add_option("--angle-unit", j.read.angle_unit, "rad, mrad or deg (or strain: 1, %)");
+  c->add_option("--torque-unit", j.read.torque_unit, "N m, mN m or uN m (or stress: Pa)");
+  c->add_option("--strain", s->strain_col, "Strain column: strain/stress mode (moduli in Pa)");
+  c->add_option("--stress", s->stress_col, "Stress column (Pa) for strain/stress mode");
+  // Analysis
+  c->add_option("-M,--harmonics", j.analysis.max_harmonic, "Highest harmonic M (capped by the sampling)")
+      ->capture_default_str();
+  c->add_option("--cycles", s->cycles, "Cycles to analyse, 1-based, e.g. 3,4,5, or all (default: steady)")
+      ->delimiter(',');
+  c->add_option("--steady-tol", j.analysis.steady_tolerance,
+                "Steady state: relative cycle-to-cycle change of K'1 and K''1 below this")
+      ->capture_default_str();
+  c->add_option("--amplitude-change", j.analysis.amplitude_change,
+                "New amplitude when a cycle's phi0 changes by more than this fraction")
+      ->capture_default_str();
+  c->add_flag("--no-split", s->no_split, "Treat each segment as one amplitude");
+  c->add_flag("--no-drift", s->no_drift, "No linear-drift column in the harmonic fit");
+  c->add_option("--f-hz", j.f_Hz, "Drive frequency, Hz (default: the log's; fitted when time is logged)");
+  c->add_option("--inertia-kg-m2", j.inertia_kg_m2, "Instrument inertia I: analyse tau - I phi''");
+  c->add_option("--stress-constant", j.stress_constant_Pa_per_N_m,
+                "Vane stress constant, Pa/(N m): outputs in stress/strain");
+  c->add_option("--strain-constant", j.strain_constant_per_rad, "Vane strain constant, 1/rad");
+  c->add_flag("--log-constants", j.log_constants, "Stress/strain constants from the log (TRIOS)");
+  return {{c, [c, s, &ctx] { return run_laos(*c, *s, ctx); }}};
+}
+
+}  // namespace shearzone::apps

@@ -1,0 +1,121 @@
+// shearzone/laos/analysis.hpp: LAOS analysis of one oscillation record (a log segment)
+// given as plain vectors: amplitudes, drive phase θ, cycles, start-up transient and
+// steady state, harmonics and derived measures per amplitude (README, "shearzone laos").
+//
+// Steps, per record:
+//  1. Amplitudes. Raw cycles are cut at upward crossings of the drive through its mid
+//     level (a Schmitt trigger with 2 % of the half range against noise); a new
+//     amplitude starts when a raw cycle's half range differs from the previous one by
+//     more than `amplitude_change` (5 %). Amplitude blocks without a complete cycle are
+//     skipped (counted) when the record holds several blocks.
+//  2. Phase θ, per amplitude: with time, a 4-parameter sine fit of x(t) (IEEE-1057
+//     style: linear least squares for fixed ω, golden-section search of ω, then
+//     Gauss-Newton polishing) and θ = ω t + ψ; the record's ω (log or option) only
+//     seeds the search. Without time: θ = arcsin(x̂) on the rising branch and
+//     π − arcsin(x̂) on the falling one (branch from the sign of Δx), unwrapped, with
+//     x̂ = (x − c)/x0, c the mid level and x0 the half range; ω then comes from the
+//     options or is unknown (rate measures NaN).
+//  3. Cycles: θ ∈ [2πk, 2π(k+1)] (upward zero crossings of the fitted drive); partial
+//     cycles at the ends are dropped and counted. Per cycle: a harmonic fit, x0,
+//     τ_max = max|r|, loop area E_d. Steady state: the cycles from the first one after
+//     which every cycle-to-cycle change of K'_1 and K''_1 is below
+//     steady_tolerance·|K*_1|. Default analysis: the steady cycles (none steady: the
+//     last cycle only, status "not_steady"); `cycles` (1-based) overrides.
+//  4. Harmonic cutoff: M = min(requested, cap); cap = floor(π/√(2Δx/x0)) for
+//     angle-sampled records (Δx the median step) and floor((samples per cycle − 1)/2)
+//     for timed ones.
+//  5. Optional inertia subtraction r − I ẍ, ẍ = −x0 ω² sin θ from the fitted drive.
+//
+// Errors: InputError, prefixed with `context` and naming sample lines when known.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "shearzone/laos/harmonics.hpp"
+
+namespace shearzone::laos {
+
+struct Waveform {
+  std::vector<double> time_s;      ///< empty when the record has no time
+  std::vector<double> drive;       ///< x: rad (or strain)
+  std::vector<double> response;    ///< r: N m (or Pa)
+  std::vector<std::size_t> line;   ///< source line per sample (optional, for messages)
+  std::string context;             ///< message prefix, e.g. `log.csv: segment "2"`
+};
+
+struct AnalysisOptions {
+  int max_harmonic = 9;              ///< requested M (capped by the sampling)
+  bool drift = true;                 ///< linear-drift column in the fits
+  double omega_rad_per_s = kNaN;     ///< known ω: seeds the sine fit; required for rates without time
+  /// Inertia in response units per (drive unit / s²): I in kg m² for angle/torque.
+  double inertia = 0.0;
+  double amplitude_change = 0.05;    ///< relative change of raw-cycle amplitude -> new amplitude
+  bool split_amplitudes = true;      ///< false: the record is one amplitude
+  double steady_tolerance = 0.02;    ///< relative cycle-to-cycle change of K'_1, K''_1
+  std::vector<int> cycles;           ///< 1-based cycles to analyse (empty: the steady ones)
+  bool all_cycles = false;           ///< analyse every complete cycle (overrides the steady rule)
+  void validate() const;             ///< ConfigError on bad values
+};
+
+struct CycleResult {
+  int cycle = 0;            ///< 1-based within the amplitude
+  double t_start_s = kNaN;  ///< time of θ = 2πk (NaN without time)
+  double x0 = 0;            ///< half range of the drive samples in the cycle
+  double r_max = 0;         ///< max |r| over the cycle's samples
+  double K1p = 0, K1pp = 0; ///< per-cycle first harmonic
+  double E_d = 0;           ///< loop area ∮ r dx over the cycle
+  bool steady = false, used = false;
+};
+
+struct AmplitudeResult {
+  std::size_t first_sample = 0, last_sample = 0;  ///< inclusive, indices into the record
+  std::size_t first_line = 0, last_line = 0;      ///< source lines (0 if unknown)
+  bool timed = false;
+  std::string phase_method;     ///< "sine_fit" or "arcsin"
+  double omega = kNaN;          ///< rad/s used (NaN: unknown)
+  double x0 = 0;                ///< drive amplitude (sine fit or half range)
+  double x_offset = 0;          ///< drive mid level c
+  double psi = 0;               ///< phase at t = 0 (sine fit), rad
+  double theta_origin = 0;      ///< θ at the start of cycle 1 (a multiple of 2π)
+  int M_requested = 0, M_cap = 0, M = 0;
+  int partial_cycles = 0;       ///< dropped incomplete cycles at the ends
+  int first_steady_cycle = 0;   ///< 1-based; 0: none
+  std::vector<CycleResult> cycles;
+  HarmonicFit fit;              ///< over the used cycles
+  Measures measures;
+  double r_max = 0;             ///< mean over used cycles of max|r|
+  double E_d = 0;               ///< mean loop area over used cycles
+  double E_d_ratio = 0;         ///< E_d/(π x0² K''_1)
+  double phi_d = 0;             ///< E_d/(4 x0 r_max)
+  std::string status;           ///< ok, not_steady, single_cycle, cycles_selected
+  // Samples of the used cycles (for the Lissajous output), response inertia-corrected.
+  std::vector<int> sample_cycle;
+  std::vector<double> theta, time_s, drive, response;
+};
+
+struct RecordResult {
+  std::vector<AmplitudeResult> amplitudes;
+  int skipped_blocks = 0;  ///< amplitude blocks without a complete cycle
+};
+
+/// Sampling cap on M (see step 4). `timed` selects the rule.
+int harmonic_cap(const std::vector<double>& drive, double x0, bool timed,
+                 double samples_per_cycle);
+
+/// Phase of angle-sampled data (step 2, without time); x0 > 0.
+std::vector<double> phase_from_drive(const std::vector<double>& drive, double offset, double x0);
+
+struct SineFit {
+  double omega = 0, x0 = 0, psi = 0, offset = 0, rms = 0;
+};
+/// 4-parameter sine fit x(t) ≈ x0 sin(ω t + ψ) + c. `omega_guess` NaN: from crossings.
+/// Throws InputError (with `context`) when ω cannot be estimated.
+SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
+                 const std::string& context);
+
+/// The whole analysis of one record.
+RecordResult analyse_record(const Waveform& w, const AnalysisOptions& options);
+
+}  // namespace shearzone::laos

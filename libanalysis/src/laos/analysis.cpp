@@ -1,0 +1,499 @@
+// LAOS analysis of one record: amplitudes, phase, cycles, steady state, measures.
+#include "shearzone/laos/analysis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <utility>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+#include "shearzone/core/check.hpp"
+#include "shearzone/core/error.hpp"
+
+namespace shearzone::laos {
+
+namespace {
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2.0 * kPi;
+/// Slack on cycle boundaries in θ (rad): a record starting 1e-9 rad after an upward
+/// crossing (round-off of the phase) still has that cycle complete; the quadrature
+/// then misses at most this much of 2π.
+constexpr double kThetaSlack = 1e-9;
+/// Schmitt-trigger hysteresis for raw crossings, fraction of the record's half range.
+constexpr double kHysteresis = 0.02;
+
+std::string lines_text(const Waveform& w, std::size_t i0, std::size_t i1) {
+  if (w.line.size() == w.drive.size() && !w.line.empty())
+    return fmt::format("lines {}-{}", w.line[i0], w.line[i1]);
+  return fmt::format("samples {}-{}", i0 + 1, i1 + 1);
+}
+
+/// Upward crossings of x through `level` with hysteresis h: index of the first sample
+/// at or above the level.
+std::vector<std::size_t> upward_crossings(const std::vector<double>& x, double level, double h) {
+  std::vector<std::size_t> out;
+  bool high = !x.empty() && x[0] >= level;
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::size_t cand = kNone;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (high) {
+      if (x[i] < level - h) high = false, cand = kNone;
+      continue;
+    }
+    if (x[i] < level) {
+      cand = kNone;
+    } else if (cand == kNone) {
+      cand = i;
+    }
+    if (x[i] > level + h && cand != kNone) {
+      if (cand > 0) out.push_back(cand);
+      high = true;
+      cand = kNone;
+    }
+  }
+  return out;
+}
+
+/// Residual sum of squares and coefficients of the linear sine fit at fixed ω.
+struct LinSine {
+  double A = 0, B = 0, C = 0, rss = 0;
+};
+LinSine linear_sine(const std::vector<double>& tau, const std::vector<double>& x, double omega) {
+  Eigen::Matrix3d N = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < tau.size(); ++i) {
+    const Eigen::Vector3d r(std::sin(omega * tau[i]), std::cos(omega * tau[i]), 1.0);
+    N += r * r.transpose();
+    b += r * x[i];
+  }
+  const Eigen::Vector3d c = N.ldlt().solve(b);
+  LinSine s{c[0], c[1], c[2], 0.0};
+  for (std::size_t i = 0; i < tau.size(); ++i) {
+    const double e = x[i] - (c[0] * std::sin(omega * tau[i]) + c[1] * std::cos(omega * tau[i]) + c[2]);
+    s.rss += e * e;
+  }
+  return s;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// Value of y at θ = a by linear interpolation on the (non-decreasing) θ samples.
+double interp_at(const std::vector<double>& theta, const std::vector<double>& y, double a) {
+  auto it = std::lower_bound(theta.begin(), theta.end(), a);
+  if (it == theta.begin()) return y.front();
+  if (it == theta.end()) return y.back();
+  const auto j = static_cast<std::size_t>(it - theta.begin());
+  const double t0 = theta[j - 1], t1 = theta[j];
+  if (!(t1 > t0)) return y[j];
+  const double s = (a - t0) / (t1 - t0);
+  return y[j - 1] * (1 - s) + y[j] * s;
+}
+
+}  // namespace
+
+void AnalysisOptions::validate() const {
+  if (max_harmonic < 1 || max_harmonic > 200)
+    throw ConfigError(fmt::format("laos: harmonics M = {}; expected 1..200", max_harmonic));
+  if (!(amplitude_change > 0) || amplitude_change >= 1)
+    throw ConfigError(fmt::format("laos: amplitude change {}; expected in (0, 1)", amplitude_change));
+  if (!(steady_tolerance > 0))
+    throw ConfigError(fmt::format("laos: steady tolerance {}; expected > 0", steady_tolerance));
+  if (!std::isnan(omega_rad_per_s) && !(omega_rad_per_s > 0 && std::isfinite(omega_rad_per_s)))
+    throw ConfigError(fmt::format("laos: omega {} rad/s; expected > 0", omega_rad_per_s));
+  if (!std::isfinite(inertia) || inertia < 0)
+    throw ConfigError(fmt::format("laos: inertia {}; expected >= 0", inertia));
+  for (int c : cycles)
+    if (c < 1) throw ConfigError(fmt::format("laos: cycle {}; expected cycle numbers >= 1", c));
+}
+
+int harmonic_cap(const std::vector<double>& drive, double x0, bool timed, double samples_per_cycle) {
+  if (timed) return static_cast<int>(std::floor((samples_per_cycle - 1.0) / 2.0));
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < drive.size(); ++i) {
+    const double d = std::abs(drive[i] - drive[i - 1]);
+    if (d > 0) steps.push_back(d);
+  }
+  const double dx = median(steps);
+  if (!(dx > 0)) return 0;
+  // Largest phase gap near the turning points is √(2Δx/x0) (§A1.6); the sampling
+  // resolves harmonics up to π/gap. A small tolerance keeps exact ratios (π/0.2)
+  // from flooring one below.
+  return static_cast<int>(std::floor(kPi / std::sqrt(2.0 * dx / x0) * (1 + 1e-12)));
+}
+
+std::vector<double> phase_from_drive(const std::vector<double>& x, double c, double x0) {
+  const std::size_t n = x.size();
+  std::vector<double> th(n);
+  bool rising = true;
+  // Initial direction: first non-zero step.
+  for (std::size_t i = 1; i < n; ++i)
+    if (x[i] != x[i - 1]) {
+      rising = x[i] > x[i - 1];
+      break;
+    }
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = (i + 1 < n ? x[i + 1] : x[i]) - (i > 0 ? x[i - 1] : x[i]);
+    if (d > 0) rising = true;
+    if (d < 0) rising = false;
+    const double u = std::clamp((x[i] - c) / x0, -1.0, 1.0);
+    const double base = rising ? std::asin(u) : kPi - std::asin(u);
+    th[i] = i == 0 ? base : base + kTwoPi * std::round((th[i - 1] - base) / kTwoPi);
+  }
+  return th;
+}
+
+SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
+                 const std::string& context) {
+  const std::size_t n = t.size();
+  SHEARZONE_CHECK(n == x.size() && n >= 4);
+  const double tm = 0.5 * (t.front() + t.back());
+  std::vector<double> tau(n);
+  for (std::size_t i = 0; i < n; ++i) tau[i] = t[i] - tm;
+  const auto [mn, mx] = std::minmax_element(x.begin(), x.end());
+  const double level = 0.5 * (*mn + *mx), half = 0.5 * (*mx - *mn);
+  double w0 = omega_guess;
+  if (std::isnan(w0)) {
+    // Crossings of the mid level in both directions (Schmitt trigger): half periods.
+    const double h = kHysteresis * half;
+    std::vector<double> tc;
+    int state = 0;  // −1 below, +1 above, 0 not yet known
+    std::size_t last_side = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const int s_now = x[i] > level + h ? 1 : (x[i] < level - h ? -1 : 0);
+      if (s_now == 0) continue;
+      if (state != 0 && s_now != state) {
+        // The crossing lies between last_side and i: the last pair that brackets level.
+        std::size_t j = i;
+        while (j > last_side + 1 && (x[j - 1] - level) * s_now > 0) --j;
+        const double a0 = x[j - 1] - level, a1 = x[j] - level;
+        tc.push_back(a1 == a0 ? t[j] : t[j - 1] + (t[j] - t[j - 1]) * (-a0) / (a1 - a0));
+      }
+      state = s_now;
+      last_side = i;
+    }
+    if (tc.size() < 3)
+      throw InputError(fmt::format("{}: less than one drive cycle ({} crossings of the mid level); "
+                                   "expected at least one complete cycle",
+                                   context, tc.size()));
+    w0 = kPi * static_cast<double>(tc.size() - 1) / (tc.back() - tc.front());
+  }
+  const double span = t.back() - t.front();
+  const double ncyc = std::max(1.0, w0 * span / kTwoPi);
+  // Golden-section search of the RSS over the main lobe around the guess.
+  double lo = w0 * (1 - 0.5 / ncyc * 0.5), hi = w0 * (1 + 0.5 / ncyc * 0.5);
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
+  double fa = linear_sine(tau, x, a).rss, fb = linear_sine(tau, x, b).rss;
+  for (int it = 0; it < 60 && (hi - lo) > 1e-13 * w0; ++it) {
+    if (fa < fb) {
+      hi = b, b = a, fb = fa, a = hi - g * (hi - lo), fa = linear_sine(tau, x, a).rss;
+    } else {
+      lo = a, a = b, fa = fb, b = lo + g * (hi - lo), fb = linear_sine(tau, x, b).rss;
+    }
+  }
+  double w = 0.5 * (lo + hi);
+  LinSine s = linear_sine(tau, x, w);
+  // Gauss-Newton polishing of the 4 parameters (IEEE-1057 four-parameter fit).
+  for (int it = 0; it < 50; ++it) {
+    Eigen::Matrix4d N = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d r = Eigen::Vector4d::Zero();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double sn = std::sin(w * tau[i]), cs = std::cos(w * tau[i]);
+      const Eigen::Vector4d j(sn, cs, 1.0, tau[i] * (s.A * cs - s.B * sn));
+      const double e = x[i] - (s.A * sn + s.B * cs + s.C);
+      N += j * j.transpose();
+      r += j * e;
+    }
+    const Eigen::Vector4d d = N.ldlt().solve(r);
+    const double w_new = w + d[3];
+    if (!std::isfinite(w_new) || w_new <= 0) break;
+    const LinSine s_new = linear_sine(tau, x, w_new);
+    if (s_new.rss > s.rss * (1 + 1e-12) + 1e-300) break;
+    const bool done = std::abs(d[3]) <= 1e-15 * w;
+    w = w_new;
+    s = s_new;
+    if (done) break;
+  }
+  SineFit f;
+  f.omega = w;
+  f.x0 = std::hypot(s.A, s.B);
+  f.offset = s.C;
+  f.rms = std::sqrt(s.rss / static_cast<double>(n));
+  // x − C = x0 sin(ω τ + ψ_m) with ψ_m = atan2(B, A); refer ψ to t = 0 (θ = ωt + ψ).
+  f.psi = std::atan2(s.B, s.A) - w * tm;
+  return f;
+}
+
+namespace {
+
+/// Analyses samples [i0, i1] of the record. Returns nullopt (and the θ span) when
+/// there is no complete cycle.
+std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, std::size_t i1,
+                                             const AnalysisOptions& o, double& theta_span) {
+  AmplitudeResult A;
+  A.first_sample = i0;
+  A.last_sample = i1;
+  if (w.line.size() == w.drive.size() && !w.line.empty()) {
+    A.first_line = w.line[i0];
+    A.last_line = w.line[i1];
+  }
+  const std::string where = fmt::format("{}: {}", w.context, lines_text(w, i0, i1));
+  const auto first = static_cast<std::ptrdiff_t>(i0), last = static_cast<std::ptrdiff_t>(i1) + 1;
+  std::vector<double> x(w.drive.begin() + first, w.drive.begin() + last);
+  std::vector<double> r(w.response.begin() + first, w.response.begin() + last);
+  std::vector<double> t;
+  A.timed = !w.time_s.empty();
+  if (A.timed) t.assign(w.time_s.begin() + first, w.time_s.begin() + last);
+  const std::size_t n = x.size();
+  const auto [mn, mx] = std::minmax_element(x.begin(), x.end());
+  const double half = 0.5 * (*mx - *mn);
+  if (!(half > 1e-12 * std::max(std::abs(*mx), std::abs(*mn))) || !(half > 0))
+    throw InputError(fmt::format("{}: drive amplitude is zero (all drive values {}); expected an "
+                                 "oscillating drive",
+                                 where, *mx));
+  std::vector<double> theta;
+  if (A.timed) {
+    const SineFit sf = fit_sine(t, x, o.omega_rad_per_s, where);
+    A.phase_method = "sine_fit";
+    A.omega = sf.omega;
+    A.x0 = sf.x0;
+    A.x_offset = sf.offset;
+    A.psi = sf.psi;
+    theta.resize(n);
+    for (std::size_t i = 0; i < n; ++i) theta[i] = sf.omega * t[i] + sf.psi;
+  } else {
+    A.phase_method = "arcsin";
+    A.omega = o.omega_rad_per_s;
+    A.x0 = half;
+    A.x_offset = 0.5 * (*mx + *mn);
+    theta = phase_from_drive(x, A.x_offset, A.x0);
+  }
+  if (o.inertia > 0) {
+    if (std::isnan(A.omega))
+      throw ConfigError(fmt::format("{}: inertia subtraction needs ω; give --f-hz or a log with "
+                                    "time or omega",
+                                    where));
+    for (std::size_t i = 0; i < n; ++i)
+      r[i] += o.inertia * A.x0 * A.omega * A.omega * std::sin(theta[i]);
+  }
+  // Cycles [2πk, 2π(k+1)] fully inside the record.
+  const double th0 = theta.front(), th1 = theta.back();
+  theta_span = th1 - th0;
+  const auto kmin = static_cast<long>(std::ceil((th0 - kThetaSlack) / kTwoPi));
+  const auto kend = static_cast<long>(std::floor((th1 + kThetaSlack) / kTwoPi));  // exclusive
+  if (kend <= kmin) return std::nullopt;
+  const int ncyc = static_cast<int>(kend - kmin);
+  A.theta_origin = kTwoPi * static_cast<double>(kmin);
+  A.partial_cycles = (th0 < kTwoPi * kmin - kThetaSlack ? 1 : 0) +
+                     (th1 > kTwoPi * kend + kThetaSlack ? 1 : 0);
+  auto bounds = [&](long k) {
+    return std::pair{std::max(kTwoPi * k, th0), std::min(kTwoPi * (k + 1), th1)};
+  };
+  // Sampling cap on M.
+  double spc = 1e300;
+  std::vector<std::vector<double>> cyc_w(static_cast<std::size_t>(ncyc));
+  for (int c = 0; c < ncyc; ++c) {
+    auto& wc = cyc_w[static_cast<std::size_t>(c)];
+    wc.assign(n, 0.0);
+    const auto [a, b] = bounds(kmin + c);
+    add_trapezoid_weights(theta, a, b, wc);
+    // Samples per cycle: those with θ in [a, b) (a closing sample at b is the next
+    // cycle's first).
+    spc = std::min(spc, static_cast<double>(std::count_if(theta.begin(), theta.end(), [&](double v) {
+                     return v >= a - kThetaSlack && v < b - kThetaSlack;
+                   })));
+  }
+  A.M_requested = o.max_harmonic;
+  A.M_cap = harmonic_cap(x, A.x0, A.timed, spc);
+  A.M = std::min(A.M_requested, A.M_cap);
+  if (A.M < 1)
+    throw InputError(fmt::format("{}: sampling too coarse for a harmonic fit (cap M = {}); "
+                                 "expected at least 4 samples per cycle",
+                                 where, A.M_cap));
+  HarmonicFitOptions fo;
+  fo.max_harmonic = A.M;
+  fo.drift = o.drift;
+  // Per-cycle metrics.
+  for (int c = 0; c < ncyc; ++c) {
+    const auto& wc = cyc_w[static_cast<std::size_t>(c)];
+    CycleResult cr;
+    cr.cycle = c + 1;
+    const auto [a, b] = bounds(kmin + c);
+    if (A.timed) cr.t_start_s = (kTwoPi * (kmin + c) - A.psi) / A.omega;
+    double lo = 1e300, hi = -1e300, rmax = 0;
+    std::vector<double> lx{interp_at(theta, x, a)}, lr{interp_at(theta, r, a)};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!(wc[i] > 0)) continue;
+      lo = std::min(lo, x[i]);
+      hi = std::max(hi, x[i]);
+      rmax = std::max(rmax, std::abs(r[i]));
+      if (theta[i] > a && theta[i] < b) {
+        lx.push_back(x[i]);
+        lr.push_back(r[i]);
+      }
+    }
+    lx.push_back(interp_at(theta, x, b));
+    lr.push_back(interp_at(theta, r, b));
+    cr.x0 = 0.5 * (hi - lo);
+    cr.r_max = rmax;
+    cr.E_d = loop_area(lx, lr);
+    HarmonicFitOptions fc = fo;
+    // One cycle may hold fewer samples than the block fit's parameters need.
+    const auto m = static_cast<int>(std::count_if(wc.begin(), wc.end(), [](double v) { return v > 0; }));
+    fc.max_harmonic = std::max(1, std::min(fo.max_harmonic, (m - 4) / 2));
+    const HarmonicFit hf = fit_harmonics(theta, r, wc, A.x0, fc);
+    cr.K1p = hf.Kp[1];
+    cr.K1pp = hf.Kpp[1];
+    A.cycles.push_back(cr);
+  }
+  // Steady state: the tail of cycles whose successive changes are all below tolerance.
+  int first_steady = -1;  // 0-based
+  if (ncyc >= 2) {
+    first_steady = ncyc - 1;
+    bool any_small = false;
+    for (int c = ncyc - 1; c >= 1; --c) {
+      const auto& p = A.cycles[static_cast<std::size_t>(c - 1)];
+      const auto& q = A.cycles[static_cast<std::size_t>(c)];
+      const double scale = std::hypot(q.K1p, q.K1pp);
+      const double d = std::max(std::abs(q.K1p - p.K1p), std::abs(q.K1pp - p.K1pp)) / scale;
+      if (!(d < o.steady_tolerance)) break;
+      any_small = true;
+      first_steady = c - 1;
+    }
+    if (!any_small) first_steady = -1;
+  }
+  for (int c = 0; c < ncyc; ++c)
+    A.cycles[static_cast<std::size_t>(c)].steady = first_steady >= 0 && c >= first_steady;
+  A.first_steady_cycle = first_steady + 1;
+  if (!o.cycles.empty()) {
+    for (int c : o.cycles) {
+      if (c > ncyc)
+        throw ConfigError(fmt::format("{}: --cycles {}: this amplitude has {} complete cycle{}",
+                                      where, c, ncyc, ncyc == 1 ? "" : "s"));
+      A.cycles[static_cast<std::size_t>(c - 1)].used = true;
+    }
+    A.status = "cycles_selected";
+  } else if (o.all_cycles) {
+    for (auto& c : A.cycles) c.used = true;
+    A.status = ncyc == 1 ? "single_cycle" : "all_cycles";
+  } else if (ncyc == 1) {
+    A.cycles[0].used = true;
+    A.status = "single_cycle";
+  } else if (first_steady < 0) {
+    A.cycles.back().used = true;
+    A.status = "not_steady";
+  } else {
+    for (auto& c : A.cycles) c.used = c.steady;
+    A.status = "ok";
+  }
+  // Block fit over the used cycles.
+  std::vector<double> wsum(n, 0.0);
+  double Esum = 0, rsum = 0;
+  int nused = 0;
+  for (int c = 0; c < ncyc; ++c) {
+    const auto& cr = A.cycles[static_cast<std::size_t>(c)];
+    if (!cr.used) continue;
+    const auto& wc = cyc_w[static_cast<std::size_t>(c)];
+    for (std::size_t i = 0; i < n; ++i) wsum[i] += wc[i];
+    Esum += cr.E_d;
+    rsum += cr.r_max;
+    ++nused;
+  }
+  A.fit = fit_harmonics(theta, r, wsum, A.x0, fo);
+  A.measures = derive_measures(A.fit, A.omega);
+  A.E_d = Esum / nused;
+  A.r_max = rsum / nused;
+  A.E_d_ratio = A.E_d / (kPi * A.x0 * A.x0 * A.measures.K1pp);
+  A.phi_d = A.E_d / (4.0 * A.x0 * A.r_max);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(wsum[i] > 0)) continue;
+    const long k = std::clamp(static_cast<long>(std::floor(theta[i] / kTwoPi)), kmin, kend - 1);
+    A.sample_cycle.push_back(static_cast<int>(k - kmin + 1));
+    A.theta.push_back(theta[i]);
+    if (A.timed) A.time_s.push_back(t[i]);
+    A.drive.push_back(x[i]);
+    A.response.push_back(r[i]);
+  }
+  return A;
+}
+
+}  // namespace
+
+RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o) {
+  o.validate();
+  const std::size_t n = w.drive.size();
+  SHEARZONE_CHECK(w.response.size() == n);
+  SHEARZONE_CHECK(w.time_s.empty() || w.time_s.size() == n);
+  if (n < 4)
+    throw InputError(fmt::format("{}: {} samples; expected at least one complete drive cycle",
+                                 w.context, n));
+  const auto [mn, mx] = std::minmax_element(w.drive.begin(), w.drive.end());
+  const double level = 0.5 * (*mn + *mx), half = 0.5 * (*mx - *mn);
+  if (!(half > 1e-12 * std::max(std::abs(*mx), std::abs(*mn))) || !(half > 0))
+    throw InputError(fmt::format("{}: {}: drive amplitude is zero (all drive values {}); expected "
+                                 "an oscillating drive",
+                                 w.context, lines_text(w, 0, n - 1), *mx));
+  // Amplitude blocks from raw cycles.
+  std::vector<std::size_t> up;
+  if (o.split_amplitudes) up = upward_crossings(w.drive, level, kHysteresis * half);
+  std::vector<std::pair<std::size_t, std::size_t>> blocks;
+  std::vector<int> raw_cycles;
+  {
+    std::size_t start = 0;
+    int count = 0;
+    double prev_amp = -1;
+    for (std::size_t j = 0; j + 1 < up.size(); ++j) {
+      const auto b = w.drive.begin();
+      const auto [lo, hi] = std::minmax_element(b + static_cast<std::ptrdiff_t>(up[j]),
+                                                b + static_cast<std::ptrdiff_t>(up[j + 1]));
+      const double amp = 0.5 * (*hi - *lo);
+      if (prev_amp > 0 && std::abs(amp - prev_amp) > o.amplitude_change * prev_amp) {
+        // The new amplitude starts at the first sample at or above the mid level.
+        blocks.emplace_back(start, up[j] - 1);
+        raw_cycles.push_back(count);
+        start = up[j];
+        count = 0;
+      }
+      ++count;
+      prev_amp = amp;
+    }
+    blocks.emplace_back(start, n - 1);
+    raw_cycles.push_back(count);
+  }
+  RecordResult out;
+  double last_span = 0;
+  for (std::size_t bi = 0; bi < blocks.size(); ++bi) {
+    if (blocks.size() > 1 && raw_cycles[bi] < 2) {  // a ramp between two amplitudes
+      ++out.skipped_blocks;
+      continue;
+    }
+    double span = 0;
+    auto A = analyse_block(w, blocks[bi].first, blocks[bi].second, o, span);
+    if (!A) {
+      if (blocks.size() == 1)
+        throw InputError(fmt::format("{}: {}: less than one complete drive cycle (phase spans {:.4g} "
+                                     "rad); expected at least 2π between two upward zero crossings",
+                                     w.context, lines_text(w, blocks[bi].first, blocks[bi].second),
+                                     span));
+      ++out.skipped_blocks;
+      last_span = span;
+      continue;
+    }
+    out.amplitudes.push_back(std::move(*A));
+  }
+  if (out.amplitudes.empty())
+    throw InputError(fmt::format("{}: {}: no amplitude with a complete drive cycle (last phase span "
+                                 "{:.4g} rad); expected at least one complete cycle",
+                                 w.context, lines_text(w, 0, n - 1), last_span));
+  return out;
+}
+
+}  // namespace shearzone::laos

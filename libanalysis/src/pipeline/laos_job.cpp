@@ -1,0 +1,283 @@
+// `shearzone laos`: logs -> laos stage -> summary, cycles, harmonics, Lissajous CSVs.
+#include "shearzone/pipeline/laos_job.hpp"
+
+#include <cmath>
+#include <memory>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+
+namespace shearzone::pipeline {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Column-name vocabulary of one unit system.
+struct Names {
+  std::string x0, r_max, K, K_s, E, x, xn, xdotn, r;
+};
+Names names(bool ss) {
+  if (ss) return {"gamma0", "sigma_max_Pa", "Pa", "Pa_s", "E_d_J_per_m3", "gamma", "gamma_over_gamma0",
+                  "gammadot_over_gammadot_max", "sigma_Pa"};
+  return {"phi0_rad", "tau_max_N_m", "N_m_per_rad", "N_m_s_per_rad", "E_d_J", "phi_rad",
+          "phi_over_phi0", "phidot_over_phidot_max", "tau_N_m"};
+}
+
+std::string num(double v) {
+  return std::isfinite(v) ? io::CsvWriter::format_number(v) : (std::isnan(v) ? "" : (v > 0 ? "inf" : "-inf"));
+}
+
+std::string join_ints(const std::vector<int>& v) {
+  std::string s;
+  for (int x : v) s += (s.empty() ? "" : ",") + std::to_string(x);
+  return s.empty() ? "steady" : s;
+}
+
+/// x rounded to 3 significant digits: a grouping key for `fit power --group`.
+double nominal(double x) {
+  if (!(x > 0) || !std::isfinite(x)) return x;
+  const int k = 2 - static_cast<int>(std::floor(std::log10(x)));
+  const double p = std::pow(10.0, std::abs(k));  // exact for |k| <= 22
+  return k >= 0 ? std::round(x * p) / p : std::round(x / p) * p;
+}
+
+struct Item {
+  std::string source, segment, N;
+  laos::AmplitudeResult A;
+};
+
+}  // namespace
+
+void LaosJobOptions::validate() const {
+  if (inputs.empty()) throw ConfigError("laos: no input log given");
+  if (output.empty()) throw ConfigError("laos: no output folder given (-o)");
+  analysis.validate();
+  if (!std::isnan(f_Hz) && !(f_Hz > 0 && std::isfinite(f_Hz)))
+    throw ConfigError(fmt::format("laos: --f-hz {}; expected a frequency > 0", f_Hz));
+  if (!std::isfinite(inertia_kg_m2) || inertia_kg_m2 < 0)
+    throw ConfigError(fmt::format("laos: --inertia-kg-m2 {}; expected >= 0", inertia_kg_m2));
+  const bool s = !std::isnan(stress_constant_Pa_per_N_m), g = !std::isnan(strain_constant_per_rad);
+  if (s != g)
+    throw ConfigError("laos: --stress-constant and --strain-constant go together; expected both");
+  if (s && !(stress_constant_Pa_per_N_m > 0 && strain_constant_per_rad > 0))
+    throw ConfigError(fmt::format("laos: vane constants {} Pa/(N m), {} 1/rad; expected both > 0",
+                                  stress_constant_Pa_per_N_m, strain_constant_per_rad));
+  if (s && log_constants)
+    throw ConfigError("laos: --stress-constant/--strain-constant and --log-constants exclude each other");
+  for (const auto& [k, v] : tags)
+    if (k.empty()) throw ConfigError(fmt::format("laos: --tag \"={}\": expected KEY=VALUE", v));
+}
+
+LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& header) {
+  o.validate();
+  const bool convert = !std::isnan(o.stress_constant_Pa_per_N_m) || o.log_constants;
+  const bool native_ss = o.read.quantity == io::LogQuantity::kStrainStress;
+  if (convert && native_ss)
+    throw ConfigError("laos: vane constants convert angle/torque logs; this log is already strain/stress");
+  if (native_ss && o.inertia_kg_m2 > 0)
+    throw ConfigError("laos: --inertia-kg-m2 needs an angle/torque log (or vane constants)");
+  const bool ss = convert || native_ss;
+  const Names nm = names(ss);
+  std::string tag_N;
+  std::vector<std::pair<std::string, std::string>> extra_tags;
+  for (const auto& kv : o.tags) {
+    if (kv.first == "N")
+      tag_N = kv.second;
+    else
+      extra_tags.push_back(kv);
+  }
+
+  LaosJobSummary sum;
+  sum.stress_strain = ss;
+  std::vector<Item> items;
+  for (const auto& path : o.inputs) {
+    const io::OscillationLog log = io::read_oscillation_log(path, o.read);
+    ++sum.logs;
+    laos::AnalysisOptions ao = o.analysis;
+    ao.omega_rad_per_s = !std::isnan(o.f_Hz) ? 2 * std::numbers::pi * o.f_Hz : log.omega_rad_per_s;
+    double Cs = 1, Cg = 1;
+    if (convert) {
+      Cs = o.log_constants ? log.stress_constant_Pa_per_N_m : o.stress_constant_Pa_per_N_m;
+      Cg = o.log_constants ? log.strain_constant_per_rad : o.strain_constant_per_rad;
+      if (!(Cs > 0) || !(Cg > 0))
+        throw InputError(fmt::format("{}: --log-constants: the log gives no usable stress and strain "
+                                     "constants (found {} Pa/(N m), {} 1/rad); expected both > 0",
+                                     log.source, Cs, Cg));
+    }
+    ao.inertia = o.inertia_kg_m2 * Cs / Cg;
+    const std::string N = !tag_N.empty() ? tag_N : core::metadata_value(log.parameters, "N");
+    if (log.segments.empty())
+      throw InputError(fmt::format("{}: no data rows; expected an oscillation log", log.source));
+    for (const auto& seg : log.segments) {
+      laos::Waveform w;
+      w.time_s = seg.time_s;
+      w.drive = seg.drive;
+      w.response = seg.response;
+      w.line = seg.line;
+      if (convert) {
+        for (auto& v : w.drive) v *= Cg;
+        for (auto& v : w.response) v *= Cs;
+      }
+      w.context = log.segments.size() > 1 ? fmt::format("{}: segment \"{}\"", log.source, seg.label)
+                                          : log.source;
+      auto rec = laos::analyse_record(w, ao);
+      sum.skipped_blocks += static_cast<std::size_t>(rec.skipped_blocks);
+      for (auto& A : rec.amplitudes) items.push_back({log.source, seg.label, N, std::move(A)});
+    }
+  }
+
+  // Header: conventions, options, model.
+  core::Metadata meta = header;
+  auto add = [&](const std::string& k, const std::string& v) { meta.emplace_back(k, v); };
+  std::string ins;
+  for (const auto& p : o.inputs) ins += (ins.empty() ? "" : " ") + p.string();
+  add("inputs", ins);
+  add("format", io::log_format_name(o.read.format));
+  add("quantity", ss ? (native_ss ? "strain_stress" : "strain_stress_from_vane_constants") : "angle_torque");
+  add("harmonics_requested_M", std::to_string(o.analysis.max_harmonic));
+  add("harmonic_cap", "M = min(requested, cap); cap = floor(pi/sqrt(2 dphi/phi0)) angle-sampled, "
+                      "floor((samples per cycle - 1)/2) timed; M used per amplitude in column M");
+  add("drift_column", o.analysis.drift ? "true" : "false");
+  add("split_amplitudes", o.analysis.split_amplitudes ? "true" : "false");
+  add("amplitude_change", num(o.analysis.amplitude_change));
+  add("steady_tolerance", num(o.analysis.steady_tolerance));
+  add("cycles", o.analysis.all_cycles ? "all" : join_ints(o.analysis.cycles));
+  add("f_Hz", num(o.f_Hz));
+  add("inertia_kg_m2", num(o.inertia_kg_m2));
+  add("stress_constant_Pa_per_N_m", num(o.stress_constant_Pa_per_N_m));
+  add("strain_constant_per_rad", num(o.strain_constant_per_rad));
+  add("log_constants", o.log_constants ? "true" : "false");
+  for (const auto& [k, v] : o.tags) add("tag_" + k, v);
+  add("laos_model", "response = x0 sum_{n=1..M} [K'_n sin(n theta) + K''_n cos(n theta)] + offset + "
+                    "drift; drive x = x0 sin(theta) + c; quadrature-weighted least squares in theta");
+  add("laos_phase", "theta = omega t + psi from a 4-parameter sine fit of the drive (timed logs), "
+                    "else arcsin(x/x0) / pi - arcsin by the sign of dx; Phi_n = delta_n - n delta_1 "
+                    "mod 2 pi, delta_n = atan2(K''_n, K'_n)");
+  add("laos_sign", "phi > 0 counter-clockwise as the camera sees it; tau > 0 when the motor drives "
+                   "towards +phi; an elastic sample has K' > 0");
+  add("laos_chebyshev", "e_n = K'_n (-1)^((n-1)/2), v_n = K''_n/omega, K_M = sum n K'_n, K_L = sum e_n, "
+                        "eta_M = sum n v_n (-1)^((n-1)/2), eta_L = sum v_n (odd n <= M); S = (K_L - "
+                        "K_M)/K_L, T = (eta_L - eta_M)/eta_L");
+
+  // summary.csv
+  std::vector<std::string> cols = {"source", "segment", "amplitude", "N"};
+  for (const auto& kv : extra_tags) cols.push_back(kv.first);
+  const std::string K = nm.K, Ks = nm.K_s;
+  const std::string Kp = ss ? "G1_prime_" + K : "K1_prime_" + K;
+  const std::string Kpp = ss ? "G1_dprime_" + K : "K1_dprime_" + K;
+  const std::string Kpse = ss ? "G1_prime_se_" + K : "K1_prime_se_" + K;
+  const std::string Kppse = ss ? "G1_dprime_se_" + K : "K1_dprime_se_" + K;
+  const std::string pre = ss ? "G" : "K";
+  for (const std::string& c :
+       {std::string("first_line"), std::string("last_line"), nm.x0, ss ? std::string("gamma0_nominal") : std::string("phi0_nominal_rad"),
+        std::string("omega_rad_per_s"),
+        nm.r_max, Kp, Kpse, Kpp, Kppse, std::string("tan_delta_1"), std::string("I2_over_I1"),
+        std::string("I3_over_I1"), std::string("Phi3_rad"), "e1_" + K, std::string("e3_over_e1"),
+        "v1_" + Ks, std::string("v3_over_v1"), pre + "_M_prime_" + K, pre + "_L_prime_" + K,
+        "eta_M_" + Ks, "eta_L_" + Ks, std::string("S"), std::string("T"), nm.E,
+        std::string("E_d_ratio"), std::string("phi_d"), std::string("n_cycles"),
+        std::string("n_cycles_complete"), std::string("n_partial_cycles"),
+        std::string("first_steady_cycle"), std::string("M"), std::string("M_cap"),
+        std::string("phase_method"), std::string("drive_offset"), std::string("status")})
+    cols.push_back(c);
+
+  io::AtomicOutputSet set(o.output, o.force);
+  {
+    auto& f = set.add("summary.csv");
+    io::CsvWriter w(f.stream(), meta, cols);
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      const auto& it = items[i];
+      const auto& A = it.A;
+      const auto& m = A.measures;
+      int used = 0;
+      for (const auto& c : A.cycles) used += c.used ? 1 : 0;
+      std::vector<std::string> row = {it.source, it.segment, std::to_string(i + 1), it.N};
+      for (const auto& kv : extra_tags) row.push_back(kv.second);
+      const std::vector<double> vals = {
+          static_cast<double>(A.first_line), static_cast<double>(A.last_line), A.x0,
+          nominal(A.x0), A.omega,
+          A.r_max, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
+          A.M >= 3 ? m.Phi[3] : laos::kNaN, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
+          m.K_L, m.eta_M, m.eta_L, m.S, m.T, A.E_d, A.E_d_ratio, A.phi_d,
+          static_cast<double>(used), static_cast<double>(A.cycles.size()),
+          static_cast<double>(A.partial_cycles), static_cast<double>(A.first_steady_cycle),
+          static_cast<double>(A.M), static_cast<double>(A.M_cap)};
+      for (double v : vals) row.push_back(num(v));
+      if (A.first_line == 0) row[row.size() - vals.size()] = row[row.size() - vals.size() + 1] = "";
+      if (A.first_steady_cycle == 0) row[row.size() - 4] = "";
+      row.push_back(A.phase_method);
+      row.push_back(num(A.x_offset));
+      row.push_back(A.status);
+      w.row(row);
+      sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
+                          m.tan_delta, m.I3_over_I1, A.phi_d, A.M, used,
+                          static_cast<int>(A.cycles.size())});
+    }
+  }
+  {
+    auto& f = set.add("cycles.csv");
+    io::CsvWriter w(f.stream(), meta,
+                    {"source", "segment", "amplitude", "cycle", "t_start_s", nm.x0, nm.r_max,
+                     (ss ? "G1_prime_" : "K1_prime_") + K, (ss ? "G1_dprime_" : "K1_dprime_") + K,
+                     nm.E, "steady", "used"});
+    for (std::size_t i = 0; i < items.size(); ++i)
+      for (const auto& c : items[i].A.cycles)
+        w.row(std::vector<std::string>{items[i].source, items[i].segment, std::to_string(i + 1),
+                                       std::to_string(c.cycle), num(c.t_start_s), num(c.x0),
+                                       num(c.r_max), num(c.K1p), num(c.K1pp), num(c.E_d),
+                                       c.steady ? "1" : "0", c.used ? "1" : "0"});
+  }
+  {
+    auto& f = set.add("harmonics.csv");
+    const std::string a = ss ? "G" : "K";
+    io::CsvWriter w(f.stream(), meta,
+                    {"source", "segment", "amplitude", "n", a + "_prime_n_" + K, a + "_prime_n_se_" + K,
+                     a + "_dprime_n_" + K, a + "_dprime_n_se_" + K, "I_n_over_I1", "Phi_n_rad", "M"});
+    for (std::size_t i = 0; i < items.size(); ++i) {
+      const auto& A = items[i].A;
+      for (int n = 1; n <= A.M; ++n)
+        w.row(std::vector<std::string>{items[i].source, items[i].segment, std::to_string(i + 1),
+                                       std::to_string(n), num(A.fit.Kp[n]), num(A.fit.Kp_se[n]),
+                                       num(A.fit.Kpp[n]), num(A.fit.Kpp_se[n]),
+                                       num(A.measures.I_over_I1[n]), num(A.measures.Phi[n]),
+                                       std::to_string(A.M)});
+    }
+  }
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const auto& A = items[i].A;
+    core::Metadata lm = meta;
+    lm.emplace_back("source", items[i].source);
+    lm.emplace_back("segment", items[i].segment);
+    lm.emplace_back("amplitude", std::to_string(i + 1));
+    lm.emplace_back("M", std::to_string(A.M));
+    lm.emplace_back("decomposition", "elastic = x0 sum_odd K'_n sin(n theta), viscous = x0 sum_odd "
+                                     "K''_n cos(n theta) (odd harmonics of the fit; offset and "
+                                     "drift in the fit column only)");
+    auto& f = set.add(fmt::format("lissajous_{:02d}.csv", i + 1));
+    const std::string rr = nm.r.substr(0, nm.r.find('_'));
+    const std::string ru = nm.r.substr(nm.r.find('_'));
+    io::CsvWriter w(f.stream(), lm,
+                    {"cycle", "theta_rad", "t_s", nm.x, nm.xn, nm.xdotn, nm.r, rr + "_fit" + ru,
+                     rr + "_elastic" + ru, rr + "_viscous" + ru});
+    // θ is written from the start of cycle 1: cycle c spans [2π(c − 1), 2πc].
+    const double th0 = A.theta_origin;
+    for (std::size_t k = 0; k < A.theta.size(); ++k) {
+      const double th = A.theta[k];
+      w.row(std::vector<std::string>{
+          std::to_string(A.sample_cycle[k]), num(th - th0), A.timed ? num(A.time_s[k]) : "",
+          num(A.drive[k]), num((A.drive[k] - A.x_offset) / A.x0), num(std::cos(th)),
+          num(A.response[k]), num(A.fit.evaluate(th)), num(A.fit.odd_sin_part(th)),
+          num(A.fit.odd_cos_part(th))});
+    }
+  }
+  sum.files = set.final_paths();
+  set.commit_all();
+  return sum;
+}
+
+}  // namespace shearzone::pipeline

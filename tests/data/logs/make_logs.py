@@ -1,0 +1,182 @@
+#!/usr/bin/python3
+"""Writes the synthetic rheometer log samples of tests/data/logs (deterministic).
+
+All files hold the same waveforms (see README.md): two intervals with deflection
+amplitudes PHI0 = 0.05 and 0.2 rad at F = 0.1 Hz, 3 cycles of 25 points each
+(dt = 0.4 s), phi(t) = PHI0 sin(w t), torque = K phi + C dphi/dt. Interval 2 starts at
+t = 40 s (4 periods later, so the same phase). Values are written with 6 significant
+digits in each file's own units.
+
+Run from anywhere: /usr/bin/python3 tests/data/logs/make_logs.py
+"""
+import math
+import os
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+F_HZ = 0.1
+W = 2 * math.pi * F_HZ
+K_N_M_PER_RAD = 4e-3
+C_N_M_S_PER_RAD = 2e-3
+AMPLITUDES_RAD = [0.05, 0.2]
+STARTS_S = [0.0, 40.0]
+POINTS = 75
+DT_S = 0.4
+STRAIN_CONSTANT_PER_RAD = 1.5
+STRESS_CONSTANT_PA_PER_N_M = 12000.0
+
+
+def samples():
+    """[(interval, t_s, phi_rad, torque_N_m)] for both intervals."""
+    out = []
+    for k, (phi0, t0) in enumerate(zip(AMPLITUDES_RAD, STARTS_S)):
+        for i in range(POINTS):
+            t = t0 + DT_S * i
+            phase = W * DT_S * i  # t0 is a whole number of periods
+            phi = phi0 * math.sin(phase)
+            dphi = phi0 * W * math.cos(phase)
+            out.append((k + 1, t, phi, K_N_M_PER_RAD * phi + C_N_M_S_PER_RAD * dphi))
+    return out
+
+
+def g6(x, comma=False):
+    s = "%.6g" % x
+    if s in ("-0", "0"):
+        s = "0"
+    return s.replace(".", ",") if comma else s
+
+
+def t1(x, comma=False):
+    s = "%.1f" % x
+    return s.replace(".", ",") if comma else s
+
+
+def write(name, text, encoding="utf-8", newline="\n"):
+    data = text.replace("\n", newline).encode(encoding)
+    with open(os.path.join(HERE, name), "wb") as f:
+        f.write(data)
+
+
+def generic_csv():
+    lines = ["# source: synthetic sample written by tests/data/logs/make_logs.py",
+             "# N: 45",
+             "# omega_rad_per_s: %r" % W,
+             "interval,time_s,angle_rad,torque_N_m"]
+    for k, t, phi, tau in samples():
+        lines.append("%d,%s,%s,%s" % (k, t1(t), g6(phi), g6(tau)))
+    write("generic.csv", "\n".join(lines) + "\n")
+
+
+def generic_tsv():
+    lines = ["Interval\tTime [ms]\tAngle [mrad]\tTorque [mN\u00b7m]"]
+    for k, t, phi, tau in samples():
+        lines.append("%d\t%d\t%s\t%s" % (k, round(t * 1000), g6(phi * 1e3, True),
+                                         g6(tau * 1e3, True)))
+    write("generic_mrad_mNm.tsv", "\n".join(lines) + "\n")
+
+
+def angle_sampled():
+    lines = ["# no time column: a logger triggered every delta-phi",
+             "segment,angle_deg,torque_uN_m"]
+    for k, t, phi, tau in samples():
+        lines.append("%d,%s,%s" % (k, g6(math.degrees(phi)), g6(tau * 1e6)))
+    write("angle_sampled.csv", "\n".join(lines) + "\n")
+
+
+def strain_stress():
+    lines = ["# strain = %g/rad * angle, stress = %g Pa/(N m) * torque"
+             % (STRAIN_CONSTANT_PER_RAD, STRESS_CONSTANT_PA_PER_N_M),
+             "interval,time_s,strain_pct,stress_Pa"]
+    for k, t, phi, tau in samples():
+        lines.append("%d,%s,%s,%s" % (k, t1(t), g6(100 * STRAIN_CONSTANT_PER_RAD * phi),
+                                      g6(STRESS_CONSTANT_PA_PER_N_M * tau)))
+    write("generic_strain_stress.csv", "\n".join(lines) + "\n")
+
+
+def anton_paar_en():
+    # Names on the "Interval data:" line, a second name row, a units row; UTF-16 LE.
+    lines = ["Project:\tshearzone samples", "Test:\tLAOS raw data (synthetic)",
+             "Result:\tsample 1", ""]
+    for k in (1, 2):
+        rows = [s for s in samples() if s[0] == k]
+        lines += ["Interval and data points:\t%d\t%d" % (k, len(rows)),
+                  "Interval data:\tPoint No.\tTime\tDeflection\tTorque\tStatus",
+                  "\t\t\tAngle\t\t",
+                  "\t\t[s]\t[mrad]\t[\u00b5Nm]\t"]
+        for i, (_, t, phi, tau) in enumerate(rows):
+            lines.append("\t%d\t%s\t%s\t%s\tDy_auto" % (i + 1, t1(t, True), g6(phi * 1e3, True),
+                                                     g6(tau * 1e6, True)))
+        lines.append("")
+    write("anton_paar_en_utf16.txt", "\ufeff" + "\n".join(lines) + "\n", "utf-16-le", "\r\n")
+
+
+def anton_paar_de():
+    # Names on the line after "Intervalldaten:", interval time restarting at 0, degrees.
+    lines = ["Projekt:\tshearzone Beispiele", "Test:\tLAOS Rohdaten (synthetisch)",
+             "Ergebnis:\tProbe 1", ""]
+    for k in (1, 2):
+        rows = [s for s in samples() if s[0] == k]
+        lines += ["Intervalle und Messpunkte:\t%d\t%d" % (k, len(rows)),
+                  "Intervalldaten:",
+                  "\tMesspunkt\tIntervallzeit\tAuslenkwinkel\tDrehmoment",
+                  "\t\t[s]\t[\u00b0]\t[mN\u00b7m]"]
+        t0 = rows[0][1]
+        for i, (_, t, phi, tau) in enumerate(rows):
+            lines.append("\t%d\t%s\t%s\t%s" % (i + 1, t1(t - t0, True),
+                                              g6(math.degrees(phi), True), g6(tau * 1e3, True)))
+        lines.append("")
+    write("anton_paar_de_utf8.txt", "\n".join(lines) + "\n", "utf-8", "\r\n")
+
+
+def anton_paar_fr():
+    lines = ["Projet:\tshearzone exemples", "Essai:\tLAOS donn\u00e9es brutes (synth\u00e9tiques)",
+             ""]
+    for k in (1, 2):
+        rows = [s for s in samples() if s[0] == k]
+        lines += ["Donn\u00e9es d'intervalle:\tN\u00b0 de point\tTemps\tAngle de d\u00e9viation"
+                  "\tCouple",
+                  "\t\t[s]\t[rad]\t[\u00b5N\u00b7m]"]
+        for i, (_, t, phi, tau) in enumerate(rows):
+            lines.append("\t%d\t%s\t%s\t%s" % (i + 1, t1(t, True), g6(phi, True),
+                                              g6(tau * 1e6, True)))
+        lines.append("")
+    write("anton_paar_fr.txt", "\ufeff" + "\n".join(lines) + "\n", "utf-8", "\r\n")
+
+
+def trios():
+    lines = ["Filename\tsample.tri", "Instrument name\tsynthetic", "",
+             "[Geometry]", "Geometry name\t40 mm parallel plate (synthetic)",
+             "Stress constant\t%g Pa/N.m" % STRESS_CONSTANT_PA_PER_N_M,
+             "Strain constant\t%g 1/rad" % STRAIN_CONSTANT_PER_RAD, ""]
+    for k in (1, 2):
+        rows = [s for s in samples() if s[0] == k]
+        lines += ["[step]", "Oscillation amplitude - %d" % k,
+                  "Time\tOscillation displacement\tTorque\tOscillation strain\tOscillation stress",
+                  "s\trad\t\u00b5N.m\t%\tPa"]
+        for _, t, phi, tau in rows:
+            lines.append("%s\t%s\t%s\t%s\t%s" % (
+                t1(t), g6(phi), g6(tau * 1e6), g6(100 * STRAIN_CONSTANT_PER_RAD * phi),
+                g6(STRESS_CONSTANT_PA_PER_N_M * tau)))
+        lines.append("")
+    write("trios.txt", "\n".join(lines), "utf-8", "\r\n")
+
+
+def reptate():
+    # RepTate .laos: one amplitude per file (interval 1 only).
+    lines = ["omega=%r;gamma=%r;" % (W, AMPLITUDES_RAD[0]), "#time\tq\tTorque", "#s\trad\tN-m"]
+    for k, t, phi, tau in samples():
+        if k == 1:
+            lines.append("%s\t%s\t%s" % (t1(t), g6(phi), g6(tau)))
+    write("sample.laos", "\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    generic_csv()
+    generic_tsv()
+    angle_sampled()
+    strain_stress()
+    anton_paar_en()
+    anton_paar_de()
+    anton_paar_fr()
+    trios()
+    reptate()

@@ -1,0 +1,153 @@
+// Amplitudes, cycles, steady state, M cap, noise standard errors and bad input.
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "laos/laos_test_util.hpp"
+#include "shearzone/core/error.hpp"
+#include "shearzone/laos/analysis.hpp"
+
+using namespace shearzone;
+using namespace shearzone::laos;
+using testutil::kPi;
+
+namespace {
+constexpr double kExact = 1e-9;  // models in the basis (see test_closed_form.cpp)
+bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol * std::abs(b); }
+}  // namespace
+
+TEST_CASE("white noise: reported SEs match sigma sqrt(2/N)/x0 over 200 seeds", "[laos]") {
+  // §A3 case 8d. Uniform θ over 4 cycles, N = 4000 samples (+1 closing sample).
+  const double x0 = 0.1, sigma = 0.01, G = 50;
+  const int N = 4000;
+  std::vector<double> th(N + 1), w(N + 1, 0.0);
+  for (int i = 0; i <= N; ++i) th[static_cast<std::size_t>(i)] = 8 * kPi * i / N;
+  add_trapezoid_weights(th, 0.0, 8 * kPi, w);
+  const double expected = sigma * std::sqrt(2.0 / N) / x0;
+  // The SE of one fit scatters by about 1/√(2(N − p)) = 1.1 % around its mean; 10 %
+  // (the bound) is 9 such widths.
+  constexpr double kSeTol = 0.10;
+  // The scatter of 200 estimates has a relative error of about 1/√400 = 5 %; 20 % is 4σ.
+  constexpr double kScatterTol = 0.20;
+  double worst = 0, sum = 0, sum2 = 0;
+  for (std::uint32_t seed = 1; seed <= 200; ++seed) {
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    std::vector<double> r(th.size());
+    for (std::size_t i = 0; i < th.size(); ++i) r[i] = G * x0 * std::sin(th[i]) + noise(rng);
+    const auto f = fit_harmonics(th, r, w, x0, {});
+    for (int n = 1; n <= 9; ++n) {
+      worst = std::max(worst, std::abs(f.Kp_se[n] / expected - 1));
+      worst = std::max(worst, std::abs(f.Kpp_se[n] / expected - 1));
+    }
+    sum += f.Kp[3];
+    sum2 += f.Kp[3] * f.Kp[3];
+  }
+  INFO("worst SE deviation " << worst);
+  testutil::note("noise: worst |SE/(sigma sqrt(2/N)/x0) - 1| over 200 seeds, n = 1..9", worst);
+  CHECK(worst <= kSeTol);
+  const double sd = std::sqrt((sum2 - sum * sum / 200) / 199);
+  CHECK(std::abs(sd / expected - 1) <= kScatterTol);
+  testutil::note("noise: scatter of K'3 / predicted SE - 1", sd / expected - 1);
+}
+
+TEST_CASE("two amplitudes in one record split at a 5 % change", "[laos]") {
+  const double omega = 2, G = 30, eta = 4;
+  Waveform w;
+  w.context = "synthetic";
+  const int per = 400;
+  for (int i = 0; i <= per * 8; ++i) {
+    const double t = 2 * kPi / omega * i / per;
+    const double x0 = i < per * 4 ? 0.1 : 0.3;  // switches at an upward crossing
+    const double th = omega * t;
+    w.time_s.push_back(t);
+    // Phase reduced to one cycle so that the switching sample is exactly 0.
+    w.drive.push_back(x0 * std::sin(2 * kPi * (i % per) / per));
+    w.response.push_back(G * x0 * std::sin(th) + eta * x0 * omega * std::cos(th));
+  }
+  const auto r = analyse_record(w, {});
+  REQUIRE(r.amplitudes.size() == 2);
+  CHECK(rel_close(r.amplitudes[0].x0, 0.1, kExact));
+  CHECK(rel_close(r.amplitudes[1].x0, 0.3, kExact));
+  for (const auto& A : r.amplitudes) {
+    CHECK(A.cycles.size() >= 3);
+    CHECK(rel_close(A.measures.K1p, G, kExact));
+    CHECK(rel_close(A.measures.K1pp, eta * omega, kExact));
+  }
+}
+
+TEST_CASE("partial cycles are dropped and counted; --cycles selects", "[laos]") {
+  const double x0 = 0.2;  // ω = 1
+  // Start a quarter cycle late and stop a quarter cycle early: 3 complete, 2 partial.
+  Waveform w;
+  w.context = "synthetic";
+  for (int i = 100; i <= 400 * 4 - 100; ++i) {
+    const double t = 2 * kPi * i / 400.0;
+    w.time_s.push_back(t);
+    w.drive.push_back(x0 * std::sin(t));
+    w.response.push_back(5 * x0 * std::sin(t));
+  }
+  AnalysisOptions o;
+  o.cycles = {2};
+  const auto A = analyse_record(w, o).amplitudes.at(0);
+  CHECK(A.cycles.size() == 2);
+  CHECK(A.partial_cycles == 2);
+  CHECK(A.status == "cycles_selected");
+  CHECK_FALSE(A.cycles[0].used);
+  CHECK(A.cycles[1].used);
+  CHECK(rel_close(A.cycles[1].t_start_s, 2 * kPi * 2, kExact));
+  o.cycles = {3};
+  CHECK_THROWS_AS(analyse_record(w, o), ConfigError);
+}
+
+TEST_CASE("timed M cap is (samples per cycle - 1)/2 and is recorded", "[laos]") {
+  const auto w = testutil::timed(0.1, 1.0, 12, 3, [](double th, double) { return std::sin(th); });
+  AnalysisOptions o;
+  o.max_harmonic = 9;
+  const auto A = analyse_record(w, o).amplitudes.at(0);
+  CHECK(A.M_cap == 5);
+  CHECK(A.M == 5);
+  CHECK(A.M_requested == 9);
+}
+
+TEST_CASE("a record without time and without omega reports rates as unavailable", "[laos]") {
+  const auto w = testutil::angle_sampled(0.05, 1e-3, 2, [](double th) { return 3 * std::cos(th); });
+  const auto A = analyse_record(w, {}).amplitudes.at(0);
+  CHECK(std::isnan(A.omega));
+  CHECK(std::isnan(A.measures.eta_L));
+  CHECK(std::isnan(A.measures.v[1]));
+  CHECK(rel_close(A.measures.K1pp, 3 / 0.05, kExact));
+  CHECK(std::abs(A.measures.T) <= kExact);  // a ratio: available without ω
+}
+
+TEST_CASE("inertia subtraction removes I phi-double-dot", "[laos]") {
+  const double x0 = 0.1, omega = 5, I = 2e-3, K = 1.5;
+  // Measured torque = sample torque + I φ̈ = K φ − I ω² φ.
+  const auto w = testutil::timed(x0, omega, 500, 3, [&](double th, double) {
+    return (K - I * omega * omega) * x0 * std::sin(th);
+  });
+  AnalysisOptions o;
+  o.inertia = I;
+  CHECK(rel_close(analyse_record(w, o).amplitudes.at(0).measures.K1p, K, kExact));
+  // Without time or ω the subtraction is impossible: a configuration error.
+  auto a = testutil::angle_sampled(0.05, 1e-3, 2, [](double th) { return std::sin(th); });
+  CHECK_THROWS_AS(analyse_record(a, o), ConfigError);
+}
+
+TEST_CASE("bad records: zero amplitude and less than one cycle name the lines", "[laos]") {
+  Waveform w;
+  w.context = "log.csv: segment \"1\"";
+  for (int i = 0; i < 50; ++i) {
+    w.time_s.push_back(i * 0.1);
+    w.drive.push_back(0.0);
+    w.response.push_back(1.0);
+    w.line.push_back(static_cast<std::size_t>(i) + 3);
+  }
+  CHECK_THROWS_WITH(analyse_record(w, {}),
+                    Catch::Contains("log.csv: segment \"1\": lines 3-52: drive amplitude is zero"));
+  for (int i = 0; i < 50; ++i) w.drive[static_cast<std::size_t>(i)] = std::sin(0.1 * i);  // 0.8 cycle
+  CHECK_THROWS_AS(analyse_record(w, {}), InputError);
+  CHECK_THROWS_WITH(analyse_record(w, {}), Catch::Contains("lines 3-52"));
+}

@@ -1,0 +1,101 @@
+// The laos pipeline job: a CSV log through io, the stage, and the output folder.
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/pipeline/laos_job.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using shearzone::testing::TempDir;
+
+namespace {
+/// Values written with 12 significant digits and read back: round-off ~1e-11.
+constexpr double kCsvRoundTrip = 1e-8;
+
+/// Two amplitudes (0.05 and 0.15 rad), 4 cycles each, Kelvin-Voigt torque.
+std::string sweep_csv(double K, double C) {
+  std::ostringstream s;
+  s.precision(12);
+  s << "# N: 45\ntime_s,angle_rad,torque_N_m\n";
+  const int per = 200;
+  const double f = 0.5, w = 2 * std::numbers::pi * f;
+  int i = 0;
+  for (double a : {0.05, 0.15})
+    for (int k = 0; k < 4 * per; ++k, ++i) {
+      const double th = 2 * std::numbers::pi * (k % per) / per;
+      s << i / (per * f) << "," << a * std::sin(th) << ","
+        << K * a * std::sin(th) + C * a * w * std::cos(th) << "\n";
+    }
+  s << i / (per * f) << ",0," << C * 0.15 * w << "\n";  // closes the last cycle
+  return s.str();
+}
+}  // namespace
+
+TEST_CASE("laos job: a two-amplitude CSV log gives two summary rows and all files", "[laos]") {
+  TempDir dir("laos-job");
+  testing::write_file(dir / "sweep.csv", sweep_csv(2.0, 0.3));
+  pipeline::LaosJobOptions o;
+  o.inputs = {dir / "sweep.csv"};
+  o.output = dir / "out";
+  const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
+  REQUIRE(sum.rows.size() == 2);
+  const auto t = io::read_csv(dir / "out" / "summary.csv");
+  REQUIRE(t.num_rows() == 2);
+  const double w = std::numbers::pi;
+  for (std::size_t r = 0; r < 2; ++r) {
+    CHECK(t.rows[r][t.column_index("N")] == "45");  // from the log's `# N: 45`
+    CHECK(t.number(r, t.column_index("K1_prime_N_m_per_rad")) == Approx(2.0).epsilon(kCsvRoundTrip));
+    CHECK(t.number(r, t.column_index("K1_dprime_N_m_per_rad")) ==
+          Approx(0.3 * w).epsilon(kCsvRoundTrip));
+    CHECK(t.number(r, t.column_index("M")) == 9);
+  }
+  CHECK(t.number(0, t.column_index("phi0_rad")) == Approx(0.05).epsilon(kCsvRoundTrip));
+  CHECK(t.number(1, t.column_index("phi0_rad")) == Approx(0.15).epsilon(kCsvRoundTrip));
+  for (const char* c : {"source", "segment", "omega_rad_per_s", "tau_max_N_m", "tan_delta_1",
+                        "I3_over_I1", "e3_over_e1", "v3_over_v1", "S", "T", "E_d_J", "phi_d",
+                        "n_cycles", "K1_prime_se_N_m_per_rad", "I2_over_I1", "E_d_ratio",
+                        "K_M_prime_N_m_per_rad", "K_L_prime_N_m_per_rad", "eta_M_N_m_s_per_rad",
+                        "eta_L_N_m_s_per_rad", "status"})
+    CHECK(t.has_column(c));
+  CHECK(core::metadata_value(t.metadata, "harmonics_requested_M") == "9");
+  for (const char* f : {"cycles.csv", "harmonics.csv", "lissajous_01.csv", "lissajous_02.csv"})
+    CHECK(std::filesystem::exists(dir / "out" / f));
+  // Refuses to overwrite without force.
+  CHECK_THROWS_AS(pipeline::run_laos_job(o, {}), ConfigError);
+}
+
+TEST_CASE("laos job: vane constants give stress/strain columns, G = K Cs/Cg", "[laos]") {
+  TempDir dir("laos-job-ss");
+  testing::write_file(dir / "sweep.csv", sweep_csv(2.0, 0.3));
+  pipeline::LaosJobOptions o;
+  o.inputs = {dir / "sweep.csv"};
+  o.output = dir / "out";
+  o.stress_constant_Pa_per_N_m = 1000;
+  o.strain_constant_per_rad = 4;
+  o.tags = {{"N", "12"}, {"run", "a"}};
+  pipeline::run_laos_job(o, {});
+  const auto t = io::read_csv(dir / "out" / "summary.csv");
+  CHECK(t.rows[0][t.column_index("N")] == "12");
+  CHECK(t.rows[0][t.column_index("run")] == "a");
+  CHECK(t.number(0, t.column_index("G1_prime_Pa")) == Approx(2.0 * 1000 / 4).epsilon(kCsvRoundTrip));
+  CHECK(t.number(0, t.column_index("gamma0")) == Approx(0.05 * 4).epsilon(kCsvRoundTrip));
+  CHECK(t.has_column("sigma_max_Pa"));
+  CHECK(t.has_column("E_d_J_per_m3"));
+}
+
+TEST_CASE("laos job: a bad log leaves no output folder", "[laos]") {
+  TempDir dir("laos-job-bad");
+  testing::write_file(dir / "good.csv", sweep_csv(2.0, 0.3));
+  testing::write_file(dir / "flat.csv", "time_s,angle_rad,torque_N_m\n0,0,1\n1,0,1\n2,0,1\n3,0,1\n4,0,1\n");
+  pipeline::LaosJobOptions o;
+  o.inputs = {dir / "good.csv", dir / "flat.csv"};
+  o.output = dir / "out";
+  CHECK_THROWS_WITH(pipeline::run_laos_job(o, {}), Catch::Contains("flat.csv: lines 2-6: drive amplitude is zero"));
+  CHECK_FALSE(std::filesystem::exists(dir / "out"));
+}
