@@ -59,7 +59,18 @@ mkdir -p "$F"
 "$PY" scripts/plot_fig2.py scaling "$F/fig2d_W.png" "$F/erf_wide.csv" "$F/W_power.csv"
 "$PY" scripts/plot_fig2.py collapse "$F/fig2e_collapse.png" "$F/collapse_erf/collapsed.csv" \
     "$F/collapse_erf/master.csv"
-echo "== 8. Ground-truth plots"
+echo "== 8. LAOS: torque logs of three chain lengths -> harmonics, tan delta, Chebyshev (Figs 3, 5, 6)"
+L="$OUT/laos"
+"$SZ" laos data-samples/laos/vane_N1.csv data-samples/laos/vane_N9.csv data-samples/laos/vane_N45.csv \
+    --interval-col interval -o "$L"
+"$SZ" laos data-samples/laos/vane_N45_dphi.csv --interval-col interval -o "$L/dphi_N45" -q
+"$SZ" fit power "$L/summary.csv" --x N --y tau_max_N_m --group phi0_nominal_rad \
+    -o "$L/tau_power.csv" -q
+"$PY" scripts/plot_laos.py lissajous "$L/fig5_lissajous_N45.png" "$L" --N 45
+"$PY" scripts/plot_laos.py tandelta "$L/fig6_tan_delta.png" "$L/summary.csv"
+"$PY" scripts/plot_laos.py taumax "$L/fig3a_tau_max.png" "$L/summary.csv"
+"$PY" scripts/plot_laos.py taun "$L/fig3d_tau_N.png" "$L/summary.csv" "$L/tau_power.csv"
+echo "== 9. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png"
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png"
 

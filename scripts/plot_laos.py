@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """LAOS figures from the CSVs of `shearzone laos` (matplotlib; no computing here).
 
-    plot_laos.py lissajous OUT.png OUTDIR            # Fig 5: elastic and viscous Lissajous curves
+    plot_laos.py lissajous OUT.png OUTDIR [--N 45]   # Fig 5: elastic and viscous Lissajous curves
     plot_laos.py tandelta OUT.png SUMMARY.csv        # Fig 6: tan delta_1 against phi0, per N
     plot_laos.py taumax OUT.png SUMMARY.csv          # Fig 3A: tau_max against phi0, per N
     plot_laos.py taun OUT.png SUMMARY.csv POWER.csv  # Fig 3D: tau_max against N with power laws
@@ -58,8 +58,10 @@ def col(row, *prefixes):
 
 def lissajous(a):
     files = sorted(glob.glob(os.path.join(a.outdir, "lissajous_*.csv")))
+    if a.N:
+        files = [p for p in files if header(p).get("N") == a.N]
     if not files:
-        sys.exit(f"plot_laos.py: no lissajous_*.csv in {a.outdir}")
+        sys.exit(f"plot_laos.py: no lissajous_*.csv in {a.outdir}" + (f" with N = {a.N}" if a.N else ""))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 4))
     for path in files:
         rows = read_csv(path)
@@ -82,7 +84,7 @@ def lissajous(a):
     ax2.set_xlabel("dphi/dt / max")
     ax2.set_title("viscous Lissajous")
     ax1.legend(fontsize=6)
-    fig.suptitle("Fig. 5: Lissajous-Bowditch curves")
+    fig.suptitle("Fig. 5: Lissajous-Bowditch curves" + (f", N = {a.N}" if a.N else ""))
     fig.tight_layout()
     fig.savefig(a.out, dpi=150)
 
@@ -137,7 +139,7 @@ def taun(a):
             lo, hi = pts[0][0], pts[-1][0]
             xs = [lo * (hi / lo) ** (i / 50) for i in range(51)]
             ax.plot(xs, [A * x ** k for x in xs], "--", color=line[0].get_color(), lw=1,
-                    label=f"N^{k:.2f} +- {num(f['k']['std_error']):.2f}")
+                    label=f"N^{k:.3f} +- {num(f['k']['std_error']):.3f}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("N")
@@ -154,6 +156,7 @@ def main():
     p = sub.add_parser("lissajous")
     p.add_argument("out")
     p.add_argument("outdir")
+    p.add_argument("--N", help="only the logs of this chain length (the files' N header)")
     for name in ("tandelta", "taumax"):
         p = sub.add_parser(name)
         p.add_argument("out")

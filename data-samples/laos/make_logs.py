@@ -71,7 +71,8 @@ def dphi_log(N, dphi=1e-3):
     for k, phi0 in enumerate((0.05, 0.2, 0.4)):
         # Sample phi(t) finely, record each time phi crosses a multiple of dphi.
         tau_el, phi_prev = 0.0, 0.0
-        steps = 20000 * 3
+        rows.append((0.0, C_VISC * phi0 * w + rng.gauss(0.0, NOISE), k + 1))  # at rest, t = 0
+        steps = 20000 * 3 + 200  # a little past the third cycle's closing crossing
         for i in range(1, steps + 1):
             t = i / (20000 * F_HZ)
             phi = phi0 * math.sin(w * t)

@@ -18,10 +18,14 @@ namespace shearzone::laos {
 namespace {
 constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * kPi;
-/// Slack on cycle boundaries in θ (rad): a record starting 1e-9 rad after an upward
-/// crossing (round-off of the phase) still has that cycle complete; the quadrature
-/// then misses at most this much of 2π.
-constexpr double kThetaSlack = 1e-9;
+/// Slack on cycle boundaries in θ: a record that starts (or ends) on an upward
+/// crossing, up to the round-off of the fitted phase, still has that cycle complete.
+/// It is this fraction of the median sample step in θ (at least 1e-9 rad), so the
+/// quadrature misses at most 1e-4 of a step (1e-6 of a cycle at 100 samples per
+/// cycle): a sine fit's phase error (~1e-8 rad) no longer decides whether a record
+/// that starts exactly at φ = 0 keeps its first cycle.
+constexpr double kThetaSlackSteps = 1e-4;
+constexpr double kThetaSlackMin = 1e-9;
 /// Schmitt-trigger hysteresis for raw crossings, fraction of the record's half range.
 constexpr double kHysteresis = 0.02;
 
@@ -285,6 +289,13 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
       r[i] += o.inertia * A.x0 * A.omega * A.omega * std::sin(theta[i]);
   }
   // Cycles [2πk, 2π(k+1)] fully inside the record.
+  double kThetaSlack = kThetaSlackMin;
+  if (n >= 3) {
+    std::vector<double> steps(n - 1);
+    for (std::size_t i = 0; i + 1 < n; ++i) steps[i] = std::abs(theta[i + 1] - theta[i]);
+    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+    kThetaSlack = std::max(kThetaSlackMin, kThetaSlackSteps * steps[steps.size() / 2]);
+  }
   const double th0 = theta.front(), th1 = theta.back();
   theta_span = th1 - th0;
   const auto kmin = static_cast<long>(std::ceil((th0 - kThetaSlack) / kTwoPi));

@@ -129,7 +129,11 @@ GroupedData read_grouped(const std::filesystem::path& input, const std::string& 
     for (std::size_t c = 0; c < firsts.size(); ++c) {
       const double mean = sum[c] / static_cast<double>(cnt[c]);
       g.group_values.push_back(mean);
-      g.labels.push_back(io::CsvWriter::format_number(mean));
+      // Label: the mean to 12 significant digits (0.05, not the 0.05000000000000001
+      // that summing three 0.05 gives); the value itself stays exact.
+      double label = mean;
+      io::parse_number(fmt::format("{:.12g}", mean), false, label);
+      g.labels.push_back(io::CsvWriter::format_number(label));
     }
   } else {
     std::map<std::string, std::size_t> index;

@@ -254,6 +254,8 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     lm.emplace_back("source", items[i].source);
     lm.emplace_back("segment", items[i].segment);
     lm.emplace_back("amplitude", std::to_string(i + 1));
+    if (!items[i].N.empty()) lm.emplace_back("N", items[i].N);
+    lm.emplace_back("phi0_rad", num(A.x0));
     lm.emplace_back("M", std::to_string(A.M));
     lm.emplace_back("decomposition", "elastic = x0 sum_odd K'_n sin(n theta), viscous = x0 sum_odd "
                                      "K''_n cos(n theta) (odd harmonics of the fit; offset and "
