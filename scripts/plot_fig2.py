@@ -13,7 +13,6 @@ collapse: rescaled r~ against phi~ (`shearzone collapse erf`), master curve if g
 Run with /usr/bin/python3 (Debian's python3-matplotlib and python3-numpy).
 """
 import argparse
-import csv
 import math
 import sys
 
@@ -22,30 +21,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-
-def read_csv(path):
-    """Rows of a shearzone CSV as dicts (the '#' header block skipped)."""
-    with open(path, newline="") as f:
-        lines = [ln for ln in f if not ln.startswith("#")]
-    return list(csv.DictReader(lines))
-
-
-def header(path):
-    meta = {}
-    with open(path) as f:
-        for ln in f:
-            if not ln.startswith("#"):
-                break
-            k, _, v = ln[1:].partition(":")
-            meta[k.strip()] = v.strip()
-    return meta
-
-
-def num(x):
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return float("nan")
+from szcsv import header, num, read_csv  # noqa: E402
 
 
 def profiles(a):

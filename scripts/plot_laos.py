@@ -11,7 +11,6 @@ output of `shearzone fit power SUMMARY.csv --x N --y tau_max_N_m --group phi0_ra
 Run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
 import argparse
-import csv
 import glob
 import math
 import os
@@ -22,29 +21,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-
-def read_csv(path):
-    with open(path, newline="", encoding="utf-8") as f:
-        lines = [ln for ln in f if not ln.startswith("#")]
-    return list(csv.DictReader(lines))
-
-
-def header(path):
-    meta = {}
-    with open(path, encoding="utf-8") as f:
-        for ln in f:
-            if not ln.startswith("#"):
-                break
-            k, _, v = ln[1:].partition(":")
-            meta[k.strip()] = v.strip()
-    return meta
-
-
-def num(x):
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return float("nan")
+from szcsv import header, num, read_csv  # noqa: E402
 
 
 def col(row, *prefixes):

@@ -96,4 +96,16 @@ void require_option(CLI::App& sub, const std::string& name) {
     throw CLI::RequiredError("--" + name + " is required (on the command line or in --config)");
 }
 
+std::vector<std::pair<std::string, std::string>> parse_key_values(const std::vector<std::string>& items,
+                                                                  const std::string& option) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& kv : items) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError(fmt::format("{} \"{}\": expected KEY=VALUE", option, kv));
+    out.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+  }
+  return out;
+}
+
 }  // namespace shearzone::apps

@@ -7,6 +7,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -36,6 +37,11 @@ int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& di
 /// invalid values are ConfigError naming the file, line and key.
 void apply_toml_config(CLI::App& sub, const std::string& path,
                        const std::vector<std::string>& not_configurable = {"config", "help"});
+
+/// Splits repeated `KEY=VALUE` option values (`--tag N=45`, `--attr m_per_px=1e-4`)
+/// into pairs. Throws ConfigError naming `option` for an entry without `=` or key.
+std::vector<std::pair<std::string, std::string>> parse_key_values(const std::vector<std::string>& items,
+                                                                  const std::string& option);
 
 /// Throws CLI::RequiredError (exit 1) if option `name` of `sub` was given neither on
 /// the command line nor in the config file.

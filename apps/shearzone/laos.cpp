@@ -27,12 +27,7 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
   auto& j = s.job;
   for (const auto& p : s.inputs) j.inputs.emplace_back(p);
   j.output = s.output;
-  for (const auto& kv : s.tags) {
-    const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw ConfigError(fmt::format("--tag \"{}\": expected KEY=VALUE", kv));
-    j.tags.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-  }
+  for (auto& kv : parse_key_values(s.tags, "--tag")) j.tags.push_back(std::move(kv));
   j.read.format = io::log_format_from_name(s.format);
   if (!s.strain_col.empty() || !s.stress_col.empty()) {
     if (s.strain_col.empty() || s.stress_col.empty())

@@ -52,12 +52,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (!std::isnan(s.n_chain)) j.attributes.emplace_back("N", fmt::format("{}", s.n_chain));
   if (c.count("--f-hz")) j.attributes.emplace_back("f_Hz", fmt::format("{}", j.vane.f_Hz));
   if (c.count("--phi0-rad")) j.attributes.emplace_back("phi0_rad", fmt::format("{}", j.vane.phi0_rad));
-  for (const auto& kv : s.attrs) {
-    const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw ConfigError(fmt::format("--attr \"{}\": expected KEY=VALUE", kv));
-    j.attributes.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-  }
+  for (auto& kv : parse_key_values(s.attrs, "--attr")) j.attributes.push_back(std::move(kv));
 
   core::ProgressReporter progress("piv: pairs", ctx.level);
   const auto sum = pipeline::run_piv_job(j, ctx.header(), progress.callback());

@@ -23,12 +23,7 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   auto& j = s.job;
   j.inputs.assign(s.inputs.begin(), s.inputs.end());
   j.output = s.output;
-  for (const auto& kv : s.tags) {
-    const auto eq = kv.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw ConfigError(fmt::format("--tag \"{}\": expected KEY=VALUE", kv));
-    j.tags.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
-  }
+  j.tags = parse_key_values(s.tags, "--tag");
   const auto rows = pipeline::run_width_job(j, ctx.header());
   int usable = 0;
   for (const auto& r : rows) {
