@@ -1,0 +1,209 @@
+// shearzone/sim/world.hpp: the contact-dynamics engine (non-smooth contact dynamics,
+// Moreau–Jean θ = 1) for rigid spheres, half-space walls and bead-chain constraints.
+// Research note: ../shared/research/cd_sim.md §1 (with the corrections of §0b).
+//
+// Model, one step of length h (SI units throughout):
+//  1. Contact detection at the positions x(t) through a uniform cell grid: every
+//     sphere pair with at least one mobile sphere, and every mobile sphere–wall pair,
+//     whose gap g = |x_j − x_i| − (d_i + d_j)/2 is below the alert distance
+//     δ = 2 (v_max + |g| h) h + margin (§0b item 8) becomes a contact row.
+//  2. Free velocities: v ← v + h g for mobile spheres (implicit Euler, θ = 1).
+//  3. Warm start: every row that existed in the previous step (contacts matched by body
+//     pair, rope and angle rows by index) starts from its previous impulse (the
+//     tangential impulse projected on the new tangent plane) and applies it.
+//  4. Nonlinear Gauss–Seidel sweeps over all rows, alternately forward and backward:
+//     contacts by the exact closed form of local_solve.hpp, ropes (tension only,
+//     |x_j − x_i| ≤ L_max through the centres) and turning-angle limits (exact three-body
+//     row, §1.5). Each visit applies its impulse change at once.
+//     Stopping test (§0b item 7, LMGC90's QuadDV in non-dimensional form): after a sweep
+//     r = √Σ|W ΔP|² / √Σ|W P| (velocity corrections made by the sweep over the velocity
+//     the impulses carry; an angle row is scaled by its mean bond length), converged
+//     when r ≤ tolerance. Hitting max_iterations is counted.
+//  5. Positions: x ← x + h v⁺ for mobile and kinematic spheres. Orientations are NOT
+//     stored (spheres: only ω matters for the dynamics); ω is integrated.
+//  6. Diagnostics and divergence checks on the new state (see StepDiagnostics); a
+//     violation throws NoResultError naming the step and the bodies.
+//
+// Impulses are P = h·R (N s); a rope's λ/h is its tension (N); an angle row's λ is an
+// impulse·length (N s m). Consecutive beads of a chain keep their ordinary frictional
+// contact row besides the rope row (bond length in [d, L_max]).
+// Determinism: one thread, fixed row order; the same inputs give bit-identical states.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "shearzone/sim/local_solve.hpp"
+
+namespace shearzone::sim {
+
+enum class BodyKind : std::uint8_t {
+  mobile,     ///< integrated by the engine
+  fixed,      ///< never moves, v = ω = 0 (wall beads)
+  kinematic,  ///< prescribed v and ω (e.g. vane beads); moved by x ← x + h v
+};
+
+/// Half-space wall: spheres live on the side the unit normal points to.
+struct Wall {
+  Vec3 point = Vec3::Zero();
+  Vec3 normal = Vec3::UnitZ();  ///< normalised by add_wall
+  double friction = 0.5;        ///< Coulomb μ between the wall and a sphere
+};
+
+struct Options {
+  double time_step = 1e-3;                ///< h (s)
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);   ///< (m/s²)
+  double friction = 0.5;                  ///< sphere–sphere Coulomb μ
+  double tolerance = 1e-4;                ///< NLGS residual r (non-dimensional)
+  int max_iterations = 1000;              ///< NLGS sweep cap per step
+  double alert_margin = 0.02;             ///< margin added to 2 v_max h, × smallest diameter
+  double max_overlap = 0.05;              ///< divergence: overlap / d
+  double max_rope_excess = 0.05;          ///< divergence: (|x_j − x_i| − L_max) / d
+  double max_angle_excess = 0.034906585039886591;  ///< divergence: θ − θ_max (rad), 2°
+};
+
+/// One step's diagnostics (the future diagnostics CSV row).
+struct StepDiagnostics {
+  std::int64_t step = 0;          ///< 1-based index of the step just done
+  int iterations = 0;             ///< NLGS sweeps
+  double residual = 0.0;          ///< final r
+  bool hit_iteration_cap = false;  ///< r > tolerance after max_iterations sweeps
+  int contacts = 0;               ///< contact rows (within the alert distance)
+  int active_contacts = 0;        ///< P_n > 0
+  int sliding_contacts = 0;       ///< active and on the Coulomb cone
+  int sticking_contacts = 0;      ///< active and inside the cone
+  int active_ropes = 0;           ///< λ > 0
+  int active_angles = 0;          ///< λ > 0
+  double max_overlap = 0.0;       ///< max over contact rows of −g/d after the step (≥ 0)
+  double max_rope_excess = 0.0;   ///< max (|x_j − x_i| − L_max)/d after the step (≥ 0)
+  double max_angle_excess = 0.0;  ///< max θ − θ_max (rad) after the step (≥ 0)
+  double kinetic_energy = 0.0;    ///< Σ ½ m v² + ½ I ω² over mobile spheres (J)
+  std::int64_t row_updates = 0;   ///< local solves done in this step's sweeps
+};
+
+/// A contact row of the last step, for tests and force analysis. The impulse P acts on
+/// body_j, −P on body_i (or on the wall); the normal points from i (or the wall) to j.
+struct ContactRecord {
+  int body_i = -1;  ///< −1 for a wall contact
+  int wall = -1;    ///< wall index for a wall contact, else −1
+  int body_j = -1;
+  Vec3 normal = Vec3::UnitZ();
+  double gap = 0.0;             ///< at the start of the step (m)
+  double normal_impulse = 0.0;  ///< P_n (N s)
+  Vec3 tangential_impulse = Vec3::Zero();
+  ContactStatus status = ContactStatus::open;
+};
+
+class World {
+ public:
+  /// Throws ConfigError for an option out of range.
+  explicit World(const Options& options);
+
+  /// Adds a sphere; returns its index. Mass ρ π d³/6, moment of inertia m d²/10.
+  /// Throws ConfigError for a non-finite position or a non-positive diameter/density.
+  int add_sphere(const Vec3& position, double diameter, double density,
+                 BodyKind kind = BodyKind::mobile);
+  /// Adds a half-space wall; returns its index.
+  int add_wall(const Wall& wall);
+  /// Rope row: |x_j − x_i| ≤ max_length (= d + l_max), tension only, through the centres.
+  int add_rope(int i, int j, double max_length);
+  /// Turning-angle row at `mid`: angle between x_mid − x_prev and x_next − x_mid ≤ max_angle.
+  int add_angle_limit(int prev, int mid, int next, double max_angle);
+  /// Ropes between consecutive beads (max bond length) and, if max_angle < π, angle
+  /// rows at every interior bead.
+  void add_chain(std::span<const int> beads, double max_bond_length, double max_angle);
+
+  /// Initial conditions of a mobile sphere, or the prescribed motion of a kinematic one.
+  /// Throws ConfigError for a fixed sphere or a non-finite value.
+  void set_velocity(int body, const Vec3& v);
+  void set_angular_velocity(int body, const Vec3& omega);
+
+  /// Advances one step. Throws NoResultError on divergence (non-finite state, overlap,
+  /// rope excess or angle excess above the thresholds), naming the step and the bodies.
+  StepDiagnostics step();
+
+  [[nodiscard]] const Options& options() const { return opt_; }
+  [[nodiscard]] int body_count() const { return static_cast<int>(x_.size()); }
+  [[nodiscard]] const Vec3& position(int b) const { return x_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] const Vec3& velocity(int b) const { return v_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] const Vec3& angular_velocity(int b) const {
+    return w_.at(static_cast<std::size_t>(b));
+  }
+  [[nodiscard]] double diameter(int b) const { return 2.0 * radius_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] double mass(int b) const { return mass_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] double inertia(int b) const { return inertia_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] BodyKind kind(int b) const { return kind_.at(static_cast<std::size_t>(b)); }
+  [[nodiscard]] const std::vector<Wall>& walls() const { return walls_; }
+
+  /// Contact rows of the last step with their final impulses.
+  [[nodiscard]] std::vector<ContactRecord> contacts() const;
+  [[nodiscard]] int rope_count() const { return static_cast<int>(ropes_.size()); }
+  [[nodiscard]] int angle_count() const { return static_cast<int>(angles_.size()); }
+  /// λ of a rope row in the last step (N s); tension = λ/h.
+  [[nodiscard]] double rope_impulse(int r) const { return ropes_.at(static_cast<std::size_t>(r)).lambda; }
+  /// λ of an angle row in the last step (N s m).
+  [[nodiscard]] double angle_impulse(int a) const {
+    return angles_.at(static_cast<std::size_t>(a)).lambda;
+  }
+
+  [[nodiscard]] std::int64_t steps_done() const { return step_; }
+  [[nodiscard]] std::int64_t iteration_cap_hits() const { return cap_hits_; }
+  [[nodiscard]] double time() const { return static_cast<double>(step_) * opt_.time_step; }
+
+  /// FNV-1a (64 bit) over the bit patterns of the step count, every position, velocity
+  /// and angular velocity, and every row's key and impulses.
+  [[nodiscard]] std::uint64_t state_hash() const;
+
+ private:
+  struct ContactRow {
+    std::uint64_t key = 0;
+    int i = -1, wall = -1, j = -1;
+    Vec3 n = Vec3::UnitZ();
+    double gap = 0.0, ri = 0.0, rj = 0.0, wn = 0.0, wt = 0.0, mu = 0.0;
+    double pn = 0.0;
+    Vec3 pt = Vec3::Zero();
+    ContactStatus status = ContactStatus::open;
+  };
+  struct RopeRow {
+    int i = 0, j = 0;
+    double max_length = 0.0;
+    Vec3 e = Vec3::UnitX();
+    double c = 0.0, wb = 0.0, lambda = 0.0;
+  };
+  struct AngleRow {
+    int a = 0, b = 0, c = 0;
+    double max_angle = 0.0, cos_max = 1.0;
+    Vec3 ga = Vec3::Zero(), gb = Vec3::Zero(), gc = Vec3::Zero();  // ∂c/∂x
+    double ca = 0.0, wa = 0.0, scale = 0.0, lambda = 0.0;
+    bool live = false;  // W_a above the straight-chain guard
+  };
+
+  void check_body(int b, const char* what) const;
+  void find_contacts(double alert);
+  void prepare_rows();
+  void sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2);
+  void sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2);
+  void sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2);
+  void apply_contact(const ContactRow& r, const Vec3& p);
+  void check_state(StepDiagnostics& d) const;
+
+  Options opt_;
+  // Bodies, structure of arrays.
+  std::vector<Vec3> x_, v_, w_;
+  std::vector<double> radius_, mass_, inertia_, inv_mass_, inv_inertia_;
+  std::vector<BodyKind> kind_;
+  std::vector<Wall> walls_;
+  std::vector<ContactRow> contacts_, previous_;
+  std::vector<RopeRow> ropes_;
+  std::vector<AngleRow> angles_;
+  // Cell-grid scratch.
+  std::vector<int> cell_of_, cell_start_, cell_bodies_;
+  std::int64_t step_ = 0;
+  std::int64_t cap_hits_ = 0;
+};
+
+}  // namespace shearzone::sim
