@@ -37,6 +37,9 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx);
 /// `shearzone profile`.
 std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx);
 
+/// `shearzone sim`.
+std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx);
+
 /// `shearzone width`.
 std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 

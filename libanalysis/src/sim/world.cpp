@@ -563,6 +563,126 @@ std::vector<ContactRecord> World::contacts() const {
   return out;
 }
 
+WorldState World::state() const {
+  WorldState s;
+  s.options = opt_;
+  s.step = step_;
+  s.iteration_cap_hits = cap_hits_;
+  s.position = x_;
+  s.velocity = v_;
+  s.angular_velocity = w_;
+  s.diameter.reserve(radius_.size());
+  for (double r : radius_) s.diameter.push_back(2.0 * r);
+  s.mass = mass_;
+  s.inertia = inertia_;
+  s.kind = kind_;
+  s.walls = walls_;
+  for (const RopeRow& r : ropes_) s.ropes.push_back({r.i, r.j, r.max_length, r.lambda});
+  for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda});
+  s.contacts.reserve(contacts_.size());
+  for (const ContactRow& r : contacts_) {
+    ContactRecord c;
+    c.body_i = r.i;
+    c.wall = r.wall;
+    c.body_j = r.j;
+    c.normal = r.n;
+    c.gap = r.gap;
+    c.normal_impulse = r.pn;
+    c.tangential_impulse = r.pt;
+    c.status = r.status;
+    s.contacts.push_back(c);
+  }
+  return s;
+}
+
+World World::from_state(const WorldState& s) {
+  World w(s.options);
+  const std::size_t n = s.position.size();
+  auto bad = [](const std::string& what) { throw ConfigError("sim state: " + what); };
+  if (s.velocity.size() != n || s.angular_velocity.size() != n || s.diameter.size() != n ||
+      s.mass.size() != n || s.inertia.size() != n || s.kind.size() != n)
+    bad(fmt::format("body arrays of different lengths ({} positions)", n));
+  if (n > static_cast<std::size_t>(std::numeric_limits<int>::max())) bad("too many bodies");
+  if (s.step < 0 || s.iteration_cap_hits < 0) bad("negative step count");
+  for (std::size_t b = 0; b < n; ++b) {
+    const BodyKind k = s.kind[b];
+    if (k != BodyKind::mobile && k != BodyKind::fixed && k != BodyKind::kinematic)
+      bad(fmt::format("body {}: unknown kind {}", b, static_cast<int>(k)));
+    if (!finite(s.position[b]) || !finite(s.velocity[b]) || !finite(s.angular_velocity[b]))
+      bad(fmt::format("body {}: non-finite position or velocity", b));
+    if (!(s.diameter[b] > 0.0) || !std::isfinite(s.diameter[b]) || !(s.mass[b] > 0.0) ||
+        !std::isfinite(s.mass[b]) || !(s.inertia[b] > 0.0) || !std::isfinite(s.inertia[b]))
+      bad(fmt::format("body {}: diameter, mass and inertia must be positive and finite", b));
+    w.x_.push_back(s.position[b]);
+    w.v_.push_back(s.velocity[b]);
+    w.w_.push_back(s.angular_velocity[b]);
+    w.radius_.push_back(0.5 * s.diameter[b]);
+    w.mass_.push_back(s.mass[b]);
+    w.inertia_.push_back(s.inertia[b]);
+    w.inv_mass_.push_back(k == BodyKind::mobile ? 1.0 / s.mass[b] : 0.0);
+    w.inv_inertia_.push_back(k == BodyKind::mobile ? 1.0 / s.inertia[b] : 0.0);
+    w.kind_.push_back(k);
+  }
+  for (const Wall& wall : s.walls) {
+    if (!finite(wall.point) || !finite(wall.normal) || !(wall.normal.norm() > 0.0) ||
+        !(wall.friction >= 0.0) || !std::isfinite(wall.friction))
+      bad(fmt::format("wall {}: non-finite point, zero normal or bad friction", w.walls_.size()));
+    w.walls_.push_back(wall);  // as stored: renormalising could change the bits
+  }
+  for (const WorldState::Rope& r : s.ropes) {
+    w.add_rope(r.i, r.j, r.max_length);
+    if (!(r.impulse >= 0.0) || !std::isfinite(r.impulse)) bad("rope impulse negative or non-finite");
+    w.ropes_.back().lambda = r.impulse;
+  }
+  for (const WorldState::Angle& a : s.angles) {
+    w.add_angle_limit(a.prev, a.mid, a.next, a.max_angle);
+    if (!(a.impulse >= 0.0) || !std::isfinite(a.impulse)) bad("angle impulse negative or non-finite");
+    w.angles_.back().lambda = a.impulse;
+  }
+  const int nb = static_cast<int>(n);
+  for (const ContactRecord& c : s.contacts) {
+    const std::size_t k = w.contacts_.size();
+    if (c.body_j < 0 || c.body_j >= nb) bad(fmt::format("contact {}: body {} out of range", k, c.body_j));
+    const bool wall_row = c.body_i < 0;
+    if (wall_row ? (c.wall < 0 || c.wall >= static_cast<int>(w.walls_.size()))
+                 : (c.body_i >= c.body_j || c.wall != -1))
+      bad(fmt::format("contact {}: neither a body pair i < j nor a body-wall row", k));
+    if (!finite(c.normal) || !std::isfinite(c.gap) || !std::isfinite(c.normal_impulse) ||
+        !finite(c.tangential_impulse))
+      bad(fmt::format("contact {}: non-finite value", k));
+    ContactRow r;
+    r.i = wall_row ? -1 : c.body_i;
+    r.wall = wall_row ? c.wall : -1;
+    r.j = c.body_j;
+    r.key = wall_row ? wall_key(r.wall, r.j) : pair_key(r.i, r.j);
+    if (k > 0 && !(w.contacts_.back().key < r.key))
+      bad(fmt::format("contact {}: rows not in the engine's order", k));
+    const auto j = static_cast<std::size_t>(r.j);
+    r.n = c.normal;
+    r.gap = c.gap;
+    r.rj = w.radius_[j];
+    if (wall_row) {
+      r.wn = w.inv_mass_[j];
+      r.wt = r.wn + r.rj * r.rj * w.inv_inertia_[j];
+      r.mu = w.walls_[static_cast<std::size_t>(r.wall)].friction;
+    } else {
+      const auto i = static_cast<std::size_t>(r.i);
+      r.ri = w.radius_[i];
+      r.wn = w.inv_mass_[i] + w.inv_mass_[j];
+      r.wt = r.wn + r.ri * r.ri * w.inv_inertia_[i] + r.rj * r.rj * w.inv_inertia_[j];
+      r.mu = w.opt_.friction;
+    }
+    r.pn = c.normal_impulse;
+    r.pt = c.tangential_impulse;
+    r.status = c.status;
+    w.contacts_.push_back(r);
+  }
+  w.previous_ = w.contacts_;
+  w.step_ = s.step;
+  w.cap_hits_ = s.iteration_cap_hits;
+  return w;
+}
+
 std::uint64_t World::state_hash() const {
   Fnv f;
   f.u(static_cast<std::uint64_t>(step_));

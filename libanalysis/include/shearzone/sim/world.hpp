@@ -98,6 +98,34 @@ struct ContactRecord {
   ContactStatus status = ContactStatus::open;
 };
 
+/// The complete state of a World (checkpoint/restart, §7.5 of the research note):
+/// World::state() exports it and World::from_state() rebuilds a World that continues
+/// bit-identically (one thread). Masses and inertias are stored as such (not recomputed
+/// from a density); the contact rows are the warm-start rows of the last step in their
+/// order, with their raw statuses. The cell grid is rebuilt every step and holds no state.
+struct WorldState {
+  struct Rope {
+    int i = 0, j = 0;
+    double max_length = 0.0;
+    double impulse = 0.0;  ///< λ of the last step (N s)
+  };
+  struct Angle {
+    int prev = 0, mid = 0, next = 0;
+    double max_angle = 0.0;
+    double impulse = 0.0;  ///< λ of the last step (N s m)
+  };
+  Options options;
+  std::int64_t step = 0;
+  std::int64_t iteration_cap_hits = 0;
+  std::vector<Vec3> position, velocity, angular_velocity;
+  std::vector<double> diameter, mass, inertia;
+  std::vector<BodyKind> kind;
+  std::vector<Wall> walls;  ///< normals as stored (unit)
+  std::vector<Rope> ropes;
+  std::vector<Angle> angles;
+  std::vector<ContactRecord> contacts;  ///< last step's rows, raw status
+};
+
 class World {
  public:
   /// Throws ConfigError for an option out of range.
@@ -153,6 +181,12 @@ class World {
   [[nodiscard]] std::int64_t steps_done() const { return step_; }
   [[nodiscard]] std::int64_t iteration_cap_hits() const { return cap_hits_; }
   [[nodiscard]] double time() const { return static_cast<double>(step_) * opt_.time_step; }
+
+  /// The complete state (see WorldState).
+  [[nodiscard]] WorldState state() const;
+  /// Rebuilds a World from a state. Throws ConfigError for inconsistent sizes, a body
+  /// index out of range, a non-finite value or an option out of range.
+  [[nodiscard]] static World from_state(const WorldState& state);
 
   /// FNV-1a (64 bit) over the bit patterns of the step count, every position, velocity
   /// and angular velocity, and every row's key and impulses.
