@@ -1,8 +1,10 @@
 // `shearzone bench piv`: the PIV speed-accuracy chart and failure map (CSV).
+// `shearzone bench sim`: engine speed against bead count, accuracy against h and the cap.
 #include <cstdio>
 #include <memory>
 
 #include "shearzone/pipeline/bench_piv.hpp"
+#include "shearzone/pipeline/bench_sim.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -20,6 +22,20 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   p->add_option("--width", o->width_px, "Pair width, px")->capture_default_str();
   p->add_option("--height", o->height_px, "Pair height, px")->capture_default_str();
+  auto so = std::make_shared<pipeline::BenchSimOptions>();
+  auto sout = std::make_shared<std::string>();
+  CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap");
+  s->add_option("-o,--output", *sout, "Output folder for the CSV files")->required();
+  s->add_flag("--force", so->force, "Replace existing files");
+  s->add_flag("--quick", so->quick, "Small packings and few steps (a smoke run)");
+  s->add_option("--beads", so->beads, "Bead counts of the speed table")
+      ->delimiter(',')
+      ->capture_default_str();
+  s->add_option("--threads", so->threads, "Engine threads (the engine is serial: 1)")
+      ->capture_default_str();
+  s->add_option("--steps", so->steps, "Timed steps per bead count")->capture_default_str();
+  s->add_option("--accuracy-beads", so->accuracy_beads, "Bead count of the accuracy packing")
+      ->capture_default_str();
   return {{p, [p, o, out, &ctx] {
              o->out_dir = *out;
              core::ProgressReporter progress("bench piv", ctx.level);
@@ -31,6 +47,19 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
                std::printf("plot: python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
              }
              (void)p;
+             return kExitOk;
+           }},
+          {s, [s, so, sout, &ctx] {
+             so->out_dir = *sout;
+             core::ProgressReporter progress("bench sim", ctx.level);
+             const auto sum = pipeline::run_sim_bench(*so, ctx.header(), progress.callback());
+             progress.finish();
+             if (ctx.level != core::LogLevel::kQuiet) {
+               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
+               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
+               std::printf("plot: python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
+             }
+             (void)s;
              return kExitOk;
            }}};
 }

@@ -334,7 +334,7 @@ void World::prepare_rows() {
   }
 }
 
-void World::sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2) {
+bool World::sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2) {
   const auto j = static_cast<std::size_t>(r.j);
   Vec3 u = v_[j] - r.rj * w_[j].cross(r.n);
   if (r.i >= 0) {
@@ -353,10 +353,11 @@ void World::sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2)
   if (dpn != 0.0 || dpt.squaredNorm() != 0.0) apply_contact(r, dpn * r.n + dpt);
   dv2 += r.wn * r.wn * dpn * dpn + r.wt * r.wt * dpt.squaredNorm();
   wp2 += r.wn * r.wn * r.pn * r.pn + r.wt * r.wt * r.pt.squaredNorm();
+  return r.gap <= 0.0 || r.pn != 0.0 || r.pt.squaredNorm() != 0.0;
 }
 
-void World::sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2) {
-  if (r.wb <= 0.0) return;
+bool World::sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2) {
+  if (r.wb <= 0.0) return false;
   const auto i = static_cast<std::size_t>(r.i), j = static_cast<std::size_t>(r.j);
   const double rate = r.e.dot(v_[j] - v_[i]);
   const double lam = std::max(0.0, r.lambda + (rate - r.c * inv_h) / r.wb);
@@ -368,10 +369,11 @@ void World::sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2) {
   }
   dv2 += r.wb * r.wb * dl * dl;
   wp2 += r.wb * r.wb * lam * lam;
+  return r.c <= 0.0 || lam != 0.0;
 }
 
-void World::sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2) {
-  if (!r.live) return;
+bool World::sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2) {
+  if (!r.live) return false;
   const auto a = static_cast<std::size_t>(r.a), b = static_cast<std::size_t>(r.b),
              c = static_cast<std::size_t>(r.c);
   const double rate = r.ga.dot(v_[a]) + r.gb.dot(v_[b]) + r.gc.dot(v_[c]);
@@ -386,6 +388,7 @@ void World::sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2) {
   const double s2 = r.scale * r.scale * r.wa * r.wa;
   dv2 += s2 * dl * dl;
   wp2 += s2 * lam * lam;
+  return r.ca <= 0.0 || lam != 0.0;
 }
 
 StepDiagnostics World::step() {
@@ -427,17 +430,24 @@ StepDiagnostics World::step() {
   if (rows_per_sweep > 0) {
     for (it = 1; it <= opt_.max_iterations; ++it) {
       double dv2 = 0.0, wp2 = 0.0;
+      std::int64_t active = 0;
       if (it % 2 == 1) {
-        for (int k = 0; k < nc; ++k) sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
-        for (int k = 0; k < nr; ++k) sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
-        for (int k = 0; k < na; ++k) sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
+        for (int k = 0; k < nc; ++k)
+          active += sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
+        for (int k = 0; k < nr; ++k)
+          active += sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
+        for (int k = 0; k < na; ++k)
+          active += sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
       } else {
-        for (int k = na - 1; k >= 0; --k) sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
-        for (int k = nr - 1; k >= 0; --k) sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
+        for (int k = na - 1; k >= 0; --k)
+          active += sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
+        for (int k = nr - 1; k >= 0; --k)
+          active += sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
         for (int k = nc - 1; k >= 0; --k)
-          sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2);
+          active += sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
       }
       d.row_updates += rows_per_sweep;
+      d.active_row_updates += active;
       residual = wp2 > 0.0 ? std::sqrt(dv2 / wp2) : (dv2 > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
       if (residual <= opt_.tolerance) break;
     }

@@ -82,7 +82,12 @@ struct StepDiagnostics {
   double max_rope_excess = 0.0;   ///< max (|x_j − x_i| − L_max)/d after the step (≥ 0)
   double max_angle_excess = 0.0;  ///< max θ − θ_max (rad) after the step (≥ 0)
   double kinetic_energy = 0.0;    ///< Σ ½ m v² + ½ I ω² over mobile spheres (J)
-  std::int64_t row_updates = 0;   ///< local solves done in this step's sweeps
+  std::int64_t row_updates = 0;   ///< row visits in this step's sweeps (every row, every sweep)
+  /// Active row updates: the visits of row_updates whose local solve worked on an active
+  /// row, i.e. one whose impulse is non-zero after the local solve or that is in contact
+  /// (contact gap ≤ 0, rope taut |x_j − x_i| ≥ L_max, angle row at or past θ_max).
+  /// Skipped rope/angle rows (no mobile body, straight-chain guard) never count.
+  std::int64_t active_row_updates = 0;
 };
 
 /// A contact row of the last step, for tests and force analysis. The impulse P acts on
@@ -219,9 +224,10 @@ class World {
   void check_body(int b, const char* what) const;
   void find_contacts(double alert);
   void prepare_rows();
-  void sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2);
-  void sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2);
-  void sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2);
+  // Each returns whether the row was active (see StepDiagnostics::active_row_updates).
+  bool sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2);
+  bool sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2);
+  bool sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2);
   void apply_contact(const ContactRow& r, const Vec3& p);
   void check_state(StepDiagnostics& d) const;
 

@@ -1,0 +1,62 @@
+// shearzone/pipeline/bench_sim.hpp: the contact-dynamics engine benchmark.
+//
+// Packing (one per bead count, deterministic from the seed): single glass beads
+// (d = 2 mm, ρ = 2500 kg/m³, μ = 0.3 between beads and with the walls) on a jittered
+// lattice (horizontal pitch 1.2 d with ±0.1 d jitter, layer pitch 1.2 d, alternate
+// layers shifted by half a pitch) in a box with a square floor sized for the count
+// (floor and four side walls, no lid; about as tall as wide), dropped under gravity
+// with a cheap solver (h = 5e-4 s, tolerance 1e-2, at most 30 sweeps) until the
+// translational kinetic energy per bead falls below 1e-3 m g d (at least the time to
+// close the lattice gaps, at most settle_max_steps). The settled state is then carried
+// (positions, velocities and the contact impulses, scaled by the new h over the old)
+// into worlds with the measured options (World::from_state).
+//  1. Speed (sim_speed.csv): per bead count, `warmup_steps` untimed then `steps` timed
+//     steps with h, tolerance and iteration cap (warm-started); wall-clock seconds of the
+//     timed steps only. row_updates counts every row visit of the NLGS sweeps,
+//     active_row_updates only the local solves of active rows (StepDiagnostics).
+//  2. Accuracy (sim_accuracy.csv): on the packing of `accuracy_beads`, a grid of time
+//     steps × iteration caps, each run for the same simulated time `accuracy_duration_s`
+//     from the same settled state: mean sweeps and final residual per step, the largest
+//     overlap / d over the run, the kinetic energy at its end and the seconds per step.
+// One thread (the engine is serial; `threads` must be 1).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+
+namespace shearzone::pipeline {
+
+struct BenchSimOptions {
+  std::vector<int> beads = {2000, 5000, 10000};  ///< bead counts of the speed table
+  int threads = 1;                 ///< engine threads; only 1 is supported
+  int steps = 20;                  ///< timed steps per bead count
+  int warmup_steps = 10;           ///< untimed steps before the timing (warm start)
+  double time_step_s = 5e-4;       ///< h of the speed table
+  double tolerance = 1e-4;         ///< NLGS tolerance (both tables)
+  int max_iterations = 200;        ///< NLGS cap of the speed table
+  int accuracy_beads = 2000;       ///< packing of the accuracy table
+  std::vector<double> accuracy_time_steps_s = {2.5e-4, 5e-4, 1e-3};
+  std::vector<int> accuracy_max_iterations = {25, 50, 100, 200};
+  double accuracy_duration_s = 0.01;  ///< simulated time per accuracy setting
+  std::int64_t settle_max_steps = 4000;
+  std::uint64_t seed = 1;
+  bool quick = false;  ///< a smoke run: small packings, few steps (overrides the above)
+  std::filesystem::path out_dir;
+  bool force = false;
+};
+
+struct BenchSimSummary {
+  std::vector<std::filesystem::path> files;
+  std::vector<std::string> lines;  ///< one line per bead count, for the terminal
+};
+
+/// Throws ConfigError for an option out of range, NoResultError if a packing diverges.
+BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
+                              const core::ProgressCallback& progress = {});
+
+}  // namespace shearzone::pipeline

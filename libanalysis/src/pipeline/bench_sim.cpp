@@ -1,0 +1,284 @@
+#include "shearzone/pipeline/bench_sim.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <random>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/sim/builder.hpp"
+#include "shearzone/sim/world.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+constexpr double kDiameter = 2e-3;   // m
+constexpr double kDensity = 2500.0;  // kg/m³
+constexpr double kFriction = 0.3;    // beads and walls
+constexpr double kPitch = 1.2;       // lattice pitch, × d
+constexpr double kJitter = 0.1;      // horizontal jitter amplitude, × d
+constexpr double kSettleStep = 5e-4;
+constexpr double kSettleTolerance = 1e-2;
+constexpr int kSettleIterations = 30;
+constexpr double kSettleEnergy = 1e-3;  // ½ m v² per bead / (m g d)
+
+std::string fixed(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
+std::string sci(double v) { return fmt::format("{:.4e}", v); }
+
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto p = line.find(':');
+      if (p != std::string::npos) {
+        std::string s = line.substr(p + 1);
+        s.erase(0, s.find_first_not_of(' '));
+        return s;
+      }
+    }
+  return "unknown CPU";
+}
+
+double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+
+struct Packing {
+  sim::WorldState state;
+  int floor_side = 0;  // beads along a floor edge (full layers)
+  int layers = 0;
+  std::int64_t settle_steps = 0;
+  double kinetic_energy = 0.0;  // final ½ m v² per bead / (m g d)
+  double height = 0.0;          // top of the highest bead (m)
+};
+
+/// Jittered-lattice placement in a box sized for `count`, dropped with the cheap solver.
+Packing pour(int count, std::uint64_t seed, std::int64_t max_steps) {
+  const double d = kDiameter, a = kPitch * d;
+  const int n = std::max(2, static_cast<int>(std::ceil(std::cbrt(static_cast<double>(count)))));
+  const double side = n * a;
+  sim::Options o;
+  o.time_step = kSettleStep;
+  o.friction = kFriction;
+  o.tolerance = kSettleTolerance;
+  o.max_iterations = kSettleIterations;
+  sim::World w(o);
+  std::mt19937_64 rng(seed);
+  int placed = 0, layer = 0;
+  double top = 0.0;
+  while (placed < count) {
+    const bool shifted = layer % 2 == 1;
+    const int m = shifted ? n - 1 : n;
+    const double off = shifted ? a : 0.5 * a;
+    const double z = 0.5 * d + 0.1 * d + layer * a;
+    for (int iy = 0; iy < m && placed < count; ++iy)
+      for (int ix = 0; ix < m && placed < count; ++ix) {
+        const double jx = kJitter * d * (2.0 * uniform(rng) - 1.0);
+        const double jy = kJitter * d * (2.0 * uniform(rng) - 1.0);
+        w.add_sphere(sim::Vec3(off + ix * a + jx, off + iy * a + jy, z), d, kDensity);
+        ++placed;
+      }
+    top = z + 0.5 * d;
+    ++layer;
+  }
+  sim::add_box_walls(w, sim::BoxRegion{sim::Vec3::Zero(), sim::Vec3(side, side, top + d)}, kFriction);
+  // At least the free fall of the gaps the lattice leaves in its column, plus one d.
+  const double drop = layer * (kPitch - 1.0) * d + d;
+  const auto min_steps = static_cast<std::int64_t>(std::ceil(2.0 * std::sqrt(2.0 * drop / 9.81) / kSettleStep));
+  const double mgd = kDensity * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
+  Packing p;
+  p.floor_side = n;
+  p.layers = layer;
+  for (std::int64_t s = 1; s <= max_steps; ++s) {
+    w.step();
+    p.settle_steps = s;
+    double ke = 0.0;
+    for (int b = 0; b < w.body_count(); ++b) ke += 0.5 * w.mass(b) * w.velocity(b).squaredNorm();
+    p.kinetic_energy = ke / count / mgd;
+    if (s >= min_steps && p.kinetic_energy < kSettleEnergy) break;
+  }
+  for (int b = 0; b < w.body_count(); ++b) p.height = std::max(p.height, w.position(b).z() + 0.5 * d);
+  p.state = w.state();
+  return p;
+}
+
+/// A world on the settled state with the given h, tolerance and cap; the contact
+/// impulses (P = h R) are scaled to the new time step so the warm start stays a force.
+sim::World restart(const sim::WorldState& settled, double h, double tolerance, int cap) {
+  sim::WorldState s = settled;
+  const double ratio = h / s.options.time_step;
+  s.options.time_step = h;
+  s.options.tolerance = tolerance;
+  s.options.max_iterations = cap;
+  s.step = 0;
+  s.iteration_cap_hits = 0;
+  for (auto& c : s.contacts) {
+    c.normal_impulse *= ratio;
+    c.tangential_impulse *= ratio;
+  }
+  return sim::World::from_state(s);
+}
+
+struct Run {
+  int steps = 0;
+  double seconds = 0.0;
+  std::int64_t row_updates = 0, active_row_updates = 0, cap_hits = 0, iterations = 0;
+  double residual_sum = 0.0, max_overlap = 0.0, kinetic_energy = 0.0;
+};
+
+Run timed(sim::World& w, int steps) {
+  Run r;
+  r.steps = steps;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < steps; ++k) {
+    const sim::StepDiagnostics d = w.step();
+    r.row_updates += d.row_updates;
+    r.active_row_updates += d.active_row_updates;
+    r.cap_hits += d.hit_iteration_cap ? 1 : 0;
+    r.iterations += d.iterations;
+    r.residual_sum += d.residual;
+    r.max_overlap = std::max(r.max_overlap, d.max_overlap);
+    r.kinetic_energy = d.kinetic_energy;
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace
+
+BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
+                              const core::ProgressCallback& progress) {
+  BenchSimOptions o = options;
+  if (o.quick) {
+    o.beads = {150, 300};
+    o.steps = 5;
+    o.warmup_steps = 3;
+    o.accuracy_beads = 150;
+    o.accuracy_time_steps_s = {5e-4, 1e-3};
+    o.accuracy_max_iterations = {25, 100};
+    o.accuracy_duration_s = 0.002;
+    o.settle_max_steps = 600;
+  }
+  if (o.threads != 1)
+    throw ConfigError(fmt::format("bench sim: --threads {}: the engine is serial, only 1 is supported",
+                                  o.threads));
+  if (o.beads.empty()) throw ConfigError("bench sim: --beads needs at least one bead count");
+  for (int b : o.beads)
+    if (b < 1 || b > 1000000) throw ConfigError(fmt::format("bench sim: --beads {}: out of [1, 1e6]", b));
+  if (o.steps < 1 || o.warmup_steps < 0) throw ConfigError("bench sim: steps must be >= 1");
+  if (o.accuracy_beads < 1) throw ConfigError("bench sim: accuracy beads must be >= 1");
+  if (!(o.accuracy_duration_s > 0.0)) throw ConfigError("bench sim: accuracy duration must be > 0");
+  io::AtomicOutputSet out(o.out_dir, o.force);
+  out.check("sim_speed.csv");
+  out.check("sim_accuracy.csv");
+
+  const std::size_t total = o.beads.size() + o.accuracy_time_steps_s.size() * o.accuracy_max_iterations.size();
+  std::size_t done = 0;
+  std::map<int, Packing> packings;
+  auto packing = [&](int count) -> const Packing& {
+    auto it = packings.find(count);
+    if (it == packings.end()) it = packings.emplace(count, pour(count, o.seed, o.settle_max_steps)).first;
+    return it->second;
+  };
+  auto describe = [&](int count) {
+    const Packing& p = packing(count);
+    return fmt::format("{} beads: {}x{} floor lattice, {} layers, settled in {} steps to ½mv²/(mgd) = "
+                       "{:.2e}, top at {:.1f} mm",
+                       count, p.floor_side, p.floor_side, p.layers, p.settle_steps, p.kinetic_energy,
+                       1e3 * p.height);
+  };
+
+  core::Metadata base = header;
+  base.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(),
+                                           cpu_model()));
+  base.emplace_back("threads", std::to_string(o.threads));
+  base.emplace_back(
+      "packing",
+      fmt::format("single beads d = {} mm, density {} kg/m3, friction {} (beads and walls), gravity "
+                  "9.81 m/s2; jittered lattice (pitch {} d, jitter +-{} d, alternate layers shifted) "
+                  "in a square box (floor + 4 side walls) sized for the count; dropped with h = {} s, "
+                  "tolerance {}, cap {} until ½mv² per bead < {} m g d (at most {} steps); seed {}",
+                  1e3 * kDiameter, kDensity, kFriction, kPitch, kJitter, kSettleStep,
+                  kSettleTolerance, kSettleIterations, kSettleEnergy, o.settle_max_steps, o.seed));
+  base.emplace_back("row_updates", "every row visit of the NLGS sweeps; active: local solves of rows with "
+                                   "a non-zero impulse after the solve or in contact (gap <= 0)");
+
+  // 1. Speed against bead count.
+  std::vector<std::vector<std::string>> speed_rows;
+  BenchSimSummary sum;
+  std::vector<std::string> packing_lines;
+  for (int count : o.beads) {
+    const Packing& p = packing(count);
+    sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations);
+    if (o.warmup_steps > 0) (void)timed(w, o.warmup_steps);
+    const Run r = timed(w, o.steps);
+    const double sps = r.steps / r.seconds;
+    speed_rows.push_back({std::to_string(count), std::to_string(r.steps), fixed(r.seconds, 4), fixed(sps, 4),
+                          std::to_string(r.row_updates), sci(r.row_updates / r.seconds),
+                          sci(r.active_row_updates / r.seconds),
+                          fixed(static_cast<double>(r.iterations) / r.steps, 2), sci(r.residual_sum / r.steps),
+                          std::to_string(r.cap_hits), sci(r.max_overlap)});
+    sum.lines.push_back(fmt::format(
+        "{} beads: {:.3f} steps/s, {:.3e} row updates/s ({:.3e} active), {:.1f} sweeps/step, residual "
+        "{:.2e}, {} cap hits, max overlap {:.2e} d",
+        count, sps, r.row_updates / r.seconds, r.active_row_updates / r.seconds,
+        static_cast<double>(r.iterations) / r.steps, r.residual_sum / r.steps, r.cap_hits, r.max_overlap));
+    packing_lines.push_back(describe(count));
+    if (progress) progress(++done, total);
+  }
+  {
+    core::Metadata meta = base;
+    meta.emplace_back("bench", fmt::format("speed against bead count: {} untimed warm-up steps, then {} "
+                                           "timed steps (wall clock) with h = {} s, tolerance {}, cap {}, "
+                                           "warm-started",
+                                           o.warmup_steps, o.steps, o.time_step_s, o.tolerance,
+                                           o.max_iterations));
+    meta.emplace_back("packings", fmt::format("{}", fmt::join(packing_lines, "; ")));
+    io::CsvWriter w(out.add("sim_speed.csv").stream(), meta,
+                    {"beads", "steps", "seconds", "steps_per_s", "row_updates", "row_updates_per_s",
+                     "active_row_updates_per_s", "mean_iterations", "mean_residual", "cap_hits",
+                     "max_overlap_over_d"});
+    for (const auto& r : speed_rows) w.row(r);
+  }
+
+  // 2. Accuracy against iterations and time step.
+  std::vector<std::vector<std::string>> acc_rows;
+  const Packing& ap = packing(o.accuracy_beads);
+  for (double h : o.accuracy_time_steps_s)
+    for (int cap : o.accuracy_max_iterations) {
+      if (!(h > 0.0) || cap < 1) throw ConfigError("bench sim: accuracy grid needs h > 0 and cap >= 1");
+      sim::World w = restart(ap.state, h, o.tolerance, cap);
+      const int steps = std::max(1, static_cast<int>(std::lround(o.accuracy_duration_s / h)));
+      const Run r = timed(w, steps);
+      acc_rows.push_back({sci(h), std::to_string(cap), sci(o.tolerance),
+                          fixed(static_cast<double>(r.iterations) / r.steps, 2), sci(r.residual_sum / r.steps),
+                          sci(r.max_overlap), sci(r.kinetic_energy), sci(r.seconds / r.steps)});
+      if (progress) progress(++done, total);
+    }
+  {
+    core::Metadata meta = base;
+    meta.emplace_back("bench", fmt::format("accuracy against time step and iteration cap on the {}-bead "
+                                           "packing: every setting runs {} s of simulated time from the "
+                                           "same settled state (impulses rescaled to h), tolerance {}; "
+                                           "max_overlap_over_d: largest over the run; kinetic_energy_J: at "
+                                           "its end (translation and rotation)",
+                                           o.accuracy_beads, o.accuracy_duration_s, o.tolerance));
+    meta.emplace_back("packings", describe(o.accuracy_beads));
+    io::CsvWriter w(out.add("sim_accuracy.csv").stream(), meta,
+                    {"time_step_s", "max_iterations", "tolerance", "mean_iterations", "mean_residual",
+                     "max_overlap_over_d", "kinetic_energy_J", "seconds_per_step"});
+    for (const auto& r : acc_rows) w.row(r);
+  }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
+}
+
+}  // namespace shearzone::pipeline
