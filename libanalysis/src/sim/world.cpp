@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -48,6 +49,22 @@ struct Fnv {
   }
   void u(std::uint64_t a) { bytes(&a, sizeof a); }
 };
+
+/// The row with the largest positive violation `excess(row)` (nullptr and 0 when none
+/// exceeds 0): one search for the overlap, rope and angle checks of a step.
+template <class Row, class Excess>
+std::pair<double, const Row*> largest_excess(const std::vector<Row>& rows, Excess excess) {
+  double worst = 0.0;
+  const Row* at = nullptr;
+  for (const Row& r : rows) {
+    const double e = excess(r);
+    if (e > worst) {
+      worst = e;
+      at = &r;
+    }
+  }
+  return {worst, at};
+}
 
 }  // namespace
 
@@ -513,46 +530,33 @@ void World::check_state(StepDiagnostics& d) const {
         "sim diverged at step {}: overlap {:.4g} d between body {} and wall {} (limit {} d)", d.step,
         worst, worst_row->j, worst_row->wall, opt_.max_overlap));
   }
-  worst = 0.0;
-  const RopeRow* worst_rope = nullptr;
-  for (const RopeRow& r : ropes_) {
-    if (r.lambda > 0.0) ++d.active_ropes;
+  for (const RopeRow& r : ropes_) d.active_ropes += r.lambda > 0.0 ? 1 : 0;
+  const auto [rope_excess, worst_rope] = largest_excess(ropes_, [&](const RopeRow& r) {
     const auto i = static_cast<std::size_t>(r.i), j = static_cast<std::size_t>(r.j);
-    const double ex = ((x_[j] - x_[i]).norm() - r.max_length) / (radius_[i] + radius_[j]);
-    if (ex > worst) {
-      worst = ex;
-      worst_rope = &r;
-    }
-  }
-  d.max_rope_excess = worst;
-  if (worst_rope != nullptr && worst > opt_.max_rope_excess)
+    return ((x_[j] - x_[i]).norm() - r.max_length) / (radius_[i] + radius_[j]);
+  });
+  d.max_rope_excess = rope_excess;
+  if (worst_rope != nullptr && rope_excess > opt_.max_rope_excess)
     throw NoResultError(fmt::format(
         "sim diverged at step {}: rope between bodies {} and {} stretched {:.4g} d beyond its "
         "length (limit {} d)",
-        d.step, worst_rope->i, worst_rope->j, worst, opt_.max_rope_excess));
-  worst = 0.0;
-  const AngleRow* worst_angle = nullptr;
-  for (const AngleRow& r : angles_) {
-    if (r.lambda > 0.0) ++d.active_angles;
+        d.step, worst_rope->i, worst_rope->j, rope_excess, opt_.max_rope_excess));
+  for (const AngleRow& r : angles_) d.active_angles += r.lambda > 0.0 ? 1 : 0;
+  const auto [angle_excess, worst_angle] = largest_excess(angles_, [&](const AngleRow& r) {
     const auto a = static_cast<std::size_t>(r.a), b = static_cast<std::size_t>(r.b),
                c = static_cast<std::size_t>(r.c);
     const Vec3 b1 = x_[b] - x_[a], b2 = x_[c] - x_[b];
     const double l = b1.norm() * b2.norm();
-    if (!(l > 0.0)) continue;
-    const double theta = std::acos(std::clamp(b1.dot(b2) / l, -1.0, 1.0));
-    const double ex = theta - r.max_angle;
-    if (ex > worst) {
-      worst = ex;
-      worst_angle = &r;
-    }
-  }
-  d.max_angle_excess = worst;
-  if (worst_angle != nullptr && worst > opt_.max_angle_excess)
+    if (!(l > 0.0)) return 0.0;
+    return std::acos(std::clamp(b1.dot(b2) / l, -1.0, 1.0)) - r.max_angle;
+  });
+  d.max_angle_excess = angle_excess;
+  if (worst_angle != nullptr && angle_excess > opt_.max_angle_excess)
     throw NoResultError(fmt::format(
         "sim diverged at step {}: turning angle at body {} (chain {}-{}-{}) exceeds its limit by "
         "{:.4g} deg (limit {:.4g} deg)",
         d.step, worst_angle->b, worst_angle->a, worst_angle->b, worst_angle->c,
-        worst * 180.0 / std::numbers::pi, opt_.max_angle_excess * 180.0 / std::numbers::pi));
+        angle_excess * 180.0 / std::numbers::pi, opt_.max_angle_excess * 180.0 / std::numbers::pi));
 }
 
 std::vector<ContactRecord> World::contacts() const {
