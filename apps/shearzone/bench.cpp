@@ -31,7 +31,17 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   s->add_option("--beads", so->beads, "Bead counts of the speed table")
       ->delimiter(',')
       ->capture_default_str();
-  s->add_option("--threads", so->threads, "Engine threads (the engine is serial: 1)")
+  s->add_option("--threads", so->threads, "Engine thread counts of the speed table (slab-parallel sweep)")
+      ->delimiter(',')
+      ->capture_default_str();
+  s->add_option("--time-step", so->time_step_s, "h of the speed table and the relaxation, s")
+      ->capture_default_str();
+  s->add_option("--tolerance", so->tolerance, "NLGS residual tolerance")->capture_default_str();
+  s->add_option("--max-iterations", so->max_iterations, "NLGS sweep cap of the speed table")
+      ->capture_default_str();
+  s->add_option("--freeze-sweeps", so->freeze_sweeps, "Sweeps a quiet row stays frozen (0: off)")
+      ->capture_default_str();
+  s->add_option("--relax-steps", so->relax_max_steps, "Most relaxation steps before timing")
       ->capture_default_str();
   s->add_option("--steps", so->steps, "Timed steps per bead count")->capture_default_str();
   s->add_option("--accuracy-beads", so->accuracy_beads, "Bead count of the accuracy packing")

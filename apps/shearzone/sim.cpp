@@ -3,6 +3,7 @@
 // pipeline::SimJobOptions; the scene keys are in shearzone/pipeline/sim_job.hpp.
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "shearzone/pipeline/sim_job.hpp"
 #include "subcommands.hpp"
@@ -23,11 +24,23 @@ int run_sim(SimCli& s, const Context& ctx) {
   const auto sum = pipeline::run_sim_job(s.job, ctx.header(), progress.callback());
   progress.finish();
   if (ctx.level != core::LogLevel::kQuiet) {
-    std::printf("sim: %d bodies, %d walls, %d ropes, %d angle rows; steps %lld..%lld (t = %.6g s) "
-                "in %.3g s -> %s\n",
-                sum.bodies, sum.walls, sum.ropes, sum.angles, static_cast<long long>(sum.first_step),
-                static_cast<long long>(sum.first_step + sum.steps), sum.time_s, sum.wall_seconds,
-                s.output.c_str());
+    if (sum.fill_settled)
+      std::printf("sim: fill settled: %lld drop steps (%lld iteration-cap hits), %lld relaxation steps, "
+                  "%s (kinetic energy %.3g m g d per bead) in %.3g s; the run starts from it at step 0\n",
+                  static_cast<long long>(sum.fill_settle_steps),
+                  static_cast<long long>(sum.fill_settle_cap_hits),
+                  static_cast<long long>(sum.fill_relax_steps),
+                  sum.fill_relaxed ? "relaxed" : "NOT relaxed (fill.relax_max_steps reached)",
+                  sum.fill_kinetic_energy, sum.fill_seconds);
+    std::string kinds;
+    if (sum.fixed_bodies > 0 || sum.kinematic_bodies > 0)
+      kinds = " (" + std::to_string(sum.fixed_bodies) + " fixed, " + std::to_string(sum.kinematic_bodies) +
+              " kinematic)";
+    std::printf("sim: %d bodies%s, %d walls, %d ropes, %d angle rows; steps %lld..%lld (t = %.6g s) "
+                "in %.3g s on %d thread%s -> %s\n",
+                sum.bodies, kinds.c_str(), sum.walls, sum.ropes, sum.angles,
+                static_cast<long long>(sum.first_step), static_cast<long long>(sum.first_step + sum.steps),
+                sum.time_s, sum.wall_seconds, sum.threads, sum.threads == 1 ? "" : "s", s.output.c_str());
     std::printf("sim: %zu snapshots, %zu checkpoints, %lld iteration-cap hits, max overlap %.3g d, "
                 "state hash %016llx\n",
                 sum.snapshots, sum.checkpoints, static_cast<long long>(sum.iteration_cap_hits),

@@ -1,12 +1,15 @@
 // `shearzone sim`: see shearzone/pipeline/sim_job.hpp.
 #include "shearzone/pipeline/sim_job.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -28,17 +31,29 @@ const std::vector<std::string> kKeys = {
     "sim.duration_s",         "sim.time_step_s",        "sim.gravity_m_per_s2",
     "sim.friction",           "sim.tolerance",          "sim.max_iterations",
     "sim.alert_margin",       "sim.max_overlap",        "sim.max_rope_excess",
-    "sim.max_angle_excess_deg",
+    "sim.max_angle_excess_deg", "sim.freeze_sweeps",    "sim.threads",
     "output.snapshot_every",  "output.checkpoint_every", "output.diagnostics_every",
     "box.min_m",              "box.max_m",              "box.friction",
     "box.lid",
     "cylinder.radius_m",      "cylinder.height_m",      "cylinder.bead_diameter_m",
     "cylinder.centre_m",      "cylinder.floor_friction",
     "beads.diameter_m",       "beads.density_kg_per_m3", "beads.positions_m",
-    "beads.fixed_positions_m",
+    "beads.fixed_positions_m", "beads.kinematic_positions_m",
+    "beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s",
     "chains.beads_per_chain", "chains.l_max_m",         "chains.max_angle_deg",
     "fill.count",             "fill.min_m",             "fill.max_m",
-    "fill.seed",              "fill.clearance"};
+    "fill.seed",              "fill.clearance",         "fill.settle",
+    "fill.insert_fraction",   "fill.settle_tolerance",  "fill.settle_max_iterations",
+    "fill.settle_max_steps",  "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
+    "fill.relax_max_steps"};
+
+// The settle/relax keys of [fill]; they only mean something with fill.settle = true.
+const std::vector<std::string> kSettleKeys = {
+    "fill.insert_fraction",  "fill.settle_tolerance",      "fill.settle_max_iterations",
+    "fill.settle_max_steps", "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
+    "fill.relax_max_steps"};
+
+constexpr long long kIntMax = std::numeric_limits<int>::max();
 
 double deg(double a) { return a * std::numbers::pi / 180.0; }
 
@@ -49,15 +64,24 @@ class Scene {
   }
   bool has(const std::string& k) const { return t_.has(k); }
   double num(const std::string& k, double fallback) const { return t_.has(k) ? t_.get_double(k) : fallback; }
-  long long integer(const std::string& k, long long fallback, long long min) const {
+  long long integer(const std::string& k, long long fallback, long long min,
+                    long long max = std::numeric_limits<long long>::max()) const {
     if (!t_.has(k)) return fallback;
     const long long v = t_.get_int(k);
-    if (v < min) fail(k, fmt::format("{} (expected >= {})", v, min));
+    if (v < min || v > max) {
+      if (max == std::numeric_limits<long long>::max()) fail(k, fmt::format("{} (expected >= {})", v, min));
+      fail(k, fmt::format("{} (expected in [{}, {}])", v, min, max));
+    }
     return v;
   }
   double positive(const std::string& k, double fallback) const {
     const double v = num(k, fallback);
     if (!(v > 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected > 0)", v));
+    return v;
+  }
+  double non_negative(const std::string& k, double fallback) const {
+    const double v = num(k, fallback);
+    if (!(v >= 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected >= 0)", v));
     return v;
   }
   bool flag(const std::string& k, bool fallback) const { return t_.has(k) ? t_.get_bool(k) : fallback; }
@@ -76,6 +100,18 @@ class Scene {
     std::vector<double> v = numbers(k);
     if (v.size() != n) fail(k, fmt::format("{} values (expected {})", v.size(), n));
     return v;
+  }
+  Vec3 vec3(const std::string& k) const {
+    const auto v = fixed_size(k, 3);
+    return {v[0], v[1], v[2]};
+  }
+  /// Positions x0, y0, z0, x1, ... as points.
+  std::vector<Vec3> points(const std::string& k) const {
+    const auto v = numbers(k);
+    if (v.size() % 3 != 0) fail(k, "the count must be a multiple of 3");
+    std::vector<Vec3> out;
+    for (std::size_t i = 0; i < v.size(); i += 3) out.emplace_back(v[i], v[i + 1], v[i + 2]);
+    return out;
   }
   [[noreturn]] void fail(const std::string& k, const std::string& what) const {
     throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", t_.source(), t_.line(k), k, what));
@@ -107,113 +143,301 @@ Cadence read_cadence(const Scene& s) {
 
 sim::Options read_options(const Scene& s) {
   sim::Options o;
-  o.time_step = s.num("sim.time_step_s", o.time_step);
-  if (s.has("sim.gravity_m_per_s2")) {
-    const auto g = s.fixed_size("sim.gravity_m_per_s2", 3);
-    o.gravity = Vec3(g[0], g[1], g[2]);
-  }
-  o.friction = s.num("sim.friction", o.friction);
-  o.tolerance = s.num("sim.tolerance", o.tolerance);
-  o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1));
-  o.alert_margin = s.num("sim.alert_margin", o.alert_margin);
-  o.max_overlap = s.num("sim.max_overlap", o.max_overlap);
-  o.max_rope_excess = s.num("sim.max_rope_excess", o.max_rope_excess);
-  if (s.has("sim.max_angle_excess_deg")) o.max_angle_excess = deg(s.num("sim.max_angle_excess_deg", 2.0));
+  // The ranges of World's constructor, checked here so that the message names the line.
+  o.time_step = s.positive("sim.time_step_s", o.time_step);
+  if (s.has("sim.gravity_m_per_s2")) o.gravity = s.vec3("sim.gravity_m_per_s2");
+  o.friction = s.non_negative("sim.friction", o.friction);
+  o.tolerance = s.positive("sim.tolerance", o.tolerance);
+  o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1, kIntMax));
+  o.alert_margin = s.non_negative("sim.alert_margin", o.alert_margin);
+  o.max_overlap = s.positive("sim.max_overlap", o.max_overlap);
+  o.max_rope_excess = s.positive("sim.max_rope_excess", o.max_rope_excess);
+  if (s.has("sim.max_angle_excess_deg")) o.max_angle_excess = deg(s.positive("sim.max_angle_excess_deg", 2.0));
+  o.freeze_sweeps = static_cast<int>(s.integer("sim.freeze_sweeps", o.freeze_sweeps, 0, 1000000));
+  o.threads = static_cast<int>(s.integer("sim.threads", o.threads, 1, 256));
   return o;
 }
 
-/// Builds the world of a scene; chain ids per body (for the snapshots).
-sim::World build_world(const Scene& s, std::vector<std::int64_t>& chain_ids) {
-  sim::World w(read_options(s));
-  std::int64_t next_chain = 0;
-  auto own_chain = [&] { chain_ids.push_back(next_chain++); };
+/// Axis-aligned box from two keys, max > min in every coordinate.
+sim::BoxRegion read_box(const Scene& s, const std::string& lo_key, const std::string& hi_key) {
+  const Vec3 lo = s.vec3(lo_key), hi = s.vec3(hi_key);
+  for (int k = 0; k < 3; ++k)
+    if (!(hi[k] > lo[k])) s.fail(hi_key, fmt::format("must exceed {} in every coordinate", lo_key));
+  return {lo, hi};
+}
+
+/// Everything a scene puts in the world, read and checked before anything is built.
+struct SceneBodies {
+  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
+  std::optional<sim::BoxRegion> box;
+  double box_friction = 0.5;
+  bool lid = false;
+  bool cylinder = false;
+  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
+  double cyl_cx = 0.0, cyl_cy = 0.0;
+  // Beads.
+  double diameter = 0.0, density = 2500.0;
+  std::vector<Vec3> fixed, kinematic, mobile;
+  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
+  sim::ChainOptions chains;
+  // [fill].
+  bool fill = false;
+  sim::BoxRegion fill_region;
+  bool settle = false;
+  sim::FillOptions settle_options;
+};
+
+SceneBodies read_bodies(const Scene& s) {
+  SceneBodies b;
   if (s.has("box.min_m") || s.has("box.max_m")) {
-    const auto lo = s.fixed_size("box.min_m", 3), hi = s.fixed_size("box.max_m", 3);
-    for (int k = 0; k < 3; ++k)
-      if (!(hi[static_cast<std::size_t>(k)] > lo[static_cast<std::size_t>(k)]))
-        s.fail("box.max_m", "must exceed box.min_m in every coordinate");
-    const double mu = s.num("box.friction", 0.5);
-    sim::add_box_walls(w, sim::BoxRegion{Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2])}, mu);
-    if (s.flag("box.lid", false)) w.add_wall(sim::Wall{Vec3(lo[0], lo[1], hi[2]), -Vec3::UnitZ(), mu});
+    b.box = read_box(s, "box.min_m", "box.max_m");
+    b.box_friction = s.non_negative("box.friction", 0.5);
+    b.lid = s.flag("box.lid", false);
   } else if (s.has("box.friction") || s.has("box.lid")) {
     s.fail_file("[box] needs min_m and max_m");
   }
-  const bool cylinder = s.has("cylinder.radius_m");
-  if (cylinder && s.has("box.min_m")) s.fail_file("give either [box] or [cylinder], not both");
-  if (cylinder) {
-    const double r = s.positive("cylinder.radius_m", 1.0);
-    const double height = s.positive("cylinder.height_m", 1.0);
-    const double dw = s.positive("cylinder.bead_diameter_m", 1.0);
-    std::vector<double> c{0.0, 0.0};
-    if (s.has("cylinder.centre_m")) c = s.fixed_size("cylinder.centre_m", 2);
-    w.add_wall(sim::Wall{Vec3(c[0], c[1], 0.0), Vec3::UnitZ(), s.num("cylinder.floor_friction", 0.5)});
-    const double rc = r + 0.5 * dw;  // bead centres: the beads' inner surface at r
-    const auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
-    const double rho = s.positive("beads.density_kg_per_m3", 2500.0);
-    for (int layer = 0; (0.5 + layer) * dw <= height; ++layer)
-      for (int k = 0; k < per_ring; ++k) {
-        const double a = 2.0 * std::numbers::pi * (k + 0.5 * (layer % 2)) / per_ring;
-        w.add_sphere(Vec3(c[0] + rc * std::cos(a), c[1] + rc * std::sin(a), (0.5 + layer) * dw), dw, rho,
-                     sim::BodyKind::fixed);
-        own_chain();
-      }
+  b.cylinder = s.has("cylinder.radius_m");
+  if (b.cylinder && b.box) s.fail_file("give either [box] or [cylinder], not both");
+  b.density = s.positive("beads.density_kg_per_m3", 2500.0);
+  if (b.cylinder) {
+    b.cyl_radius = s.positive("cylinder.radius_m", 1.0);
+    b.cyl_height = s.positive("cylinder.height_m", 1.0);
+    b.cyl_bead = s.positive("cylinder.bead_diameter_m", 1.0);
+    if (s.has("cylinder.centre_m")) {
+      const auto c = s.fixed_size("cylinder.centre_m", 2);
+      b.cyl_cx = c[0];
+      b.cyl_cy = c[1];
+    }
+    b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", 0.5);
   } else if (s.has("cylinder.height_m") || s.has("cylinder.bead_diameter_m") || s.has("cylinder.centre_m") ||
              s.has("cylinder.floor_friction")) {
     s.fail_file("[cylinder] needs radius_m");
   }
 
-  const bool any_beads = s.has("beads.positions_m") || s.has("beads.fixed_positions_m") || s.has("fill.count");
-  if (!any_beads) return w;
+  for (const char* k : {"beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s"})
+    if (s.has(k) && !s.has("beads.kinematic_positions_m")) s.fail(k, "needs beads.kinematic_positions_m");
+  const bool any_beads = s.has("beads.positions_m") || s.has("beads.fixed_positions_m") ||
+                         s.has("beads.kinematic_positions_m") || s.has("fill.count");
+  // Without fill.count, no other [fill] key may be set.
+  auto no_fill_keys = [&s] {
+    for (const char* k : {"fill.min_m", "fill.max_m", "fill.seed", "fill.clearance", "fill.settle"})
+      if (s.has(k)) s.fail_file("[fill] needs count");
+    for (const std::string& k : kSettleKeys)
+      if (s.has(k)) s.fail_file("[fill] needs count");
+  };
+  if (!any_beads) {
+    no_fill_keys();
+    return b;
+  }
   if (!s.has("beads.diameter_m")) s.fail_file("key \"beads.diameter_m\" is required with beads");
-  const double d = s.positive("beads.diameter_m", 1.0);
-  const double rho = s.positive("beads.density_kg_per_m3", 2500.0);
-  sim::ChainOptions co;
-  co.diameter = d;
-  co.density = rho;
-  co.beads_per_chain = static_cast<int>(s.integer("chains.beads_per_chain", 1, 1));
-  co.l_max = s.num("chains.l_max_m", 0.0);
+  b.diameter = s.positive("beads.diameter_m", 1.0);
+  sim::ChainOptions& co = b.chains;
+  co.diameter = b.diameter;
+  co.density = b.density;
+  co.beads_per_chain = static_cast<int>(s.integer("chains.beads_per_chain", 1, 1, kIntMax));
+  co.l_max = s.non_negative("chains.l_max_m", 0.0);
   co.theta_max = deg(s.num("chains.max_angle_deg", 180.0));
-  if (!(co.l_max >= 0.0)) s.fail("chains.l_max_m", fmt::format("{} (expected >= 0)", co.l_max));
   if (!(co.theta_max > 0.0) || co.theta_max > std::numbers::pi)
     s.fail("chains.max_angle_deg", "expected in (0, 180]");
 
-  const auto fixed = s.numbers("beads.fixed_positions_m");
-  if (fixed.size() % 3 != 0) s.fail("beads.fixed_positions_m", "the count must be a multiple of 3");
-  for (std::size_t k = 0; k < fixed.size(); k += 3) {
-    w.add_sphere(Vec3(fixed[k], fixed[k + 1], fixed[k + 2]), d, rho, sim::BodyKind::fixed);
-    own_chain();
+  b.fixed = s.points("beads.fixed_positions_m");
+  b.kinematic = s.points("beads.kinematic_positions_m");
+  if (s.has("beads.kinematic_velocity_m_per_s")) b.kinematic_velocity = s.vec3("beads.kinematic_velocity_m_per_s");
+  if (s.has("beads.kinematic_angular_velocity_rad_per_s"))
+    b.kinematic_omega = s.vec3("beads.kinematic_angular_velocity_rad_per_s");
+  b.mobile = s.points("beads.positions_m");
+  if (!b.mobile.empty() && s.has("fill.count") && s.flag("fill.settle", false))
+    s.fail("beads.positions_m",
+           "explicit mobile beads cannot be combined with fill.settle = true (the fill builds the packing "
+           "in worlds of its own; give them as fixed_positions_m, or drop fill.settle)");
+  const std::size_t n = static_cast<std::size_t>(co.beads_per_chain);
+  if (b.mobile.size() % n != 0)
+    s.fail("beads.positions_m", fmt::format("{} beads are not whole chains of {}", b.mobile.size(), n));
+
+  b.fill = s.has("fill.count");
+  if (!b.fill) {
+    no_fill_keys();
+    return b;
   }
-  const auto pos = s.numbers("beads.positions_m");
-  if (pos.size() % 3 != 0) s.fail("beads.positions_m", "the count must be a multiple of 3");
-  const std::size_t nb = pos.size() / 3, n = static_cast<std::size_t>(co.beads_per_chain);
-  if (nb % n != 0)
-    s.fail("beads.positions_m", fmt::format("{} beads are not whole chains of {}", nb, n));
-  for (std::size_t c = 0; c < nb / n; ++c) {
+  co.chains = static_cast<int>(s.integer("fill.count", 1, 1, kIntMax));
+  co.seed = static_cast<std::uint64_t>(s.integer("fill.seed", 1, 0));
+  co.clearance = s.non_negative("fill.clearance", co.clearance);
+  b.fill_region = read_box(s, "fill.min_m", "fill.max_m");
+  const Vec3 &flo = b.fill_region.lo, &fhi = b.fill_region.hi;
+  // The chains must start inside the container: a bead placed through a half-space wall
+  // would start deep in overlap and stop the run at its first step.
+  if (b.box) {
+    const bool inside = flo.x() >= b.box->lo.x() && flo.y() >= b.box->lo.y() && flo.z() >= b.box->lo.z() &&
+                        fhi.x() <= b.box->hi.x() && fhi.y() <= b.box->hi.y() &&
+                        (!b.lid || fhi.z() <= b.box->hi.z());
+    if (!inside) s.fail("fill.max_m", "the fill region must lie inside the box (below its lid, if any)");
+  } else if (b.cylinder) {
+    const double rx = std::max(std::abs(flo.x() - b.cyl_cx), std::abs(fhi.x() - b.cyl_cx));
+    const double ry = std::max(std::abs(flo.y() - b.cyl_cy), std::abs(fhi.y() - b.cyl_cy));
+    if (std::hypot(rx, ry) > b.cyl_radius || flo.z() < 0.0)
+      s.fail("fill.max_m", fmt::format("the fill region must lie inside the cylinder (radius {} m, floor z = 0)",
+                                       b.cyl_radius));
+  }
+
+  b.settle = s.flag("fill.settle", false);
+  if (!b.settle) {
+    for (const std::string& k : kSettleKeys)
+      if (s.has(k)) s.fail(k, "only applies with fill.settle = true");
+  }
+  sim::FillOptions& fo = b.settle_options;
+  fo.insert_fraction = s.num("fill.insert_fraction", fo.insert_fraction);
+  if (!(fo.insert_fraction > 0.0) || fo.insert_fraction > 0.35)
+    s.fail("fill.insert_fraction", fmt::format("{} (expected in (0, 0.35])", fo.insert_fraction));
+  // sim::fill places the chains in the fill box raised until they fill insert_fraction of
+  // it (builder.hpp, "Fill"); without settle they go into the box itself.
+  sim::BoxRegion placed = b.fill_region;
+  if (b.settle) {
+    const double d = b.diameter;
+    const double beads = static_cast<double>(co.chains) * co.beads_per_chain;
+    const double area = (fhi.x() - flo.x()) * (fhi.y() - flo.y());
+    placed.hi.z() =
+        std::max(fhi.z(), flo.z() + beads * std::numbers::pi * d * d * d / 6.0 / (fo.insert_fraction * area) + d);
+  }
+  // Placement sees none of the scene's other beads: one in the way would start in deep
+  // overlap with a chain bead.
+  auto check_clear = [&](const std::vector<Vec3>& beads, const char* key) {
+    for (std::size_t k = 0; k < beads.size(); ++k) {
+      const Vec3 nearest = beads[k].cwiseMax(placed.lo).cwiseMin(placed.hi);
+      if ((beads[k] - nearest).norm() < 0.5 * b.diameter)
+        s.fail(key, fmt::format("bead {} at ({}, {}, {}) reaches into the {} region (z up to {:.6g} m), where "
+                                "the chains are placed without seeing it",
+                                k, beads[k].x(), beads[k].y(), beads[k].z(), b.settle ? "drop" : "fill",
+                                placed.hi.z()));
+    }
+  };
+  check_clear(b.fixed, "beads.fixed_positions_m");
+  check_clear(b.kinematic, "beads.kinematic_positions_m");
+  if (!b.settle) {
+    check_clear(b.mobile, "beads.positions_m");
+    return b;
+  }
+  if (!b.box && !b.cylinder && b.fixed.empty() && b.kinematic.empty())
+    s.fail("fill.settle", "needs a container ([box], [cylinder] or fixed beads) to settle into");
+  fo.chains = co;
+  fo.region = b.fill_region;
+  fo.wall_friction = b.box_friction;  // unused: the container callback adds the walls
+  fo.settle_tolerance = s.positive("fill.settle_tolerance", fo.settle_tolerance);
+  fo.settle_max_iterations =
+      static_cast<int>(s.integer("fill.settle_max_iterations", fo.settle_max_iterations, 1, kIntMax));
+  fo.settle_max_steps = s.integer("fill.settle_max_steps", fo.settle_max_steps, 1);
+  fo.settle_kinetic_energy = s.positive("fill.settle_kinetic_energy", fo.settle_kinetic_energy);
+  fo.relax_kinetic_energy = s.positive("fill.relax_kinetic_energy", fo.relax_kinetic_energy);
+  fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0);
+  // Under a lid the drop column must fit, or beads would start above the lid.
+  if (b.lid && placed.hi.z() > b.box->hi.z())
+    s.fail("fill.settle", fmt::format("the drop column reaches z = {:.6g} m, above the lid at {:.6g} m (raise "
+                                      "box.max_m, raise fill.insert_fraction or set box.lid = false)",
+                                      placed.hi.z(), b.box->hi.z()));
+  return b;
+}
+
+/// Adds the container (walls, cylinder beads, fixed beads, kinematic beads) to `w`; the
+/// kinematic beads get their prescribed velocities only if `moving` (sim::fill's drop and
+/// relaxation worlds keep them still).
+void add_container(sim::World& w, const SceneBodies& b, bool moving) {
+  if (b.box) {
+    sim::add_box_walls(w, *b.box, b.box_friction);
+    if (b.lid) w.add_wall(sim::Wall{Vec3(b.box->lo.x(), b.box->lo.y(), b.box->hi.z()), -Vec3::UnitZ(), b.box_friction});
+  }
+  if (b.cylinder) {
+    const double dw = b.cyl_bead;
+    w.add_wall(sim::Wall{Vec3(b.cyl_cx, b.cyl_cy, 0.0), Vec3::UnitZ(), b.cyl_floor_friction});
+    const double rc = b.cyl_radius + 0.5 * dw;  // bead centres: the beads' inner surface at r
+    const auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
+    for (int layer = 0; (0.5 + layer) * dw <= b.cyl_height; ++layer)
+      for (int k = 0; k < per_ring; ++k) {
+        const double a = 2.0 * std::numbers::pi * (k + 0.5 * (layer % 2)) / per_ring;
+        w.add_sphere(Vec3(b.cyl_cx + rc * std::cos(a), b.cyl_cy + rc * std::sin(a), (0.5 + layer) * dw), dw,
+                     b.density, sim::BodyKind::fixed);
+      }
+  }
+  for (const Vec3& x : b.fixed) w.add_sphere(x, b.diameter, b.density, sim::BodyKind::fixed);
+  for (const Vec3& x : b.kinematic) {
+    const int id = w.add_sphere(x, b.diameter, b.density, sim::BodyKind::kinematic);
+    if (moving) {
+      w.set_velocity(id, b.kinematic_velocity);
+      w.set_angular_velocity(id, b.kinematic_omega);
+    }
+  }
+}
+
+struct Built {
+  std::optional<sim::World> world;
+  std::vector<std::int64_t> chain_ids;  ///< per body, for the snapshots
+};
+
+/// Builds the world of a scene. `check_only` (restart): reads and checks every section
+/// but places, drops and relaxes nothing. The fill stage's report goes to `sum`.
+Built build_world(const Scene& s, bool check_only, SimJobSummary& sum) {
+  const sim::Options opt = read_options(s);
+  const SceneBodies b = read_bodies(s);
+  // sim::fill raises the drop column along +z: the beads must fall down it.
+  if (b.settle && !(opt.gravity.z() < 0.0))
+    s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
+  Built out;
+  sim::World container(opt);
+  add_container(container, b, true);
+  // Every container body is a chain of its own; then the explicit chains, then the fill.
+  std::int64_t next_chain = 0;
+  for (int k = 0; k < container.body_count(); ++k) out.chain_ids.push_back(next_chain++);
+  if (b.fill) {
+    sim::validate(sim::Region{b.fill_region});
+    sim::validate(b.chains);
+    if (b.settle) sim::validate(b.settle_options);
+  }
+  if (check_only) {
+    out.world.emplace(std::move(container));
+    return out;
+  }
+
+  if (b.settle) {
+    const auto t0 = std::chrono::steady_clock::now();
+    sim::FillResult r = sim::fill(opt, b.settle_options, [&b](sim::World& w) { add_container(w, b, false); });
+    sum.fill_settled = true;
+    sum.fill_settle_steps = r.settle_steps;
+    sum.fill_relax_steps = r.relax_steps;
+    sum.fill_settle_cap_hits = r.settle_cap_hits;
+    sum.fill_kinetic_energy = r.kinetic_energy;
+    sum.fill_relaxed = r.relaxed;
+    sum.fill_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The run starts from the relaxed packing at step 0 and t = 0, with the relaxation's
+    // last impulses as its warm start; the kinematic beads start moving now.
+    sim::WorldState st = r.world.state();
+    st.step = 0;
+    st.iteration_cap_hits = 0;
+    out.world.emplace(sim::World::from_state(st));
+    for (int k = 0; k < out.world->body_count(); ++k)
+      if (out.world->kind(k) == sim::BodyKind::kinematic) {
+        out.world->set_velocity(k, b.kinematic_velocity);
+        out.world->set_angular_velocity(k, b.kinematic_omega);
+      }
+    for (const int c : r.chain_of_bead) out.chain_ids.push_back(next_chain + c);
+    return out;
+  }
+
+  out.world.emplace(std::move(container));
+  sim::World& w = *out.world;
+  const auto n = static_cast<std::size_t>(b.chains.beads_per_chain);
+  for (std::size_t c = 0; c < b.mobile.size() / n; ++c) {
     std::vector<int> ids;
     for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t b = 3 * (c * n + k);
-      ids.push_back(w.add_sphere(Vec3(pos[b], pos[b + 1], pos[b + 2]), d, rho));
-      chain_ids.push_back(next_chain);
+      ids.push_back(w.add_sphere(b.mobile[c * n + k], b.diameter, b.density));
+      out.chain_ids.push_back(next_chain);
     }
     ++next_chain;
-    if (n > 1) w.add_chain(ids, d + co.l_max, co.theta_max);
+    if (n > 1) w.add_chain(ids, b.diameter + b.chains.l_max, b.chains.theta_max);
   }
-  if (s.has("fill.count")) {
-    co.chains = static_cast<int>(s.integer("fill.count", 1, 1));
-    co.seed = static_cast<std::uint64_t>(s.integer("fill.seed", 1, 0));
-    co.clearance = s.num("fill.clearance", co.clearance);
-    const auto lo = s.fixed_size("fill.min_m", 3), hi = s.fixed_size("fill.max_m", 3);
-    const sim::Region region = sim::BoxRegion{Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2])};
-    sim::validate(region);
-    sim::validate(co);
-    const sim::ChainPlacement p = sim::place_chains(region, co);
-    sim::add_chains(w, p, co);
-    for (int c : p.chain_of_bead) chain_ids.push_back(next_chain + c);
-    next_chain += co.chains;
-  } else if (s.has("fill.min_m") || s.has("fill.max_m") || s.has("fill.seed") || s.has("fill.clearance")) {
-    s.fail_file("[fill] needs count");
+  if (b.fill) {
+    const sim::ChainPlacement p = sim::place_chains(b.fill_region, b.chains);
+    sim::add_chains(w, p, b.chains);
+    for (const int c : p.chain_of_bead) out.chain_ids.push_back(next_chain + c);
   }
-  return w;
+  return out;
 }
 
 }  // namespace
@@ -222,23 +446,30 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
                           const core::ProgressCallback& progress) {
   const Scene scene(o.scene);
   const Cadence cad = read_cadence(scene);
+  SimJobSummary sum;
   std::vector<std::int64_t> chain_ids;
   std::optional<sim::World> built;
   if (o.restart.empty()) {
-    built.emplace(build_world(scene, chain_ids));
+    Built b = build_world(scene, false, sum);
+    built.emplace(std::move(*b.world));
+    chain_ids = std::move(b.chain_ids);
   } else {
-    (void)build_world(scene, chain_ids);  // checks the scene's sections
+    (void)build_world(scene, true, sum);  // checks the scene's sections
     built.emplace(sim::World::from_state(sim::read_checkpoint(o.restart)));
     chain_ids = sim::chain_ids_from_ropes(built->state());
   }
   sim::World& w = *built;
 
-  SimJobSummary sum;
   sum.first_step = w.steps_done();
   sum.bodies = w.body_count();
+  for (int k = 0; k < w.body_count(); ++k) {
+    if (w.kind(k) == sim::BodyKind::fixed) ++sum.fixed_bodies;
+    if (w.kind(k) == sim::BodyKind::kinematic) ++sum.kinematic_bodies;
+  }
   sum.walls = static_cast<int>(w.walls().size());
   sum.ropes = w.rope_count();
   sum.angles = w.angle_count();
+  sum.threads = w.options().threads;
   const double h = w.options().time_step;
   const auto end_step = static_cast<std::int64_t>(std::llround(cad.duration_s / h));
   const std::int64_t todo = std::max<std::int64_t>(0, end_step - w.steps_done());
@@ -247,7 +478,18 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   meta.emplace_back("scene", o.scene.string());
   if (!o.restart.empty()) meta.emplace_back("restart", o.restart.string());
   meta.emplace_back("time_step_s", io::CsvWriter::format_number(h));
+  meta.emplace_back("threads", std::to_string(w.options().threads));
+  meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
   meta.emplace_back("bodies", std::to_string(w.body_count()));
+  if (sum.kinematic_bodies > 0) meta.emplace_back("kinematic_bodies", std::to_string(sum.kinematic_bodies));
+  if (sum.fill_settled) {
+    meta.emplace_back("fill_settle_steps", std::to_string(sum.fill_settle_steps));
+    meta.emplace_back("fill_settle_cap_hits", std::to_string(sum.fill_settle_cap_hits));
+    meta.emplace_back("fill_relax_steps", std::to_string(sum.fill_relax_steps));
+    meta.emplace_back("fill_relaxed", sum.fill_relaxed ? "true" : "false");
+    meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::CsvWriter::format_number(sum.fill_kinetic_energy));
+    meta.emplace_back("fill_note", "step 0 is the relaxed packing (the drop and relaxation steps are not counted)");
+  }
 
   io::AtomicOutputSet out(o.output_dir, o.force);
   io::AtomicOutput& snap_file = out.add("snapshots.h5");

@@ -18,7 +18,9 @@ namespace shearzone::sim {
 namespace {
 
 constexpr const char* kCheckpointFormat = "shearzone-sim-checkpoint";
-constexpr std::int64_t kCheckpointVersion = 1;
+// Version 2 added /bodies/orientation and the freeze_sweeps and threads options; version 1
+// files still read (identity orientations, default freeze and one thread).
+constexpr std::int64_t kCheckpointVersion = 2;
 
 std::vector<double> flatten(const std::vector<Vec3>& v) {
   std::vector<double> out;
@@ -92,6 +94,8 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
   f.set_attribute("/", "option_max_overlap", o.max_overlap);
   f.set_attribute("/", "option_max_rope_excess", o.max_rope_excess);
   f.set_attribute("/", "option_max_angle_excess_rad", o.max_angle_excess);
+  f.set_attribute("/", "option_freeze_sweeps", static_cast<std::int64_t>(o.freeze_sweeps));
+  f.set_attribute("/", "option_threads", static_cast<std::int64_t>(o.threads));
   write_metadata(f, metadata);
 
   const std::size_t n = s.position.size();
@@ -104,6 +108,15 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/bodies/position", {n, 3}, flatten(s.position));
     f.write("/bodies/velocity", {n, 3}, flatten(s.velocity));
     f.write("/bodies/angular_velocity", {n, 3}, flatten(s.angular_velocity));
+    std::vector<double> q;
+    q.reserve(4 * n);
+    for (const Eigen::Quaterniond& r : s.orientation) {
+      q.push_back(r.w());
+      q.push_back(r.x());
+      q.push_back(r.y());
+      q.push_back(r.z());
+    }
+    f.write("/bodies/orientation", {n, 4}, q);
     f.write("/bodies/diameter", {n}, s.diameter);
     f.write("/bodies/mass", {n}, s.mass);
     f.write("/bodies/inertia", {n}, s.inertia);
@@ -181,7 +194,7 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
     throw InputError(fmt::format("{}: not a shearzone sim checkpoint (attribute \"format\" is not \"{}\")",
                                  f.path(), kCheckpointFormat));
   const std::int64_t version = f.attribute_int("/", "format_version");
-  if (version != kCheckpointVersion)
+  if (version != kCheckpointVersion && version != 1)
     throw InputError(fmt::format("{}: checkpoint format_version {} (this build reads {})", f.path(),
                                  version, kCheckpointVersion));
   WorldState s;
@@ -204,12 +217,28 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
   o.max_overlap = f.attribute_double("/", "option_max_overlap");
   o.max_rope_excess = f.attribute_double("/", "option_max_rope_excess");
   o.max_angle_excess = f.attribute_double("/", "option_max_angle_excess_rad");
+  if (version >= 2) {
+    const std::int64_t freeze = f.attribute_int("/", "option_freeze_sweeps");
+    const std::int64_t threads = f.attribute_int("/", "option_threads");
+    if (freeze < 0 || freeze > 1000000)
+      throw InputError(fmt::format("{}: attribute \"option_freeze_sweeps\": {}", f.path(), freeze));
+    if (threads < 1 || threads > 256)
+      throw InputError(fmt::format("{}: attribute \"option_threads\": {}", f.path(), threads));
+    o.freeze_sweeps = static_cast<int>(freeze);
+    o.threads = static_cast<int>(threads);
+  }
 
   const std::size_t n = count_attr(f, "n_bodies");
   if (n > 0) {
     s.position = read_vec3(f, "/bodies/position", n);
     s.velocity = read_vec3(f, "/bodies/velocity", n);
     s.angular_velocity = read_vec3(f, "/bodies/angular_velocity", n);
+    if (version >= 2) {
+      const std::vector<double> q = read_checked<double>(f, "/bodies/orientation", n, 4);
+      s.orientation.resize(n);
+      for (std::size_t k = 0; k < n; ++k)
+        s.orientation[k] = Eigen::Quaterniond(q[4 * k], q[4 * k + 1], q[4 * k + 2], q[4 * k + 3]);
+    }
     s.diameter = read_checked<double>(f, "/bodies/diameter", n, 0);
     s.mass = read_checked<double>(f, "/bodies/mass", n, 0);
     s.inertia = read_checked<double>(f, "/bodies/inertia", n, 0);
@@ -403,7 +432,8 @@ const std::vector<std::string>& DiagnosticsCsv::columns() {
       "step",          "time_s",           "iterations",       "residual",
       "cap_hit",       "contacts",         "active_contacts",  "sliding_contacts",
       "sticking_contacts", "active_ropes", "active_angles",    "max_overlap_over_d",
-      "max_rope_excess_over_d", "max_angle_excess_rad", "kinetic_energy_J", "row_updates"};
+      "max_rope_excess_over_d", "max_angle_excess_rad", "kinetic_energy_J", "row_updates",
+      "active_row_updates", "frozen_skips", "rows"};
   return c;
 }
 
@@ -420,7 +450,8 @@ void DiagnosticsCsv::row(const StepDiagnostics& d, double time_s) {
       std::to_string(d.sliding_contacts), std::to_string(d.sticking_contacts),
       std::to_string(d.active_ropes), std::to_string(d.active_angles), num(d.max_overlap),
       num(d.max_rope_excess), num(d.max_angle_excess), num(d.kinetic_energy),
-      std::to_string(d.row_updates)});
+      std::to_string(d.row_updates), std::to_string(d.active_row_updates), std::to_string(d.frozen_skips),
+      std::to_string(d.rows)});
 }
 
 }  // namespace shearzone::sim

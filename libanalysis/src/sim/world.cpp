@@ -2,6 +2,8 @@
 #include "shearzone/sim/world.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <thread>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -10,6 +12,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
@@ -31,6 +34,9 @@ std::uint64_t wall_key(int w, int j) {
 /// Relative straight-chain guard on W_a (§0b item 10): below it the angle row is
 /// treated as inactive (sin θ ≈ 0, the constraint cannot bind within one step).
 constexpr double kAngleGuard = 1e-12;
+
+/// Rows per thread below which a T-slab sweep runs on one thread (results unchanged).
+constexpr int kParallelRowsPerThread = 2000;
 
 struct Fnv {
   std::uint64_t h = 1469598103934665603ULL;
@@ -82,6 +88,9 @@ World::World(const Options& options) : opt_(options) {
   if (!(opt_.max_overlap > 0.0)) bad("max_overlap", opt_.max_overlap, "> 0");
   if (!(opt_.max_rope_excess > 0.0)) bad("max_rope_excess", opt_.max_rope_excess, "> 0");
   if (!(opt_.max_angle_excess > 0.0)) bad("max_angle_excess", opt_.max_angle_excess, "> 0");
+  if (opt_.freeze_sweeps < 0 || opt_.freeze_sweeps > 1000000)
+    bad("freeze_sweeps", opt_.freeze_sweeps, "in [0, 1e6]");
+  if (opt_.threads < 1 || opt_.threads > 256) bad("threads", opt_.threads, "in [1, 256]");
 }
 
 int World::add_sphere(const Vec3& position, double diameter, double density, BodyKind kind) {
@@ -94,14 +103,16 @@ int World::add_sphere(const Vec3& position, double diameter, double density, Bod
   SHEARZONE_CHECK(x_.size() < static_cast<std::size_t>(std::numeric_limits<int>::max()));
   const double m = density * std::numbers::pi * diameter * diameter * diameter / 6.0;
   const double inertia = m * diameter * diameter / 10.0;
+  body_.resize(x_.size());  // drop the wall sentinels; step() puts them back
   x_.push_back(position);
-  v_.push_back(Vec3::Zero());
-  w_.push_back(Vec3::Zero());
+  q_.push_back(Eigen::Quaterniond::Identity());
+  SolverBody sb;
+  sb.inv_mass = kind == BodyKind::mobile ? 1.0 / m : 0.0;
+  sb.inv_inertia = kind == BodyKind::mobile ? 1.0 / inertia : 0.0;
+  body_.push_back(sb);
   radius_.push_back(0.5 * diameter);
   mass_.push_back(m);
   inertia_.push_back(inertia);
-  inv_mass_.push_back(kind == BodyKind::mobile ? 1.0 / m : 0.0);
-  inv_inertia_.push_back(kind == BodyKind::mobile ? 1.0 / inertia : 0.0);
   kind_.push_back(kind);
   return static_cast<int>(x_.size()) - 1;
 }
@@ -167,7 +178,7 @@ void World::set_velocity(int body, const Vec3& v) {
   if (kind_[static_cast<std::size_t>(body)] == BodyKind::fixed)
     throw ConfigError(fmt::format("sim body {} is fixed: its velocity is zero", body));
   if (!finite(v)) throw ConfigError(fmt::format("sim body {}: non-finite velocity", body));
-  v_[static_cast<std::size_t>(body)] = v;
+  body_[static_cast<std::size_t>(body)].v = v;
 }
 
 void World::set_angular_velocity(int body, const Vec3& omega) {
@@ -175,14 +186,16 @@ void World::set_angular_velocity(int body, const Vec3& omega) {
   if (kind_[static_cast<std::size_t>(body)] == BodyKind::fixed)
     throw ConfigError(fmt::format("sim body {} is fixed: its angular velocity is zero", body));
   if (!finite(omega)) throw ConfigError(fmt::format("sim body {}: non-finite angular velocity", body));
-  w_[static_cast<std::size_t>(body)] = omega;
+  body_[static_cast<std::size_t>(body)].w = omega;
 }
 
 // Uniform cell grid over the bounding box of all spheres (cell ≥ d_max + alert), rebuilt
 // every step; the contact list comes out sorted by key (i < j pairs, then wall rows).
+// Wall rows get the sentinel body n as their i (partition_rows moves it to the slab's).
 void World::find_contacts(double alert) {
   const std::size_t n = x_.size();
   contacts_.clear();
+  info_.clear();
   if (n == 0) return;
   double rmax = 0.0;
   Vec3 lo = x_[0], hi = x_[0];
@@ -221,10 +234,15 @@ void World::find_contacts(double alert) {
   cell_bodies_.resize(n);
   {
     std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t b = 0; b < n; ++b) cell_bodies_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of_[b])]++)] = static_cast<int>(b);
+    for (std::size_t b = 0; b < n; ++b)
+      cell_bodies_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of_[b])]++)] =
+          static_cast<int>(b);
   }
+  const int sentinel = static_cast<int>(n);
+  const double fric = opt_.friction;
   for (std::size_t i = 0; i < n; ++i) {
     const bool mi = kind_[i] == BodyKind::mobile;
+    const std::size_t first = contacts_.size();
     const std::int64_t cx = coord(x_[i], 0), cy = coord(x_[i], 1), cz = coord(x_[i], 2);
     for (std::int64_t z = std::max<std::int64_t>(cz - 1, 0); z <= std::min(cz + 1, dims[2] - 1); ++z)
       for (std::int64_t y = std::max<std::int64_t>(cy - 1, 0); y <= std::min(cy + 1, dims[1] - 1); ++y)
@@ -242,21 +260,33 @@ void World::find_contacts(double alert) {
             ContactRow r;
             r.i = static_cast<int>(i);
             r.j = static_cast<int>(j);
-            r.key = pair_key(r.i, r.j);
             // Coincident centres: any normal is as good as another; pick +z.
             r.n = dist > 0.0 ? Vec3(dx / dist) : Vec3(Vec3::UnitZ());
-            r.gap = gap;
             r.ri = radius_[i];
             r.rj = radius_[j];
-            r.wn = inv_mass_[i] + inv_mass_[j];
-            r.wt = r.wn + r.ri * r.ri * inv_inertia_[i] + r.rj * r.rj * inv_inertia_[j];
-            r.mu = opt_.friction;
+            r.mu = fric;
             contacts_.push_back(r);
+            info_.push_back({pair_key(r.i, r.j), r.i, -1, gap});
           }
         }
+    // Rows of body i in the order of j (the cells are visited in grid order).
+    if (contacts_.size() - first > 1) {
+      std::vector<std::size_t> order(contacts_.size() - first);
+      for (std::size_t k = 0; k < order.size(); ++k) order[k] = first + k;
+      std::sort(order.begin(), order.end(),
+                [&](std::size_t a, std::size_t b) { return contacts_[a].j < contacts_[b].j; });
+      std::vector<ContactRow> rows;
+      std::vector<ContactInfo> infos;
+      rows.reserve(order.size());
+      infos.reserve(order.size());
+      for (std::size_t k : order) {
+        rows.push_back(contacts_[k]);
+        infos.push_back(info_[k]);
+      }
+      std::copy(rows.begin(), rows.end(), contacts_.begin() + static_cast<std::ptrdiff_t>(first));
+      std::copy(infos.begin(), infos.end(), info_.begin() + static_cast<std::ptrdiff_t>(first));
+    }
   }
-  std::sort(contacts_.begin(), contacts_.end(),
-            [](const ContactRow& a, const ContactRow& b) { return a.key < b.key; });
   for (std::size_t w = 0; w < walls_.size(); ++w) {
     const Wall& wall = walls_[w];
     for (std::size_t j = 0; j < n; ++j) {
@@ -264,39 +294,48 @@ void World::find_contacts(double alert) {
       const double gap = (x_[j] - wall.point).dot(wall.normal) - radius_[j];
       if (gap >= alert) continue;
       ContactRow r;
-      r.wall = static_cast<int>(w);
+      r.i = sentinel;
       r.j = static_cast<int>(j);
-      r.key = wall_key(r.wall, r.j);
       r.n = wall.normal;
-      r.gap = gap;
       r.rj = radius_[j];
-      r.wn = inv_mass_[j];
-      r.wt = r.wn + r.rj * r.rj * inv_inertia_[j];
       r.mu = wall.friction;
       contacts_.push_back(r);
+      info_.push_back({wall_key(static_cast<int>(w), r.j), -1, static_cast<int>(w), gap});
     }
+  }
+  const double inv_h = 1.0 / opt_.time_step;
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    ContactRow& r = contacts_[k];
+    const SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
+    const SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
+    const double wn = bi.inv_mass + bj.inv_mass;
+    const double wt = wn + r.ri * r.ri * bi.inv_inertia + r.rj * r.rj * bj.inv_inertia;
+    r.inv_wn = 1.0 / wn;
+    r.inv_wt = 1.0 / wt;
+    r.bias = info_[k].gap * inv_h;
   }
 }
 
 void World::apply_contact(const ContactRow& r, const Vec3& p) {
-  const auto j = static_cast<std::size_t>(r.j);
+  SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
+  SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
   const Vec3 np = r.n.cross(p);
-  v_[j] += inv_mass_[j] * p;
-  w_[j] -= (inv_inertia_[j] * r.rj) * np;
-  if (r.i >= 0) {
-    const auto i = static_cast<std::size_t>(r.i);
-    v_[i] -= inv_mass_[i] * p;
-    w_[i] -= (inv_inertia_[i] * r.ri) * np;
-  }
+  bj.v += bj.inv_mass * p;
+  bj.w -= (bj.inv_inertia * r.rj) * np;
+  bi.v -= bi.inv_mass * p;
+  bi.w -= (bi.inv_inertia * r.ri) * np;
 }
 
 // Row geometry at x(t) and the warm start (impulses of the previous step, applied).
 void World::prepare_rows() {
+  const double inv_h = 1.0 / opt_.time_step;
   // Contacts: merge-join with the previous step's rows (both sorted by key).
   std::size_t p = 0;
-  for (ContactRow& r : contacts_) {
-    while (p < previous_.size() && previous_[p].key < r.key) ++p;
-    if (p < previous_.size() && previous_[p].key == r.key) {
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    ContactRow& r = contacts_[k];
+    const std::uint64_t key = info_[k].key;
+    while (p < previous_.size() && previous_[p].key < key) ++p;
+    if (p < previous_.size() && previous_[p].key == key) {
       r.pn = previous_[p].pn;
       r.pt = previous_[p].pt - previous_[p].pt.dot(r.n) * r.n;
       r.status = previous_[p].status;
@@ -304,25 +343,33 @@ void World::prepare_rows() {
     }
   }
   for (RopeRow& r : ropes_) {
-    const auto i = static_cast<std::size_t>(r.i), j = static_cast<std::size_t>(r.j);
-    const Vec3 dx = x_[j] - x_[i];
+    r.frozen_until = 0;
+    r.quiet = 0;
+    SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
+    SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
+    const Vec3 dx = x_[static_cast<std::size_t>(r.j)] - x_[static_cast<std::size_t>(r.i)];
     const double dist = dx.norm();
     r.e = dist > 0.0 ? Vec3(dx / dist) : Vec3(Vec3::UnitX());
     r.c = r.max_length - dist;
-    r.wb = inv_mass_[i] + inv_mass_[j];
+    r.bias = r.c * inv_h;
+    r.wb = bi.inv_mass + bj.inv_mass;
     if (r.wb <= 0.0) {
       r.lambda = 0.0;
       continue;
     }
     if (r.lambda > 0.0) {
-      v_[i] += (inv_mass_[i] * r.lambda) * r.e;
-      v_[j] -= (inv_mass_[j] * r.lambda) * r.e;
+      bi.v += (bi.inv_mass * r.lambda) * r.e;
+      bj.v -= (bj.inv_mass * r.lambda) * r.e;
     }
   }
   for (AngleRow& r : angles_) {
-    const auto a = static_cast<std::size_t>(r.a), b = static_cast<std::size_t>(r.b),
-               c = static_cast<std::size_t>(r.c);
-    const Vec3 b1 = x_[b] - x_[a], b2 = x_[c] - x_[b];
+    r.frozen_until = 0;
+    r.quiet = 0;
+    SolverBody& ba = body_[static_cast<std::size_t>(r.a)];
+    SolverBody& bb = body_[static_cast<std::size_t>(r.b)];
+    SolverBody& bc = body_[static_cast<std::size_t>(r.c)];
+    const Vec3 b1 = x_[static_cast<std::size_t>(r.b)] - x_[static_cast<std::size_t>(r.a)];
+    const Vec3 b2 = x_[static_cast<std::size_t>(r.c)] - x_[static_cast<std::size_t>(r.b)];
     const double l1 = b1.norm(), l2 = b2.norm();
     r.live = false;
     if (l1 > 0.0 && l2 > 0.0) {
@@ -333,10 +380,11 @@ void World::prepare_rows() {
       r.gb = A - B;
       r.gc = B;
       r.ca = cs - r.cos_max;
-      r.wa = A.squaredNorm() * inv_mass_[a] + r.gb.squaredNorm() * inv_mass_[b] +
-             B.squaredNorm() * inv_mass_[c];
+      r.bias = r.ca * inv_h;
+      r.wa = A.squaredNorm() * ba.inv_mass + r.gb.squaredNorm() * bb.inv_mass +
+             B.squaredNorm() * bc.inv_mass;
       r.scale = 0.5 * (l1 + l2);
-      const double wref = (inv_mass_[a] + inv_mass_[b] + inv_mass_[c]) / (l1 * l2);
+      const double wref = (ba.inv_mass + bb.inv_mass + bc.inv_mass) / (l1 * l2);
       r.live = r.wa > kAngleGuard * wref;
     }
     if (!r.live) {
@@ -344,81 +392,313 @@ void World::prepare_rows() {
       continue;
     }
     if (r.lambda > 0.0) {
-      v_[a] += (inv_mass_[a] * r.lambda) * r.ga;
-      v_[b] += (inv_mass_[b] * r.lambda) * r.gb;
-      v_[c] += (inv_mass_[c] * r.lambda) * r.gc;
+      ba.v += (ba.inv_mass * r.lambda) * r.ga;
+      bb.v += (bb.inv_mass * r.lambda) * r.gb;
+      bc.v += (bc.inv_mass * r.lambda) * r.gc;
     }
   }
 }
 
-bool World::sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2) {
-  const auto j = static_cast<std::size_t>(r.j);
-  Vec3 u = v_[j] - r.rj * w_[j].cross(r.n);
-  if (r.i >= 0) {
-    const auto i = static_cast<std::size_t>(r.i);
-    u -= v_[i] + r.ri * w_[i].cross(r.n);
+// Sweep order. One thread: every row in one list. T threads: slabs along the longest
+// axis of the mobile bodies' bounding box, cut at the quantiles of their coordinate; a
+// row belongs to a slab when all its bodies do (fixed and kinematic bodies are placed by
+// their coordinate like the rest; a wall row follows its body and uses the slab's
+// sentinel), the others go to the boundary list.
+void World::partition_rows() {
+  const int T = opt_.threads;
+  const std::size_t n = x_.size();
+  lists_.resize(static_cast<std::size_t>(T) + 1);
+  for (RowLists& l : lists_) l.clear();
+  auto live_rope = [&](const RopeRow& r) { return r.wb > 0.0; };
+  if (T == 1) {
+    RowLists& l = lists_[0];
+    l.contacts.resize(contacts_.size());
+    for (std::size_t k = 0; k < contacts_.size(); ++k) l.contacts[k] = static_cast<int>(k);
+    for (std::size_t k = 0; k < ropes_.size(); ++k)
+      if (live_rope(ropes_[k])) l.ropes.push_back(static_cast<int>(k));
+    for (std::size_t k = 0; k < angles_.size(); ++k)
+      if (angles_[k].live) l.angles.push_back(static_cast<int>(k));
+    return;
   }
-  const double un = u.dot(r.n);
-  const Vec3 ut = u - un * r.n;
-  const LocalContactResult s =
-      solve_sphere_contact(un - r.wn * r.pn, ut - r.wt * r.pt, r.gap * inv_h, r.wn, r.wt, r.mu);
-  const double dpn = s.normal_impulse - r.pn;
-  const Vec3 dpt = s.tangential_impulse - r.pt;
-  r.pn = s.normal_impulse;
-  r.pt = s.tangential_impulse;
-  r.status = s.status;
-  if (dpn != 0.0 || dpt.squaredNorm() != 0.0) apply_contact(r, dpn * r.n + dpt);
-  dv2 += r.wn * r.wn * dpn * dpn + r.wt * r.wt * dpt.squaredNorm();
-  wp2 += r.wn * r.wn * r.pn * r.pn + r.wt * r.wt * r.pt.squaredNorm();
-  return r.gap <= 0.0 || r.pn != 0.0 || r.pt.squaredNorm() != 0.0;
+  // Slabs along each axis, cut at the quantiles of the mobile bodies' coordinate; the
+  // axis kept is the one whose slabs are most contiguous in body order (fewest slab
+  // changes from body b to b + 1), so that each thread streams its own part of the body
+  // and row arrays (measured on a layered pour: 1.45x with 2 threads when cut along the
+  // layers, 0.8x across them); ties go to the longest extent.
+  std::vector<double> coord;
+  coord.reserve(n);
+  std::vector<int> slab(n);
+  std::int64_t best_changes = std::numeric_limits<std::int64_t>::max();
+  double best_extent = -1.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    coord.clear();
+    for (std::size_t b = 0; b < n; ++b)
+      if (kind_[b] == BodyKind::mobile) coord.push_back(x_[b][axis]);
+    if (coord.empty())
+      for (std::size_t b = 0; b < n; ++b) coord.push_back(x_[b][axis]);
+    std::vector<double> cuts;
+    for (int t = 1; t < T && !coord.empty(); ++t) {
+      const auto at = static_cast<std::ptrdiff_t>(coord.size() * static_cast<std::size_t>(t) /
+                                                  static_cast<std::size_t>(T));
+      std::nth_element(coord.begin(), coord.begin() + at, coord.end());
+      cuts.push_back(coord[static_cast<std::size_t>(at)]);
+    }
+    std::sort(cuts.begin(), cuts.end());
+    const auto [mn, mx] = std::minmax_element(coord.begin(), coord.end());
+    const double extent = coord.empty() ? 0.0 : *mx - *mn;
+    std::int64_t changes = 0;
+    for (std::size_t b = 0; b < n; ++b) {
+      slab[b] = static_cast<int>(std::upper_bound(cuts.begin(), cuts.end(), x_[b][axis]) - cuts.begin());
+      if (b > 0 && slab[b] != slab[b - 1]) ++changes;
+    }
+    if (changes < best_changes || (changes == best_changes && extent > best_extent)) {
+      best_changes = changes;
+      best_extent = extent;
+      slab_.swap(slab);
+      slab.resize(n);
+    }
+  }
+  RowLists& boundary = lists_[static_cast<std::size_t>(T)];
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    ContactRow& r = contacts_[k];
+    const int sj = slab_[static_cast<std::size_t>(r.j)];
+    if (info_[k].i < 0) {  // wall row: the slab's own sentinel
+      r.i = static_cast<int>(n) + sj;
+      lists_[static_cast<std::size_t>(sj)].contacts.push_back(static_cast<int>(k));
+    } else if (slab_[static_cast<std::size_t>(r.i)] == sj) {
+      lists_[static_cast<std::size_t>(sj)].contacts.push_back(static_cast<int>(k));
+    } else {
+      boundary.contacts.push_back(static_cast<int>(k));
+    }
+  }
+  for (std::size_t k = 0; k < ropes_.size(); ++k) {
+    const RopeRow& r = ropes_[k];
+    if (!live_rope(r)) continue;
+    const int si = slab_[static_cast<std::size_t>(r.i)];
+    (si == slab_[static_cast<std::size_t>(r.j)] ? lists_[static_cast<std::size_t>(si)] : boundary)
+        .ropes.push_back(static_cast<int>(k));
+  }
+  for (std::size_t k = 0; k < angles_.size(); ++k) {
+    const AngleRow& r = angles_[k];
+    if (!r.live) continue;
+    const int sa = slab_[static_cast<std::size_t>(r.a)];
+    const bool inside = sa == slab_[static_cast<std::size_t>(r.b)] && sa == slab_[static_cast<std::size_t>(r.c)];
+    (inside ? lists_[static_cast<std::size_t>(sa)] : boundary).angles.push_back(static_cast<int>(k));
+  }
 }
 
-bool World::sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2) {
-  if (r.wb <= 0.0) return false;
-  const auto i = static_cast<std::size_t>(r.i), j = static_cast<std::size_t>(r.j);
-  const double rate = r.e.dot(v_[j] - v_[i]);
-  const double lam = std::max(0.0, r.lambda + (rate - r.c * inv_h) / r.wb);
-  const double dl = lam - r.lambda;
-  r.lambda = lam;
-  if (dl != 0.0) {
-    v_[i] += (inv_mass_[i] * dl) * r.e;
-    v_[j] -= (inv_mass_[j] * dl) * r.e;
+namespace {
+
+/// Centralised sense-counting barrier that spins (with a pause, then yielding) instead
+/// of sleeping. The last thread to arrive bumps the generation (release); the others
+/// wait for it (acquire), so every write before the barrier is seen after it.
+class SpinBarrier {
+ public:
+  void reset(int threads) {
+    threads_ = threads;
+    count_.store(0, std::memory_order_relaxed);
   }
-  dv2 += r.wb * r.wb * dl * dl;
-  wp2 += r.wb * r.wb * lam * lam;
-  return r.c <= 0.0 || lam != 0.0;
+  void wait() {
+    const int gen = generation_.load(std::memory_order_acquire);
+    if (count_.fetch_add(1, std::memory_order_acq_rel) == threads_ - 1) {
+      count_.store(0, std::memory_order_relaxed);
+      generation_.fetch_add(1, std::memory_order_release);
+      return;
+    }
+    for (int spins = 0; generation_.load(std::memory_order_acquire) == gen; ++spins) {
+#if defined(__x86_64__) || defined(__i386__)
+      __builtin_ia32_pause();
+#endif
+      if (spins > 4096) std::this_thread::yield();
+    }
+  }
+
+ private:
+  std::atomic<int> count_{0};
+  std::atomic<int> generation_{0};
+  int threads_ = 1;
+};
+
+/// Freeze bookkeeping of a visit that left a zero-impulse row unchanged: frozen after
+/// two quiet visits in a row.
+template <class Row>
+void note_quiet(Row& r, int sweep, int freeze_sweeps) {
+  if (freeze_sweeps > 0 && ++r.quiet >= 2) r.frozen_until = sweep + freeze_sweeps;
 }
 
-bool World::sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2) {
-  if (!r.live) return false;
-  const auto a = static_cast<std::size_t>(r.a), b = static_cast<std::size_t>(r.b),
-             c = static_cast<std::size_t>(r.c);
-  const double rate = r.ga.dot(v_[a]) + r.gb.dot(v_[b]) + r.gc.dot(v_[c]);
-  const double lam = std::max(0.0, r.lambda - (rate + r.ca * inv_h) / r.wa);
-  const double dl = lam - r.lambda;
-  r.lambda = lam;
-  if (dl != 0.0) {
-    v_[a] += (inv_mass_[a] * dl) * r.ga;
-    v_[b] += (inv_mass_[b] * dl) * r.gb;
-    v_[c] += (inv_mass_[c] * dl) * r.gc;
+}  // namespace
+
+// One pass over a list of rows (contacts, ropes, angles; reversed when backward).
+// `check`: solve only the frozen rows (the convergence check of §"Freezing" in world.hpp);
+// otherwise solve every row that is not frozen.
+void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out) {
+  SweepTotals t;  // local: the totals of the slabs share cache lines
+  SolverBody* const B = body_.data();
+  const int freeze = opt_.freeze_sweeps;
+
+  auto contact = [&](ContactRow& r) {
+    if ((r.frozen_until > sweep) != check) {
+      ++t.skipped;
+      return;
+    }
+    SolverBody& bi = B[r.i];
+    SolverBody& bj = B[r.j];
+    ++t.updates;
+    const Vec3 n = r.n;
+    const Vec3 u = (bj.v - bi.v) - (r.rj * bj.w + r.ri * bi.w).cross(n);
+    const double un = u.dot(n);
+    double pn = r.pn - (un + r.bias) * r.inv_wn;
+    Vec3 pt;
+    ContactStatus status = ContactStatus::open;
+    if (!(pn > 0.0)) {
+      pn = 0.0;
+      pt.setZero();
+    } else {
+      pt = r.pt - r.inv_wt * (u - un * n);
+      const double limit = r.mu * pn;
+      const double p2 = pt.squaredNorm();
+      if (p2 <= limit * limit) {
+        status = ContactStatus::sticking;
+      } else {
+        pt *= limit / std::sqrt(p2);
+        status = ContactStatus::sliding;
+      }
+    }
+    const double dpn = pn - r.pn;
+    const Vec3 dpt = pt - r.pt;
+    r.status = status;
+    const bool closed = r.bias <= 0.0;
+    if (dpn == 0.0 && dpt.squaredNorm() == 0.0) {
+      if (pn == 0.0) {  // open, stays open
+        if (closed) ++t.active;
+        else note_quiet(r, sweep, freeze);
+        return;
+      }
+    }
+    r.quiet = 0;
+    r.frozen_until = 0;
+    ++t.changed;
+    r.pn = pn;
+    r.pt = pt;
+    const double wn = bi.inv_mass + bj.inv_mass;
+    const double wt = wn + r.ri * r.ri * bi.inv_inertia + r.rj * r.rj * bj.inv_inertia;
+    const Vec3 p = dpn * n + dpt;
+    const Vec3 np = n.cross(p);
+    bj.v += bj.inv_mass * p;
+    bj.w -= (bj.inv_inertia * r.rj) * np;
+    bi.v -= bi.inv_mass * p;
+    bi.w -= (bi.inv_inertia * r.ri) * np;
+    t.dv2 += wn * wn * dpn * dpn + wt * wt * dpt.squaredNorm();
+    t.wp2 += wn * wn * pn * pn + wt * wt * pt.squaredNorm();
+    if (closed || pn != 0.0) ++t.active;
+  };
+
+  auto rope = [&](RopeRow& r) {
+    if ((r.frozen_until > sweep) != check) {
+      ++t.skipped;
+      return;
+    }
+    SolverBody& bi = B[r.i];
+    SolverBody& bj = B[r.j];
+    ++t.updates;
+    const double rate = r.e.dot(bj.v - bi.v);
+    const double lam = std::max(0.0, r.lambda + (rate - r.bias) / r.wb);
+    const double dl = lam - r.lambda;
+    const bool closed = r.c <= 0.0;
+    if (dl == 0.0 && lam == 0.0) {
+      if (closed) ++t.active;
+      else note_quiet(r, sweep, freeze);
+      return;
+    }
+    r.quiet = 0;
+    r.frozen_until = 0;
+    ++t.changed;
+    r.lambda = lam;
+    if (dl != 0.0) {
+      bi.v += (bi.inv_mass * dl) * r.e;
+      bj.v -= (bj.inv_mass * dl) * r.e;
+    }
+    t.dv2 += r.wb * r.wb * dl * dl;
+    t.wp2 += r.wb * r.wb * lam * lam;
+    ++t.active;
+  };
+
+  auto angle = [&](AngleRow& r) {
+    if ((r.frozen_until > sweep) != check) {
+      ++t.skipped;
+      return;
+    }
+    SolverBody& ba = B[r.a];
+    SolverBody& bb = B[r.b];
+    SolverBody& bc = B[r.c];
+    ++t.updates;
+    const double rate = r.ga.dot(ba.v) + r.gb.dot(bb.v) + r.gc.dot(bc.v);
+    const double lam = std::max(0.0, r.lambda - (rate + r.bias) / r.wa);
+    const double dl = lam - r.lambda;
+    const bool closed = r.ca <= 0.0;
+    if (dl == 0.0 && lam == 0.0) {
+      if (closed) ++t.active;
+      else note_quiet(r, sweep, freeze);
+      return;
+    }
+    r.quiet = 0;
+    r.frozen_until = 0;
+    ++t.changed;
+    r.lambda = lam;
+    if (dl != 0.0) {
+      ba.v += (ba.inv_mass * dl) * r.ga;
+      bb.v += (bb.inv_mass * dl) * r.gb;
+      bc.v += (bc.inv_mass * dl) * r.gc;
+    }
+    const double s2 = r.scale * r.scale * r.wa * r.wa;
+    t.dv2 += s2 * dl * dl;
+    t.wp2 += s2 * lam * lam;
+    ++t.active;
+  };
+
+  ContactRow* const C = contacts_.data();
+  RopeRow* const R = ropes_.data();
+  AngleRow* const A = angles_.data();
+  if (forward) {
+    for (int k : lists.contacts) contact(C[k]);
+    for (int k : lists.ropes) rope(R[k]);
+    for (int k : lists.angles) angle(A[k]);
+  } else {
+    for (auto it = lists.angles.rbegin(); it != lists.angles.rend(); ++it) angle(A[*it]);
+    for (auto it = lists.ropes.rbegin(); it != lists.ropes.rend(); ++it) rope(R[*it]);
+    for (auto it = lists.contacts.rbegin(); it != lists.contacts.rend(); ++it) contact(C[*it]);
   }
-  const double s2 = r.scale * r.scale * r.wa * r.wa;
-  dv2 += s2 * dl * dl;
-  wp2 += s2 * lam * lam;
-  return r.ca <= 0.0 || lam != 0.0;
+  out = t;
+}
+
+void World::integrate_positions() {
+  const double h = opt_.time_step;
+  const std::size_t n = x_.size();
+  for (std::size_t b = 0; b < n; ++b) {
+    if (kind_[b] == BodyKind::fixed) continue;
+    const SolverBody& sb = body_[b];
+    x_[b] += h * sb.v;
+    const double rate = sb.w.norm();
+    if (rate > 0.0) {
+      const Eigen::Quaterniond dq(Eigen::AngleAxisd(rate * h, sb.w / rate));
+      q_[b] = (dq * q_[b]).normalized();
+    }
+  }
 }
 
 StepDiagnostics World::step() {
   const double h = opt_.time_step;
-  const double inv_h = 1.0 / h;
   const std::int64_t this_step = step_ + 1;
   const std::size_t n = x_.size();
+  const int T = opt_.threads;
+  body_.resize(n + static_cast<std::size_t>(T));  // wall sentinels: zero velocity, zero inverse mass
+  for (std::size_t s = n; s < body_.size(); ++s) body_[s] = SolverBody{};
 
   // Alert distance from the fastest sphere (mobile or kinematic) and one gravity step.
   double vmax = 0.0, dmin = std::numeric_limits<double>::infinity();
   std::size_t fastest = 0;
   for (std::size_t b = 0; b < n; ++b) {
-    const double speed = v_[b].norm() + radius_[b] * w_[b].norm();
+    const double speed = body_[b].v.norm() + radius_[b] * body_[b].w.norm();
     if (!(speed <= vmax)) {
       vmax = speed;
       fastest = b;
@@ -433,43 +713,102 @@ StepDiagnostics World::step() {
 
   find_contacts(alert);
   for (std::size_t b = 0; b < n; ++b)
-    if (kind_[b] == BodyKind::mobile) v_[b] += h * opt_.gravity;
+    if (kind_[b] == BodyKind::mobile) body_[b].v += h * opt_.gravity;
   prepare_rows();
+  partition_rows();
 
   StepDiagnostics d;
   d.step = this_step;
-  const int nc = static_cast<int>(contacts_.size());
-  const int nr = static_cast<int>(ropes_.size());
-  const int na = static_cast<int>(angles_.size());
-  const std::int64_t rows_per_sweep = nc + nr + na;
+  d.rows = static_cast<int>(contacts_.size() + ropes_.size() + angles_.size());
+  bool any_rows = false;
+  for (const RowLists& l : lists_) any_rows = any_rows || !l.contacts.empty() || !l.ropes.empty() || !l.angles.empty();
   double residual = 0.0;
   int it = 0;
-  if (rows_per_sweep > 0) {
-    for (it = 1; it <= opt_.max_iterations; ++it) {
-      double dv2 = 0.0, wp2 = 0.0;
-      std::int64_t active = 0;
-      if (it % 2 == 1) {
-        for (int k = 0; k < nc; ++k)
-          active += sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
-        for (int k = 0; k < nr; ++k)
-          active += sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
-        for (int k = 0; k < na; ++k)
-          active += sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
-      } else {
-        for (int k = na - 1; k >= 0; --k)
-          active += sweep_angle(angles_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
-        for (int k = nr - 1; k >= 0; --k)
-          active += sweep_rope(ropes_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
-        for (int k = nc - 1; k >= 0; --k)
-          active += sweep_contact(contacts_[static_cast<std::size_t>(k)], inv_h, dv2, wp2) ? 1 : 0;
+  bool converged = false;
+  if (any_rows) {
+    // Sweep `sweep` (1-based): forward when odd. A sweep that meets the tolerance with
+    // frozen rows skipped is followed by a check sweep over the frozen rows only: the
+    // step has converged when none of them changes (the state is then the one the
+    // residual was measured on); otherwise the changed rows are unfrozen and the normal
+    // sweeps go on. The check sweeps count as sweeps.
+    bool check = false;
+    std::vector<SweepTotals> part(static_cast<std::size_t>(T) + 1);
+    auto finish_sweep = [&](int sweep) {
+      SweepTotals sum;
+      for (const SweepTotals& p : part) {  // fixed order: deterministic
+        sum.dv2 += p.dv2;
+        sum.wp2 += p.wp2;
+        sum.updates += p.updates;
+        sum.active += p.active;
+        sum.skipped += p.skipped;
+        sum.changed += p.changed;
       }
-      d.row_updates += rows_per_sweep;
-      d.active_row_updates += active;
-      residual = wp2 > 0.0 ? std::sqrt(dv2 / wp2) : (dv2 > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
-      if (residual <= opt_.tolerance) break;
+      d.row_updates += sum.updates;
+      d.active_row_updates += sum.active;
+      it = sweep;
+      if (check) {
+        check = false;
+        if (sum.changed == 0) {
+          converged = true;
+          return true;
+        }
+      } else {
+        d.frozen_skips += sum.skipped;
+        residual = sum.wp2 > 0.0 ? std::sqrt(sum.dv2 / sum.wp2)
+                                 : (sum.dv2 > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+        if (residual <= opt_.tolerance) {
+          if (sum.skipped == 0) {
+            converged = true;
+            return true;
+          }
+          check = true;
+        }
+      }
+      return sweep >= opt_.max_iterations;
+    };
+    if (T == 1) {
+      for (int sweep = 1;; ++sweep) {
+        part[0] = SweepTotals{};
+        sweep_lists(lists_[0], sweep % 2 == 1, sweep, check, part[0]);
+        if (finish_sweep(sweep)) break;
+      }
+    } else {
+      // Two to three barriers per sweep: OpenMP's own barriers put a waiting thread to
+      // sleep after a short spin, and the wake-up costs milliseconds on a virtual machine
+      // (measured: 15 000 beads, 2 threads, 0.9 s per step against 0.1 s serial), so the
+      // sweep loop synchronises through a spinning barrier (SpinBarrier) instead.
+      bool stop = false;
+      const std::size_t boundary = static_cast<std::size_t>(T);
+      SpinBarrier barrier;
+      // Small problems run the same slabs on one thread (the same bits: the slabs share no
+      // body), since waking the pool each step costs more than the sweep saves there.
+      const int workers = d.rows >= kParallelRowsPerThread * T ? T : 1;
+#pragma omp parallel num_threads(workers)
+      {
+#pragma omp single
+        barrier.reset(omp_get_num_threads());
+        const int nthreads = omp_get_num_threads();
+        const int me = omp_get_thread_num();
+        for (int sweep = 1;; ++sweep) {
+          const bool forward = sweep % 2 == 1;
+          if (!forward) {
+            if (me == 0) sweep_lists(lists_[boundary], false, sweep, check, part[boundary]);
+            barrier.wait();
+          }
+          for (int s = me; s < T; s += nthreads)
+            sweep_lists(lists_[static_cast<std::size_t>(s)], forward, sweep, check,
+                        part[static_cast<std::size_t>(s)]);
+          barrier.wait();
+          if (me == 0) {
+            if (forward) sweep_lists(lists_[boundary], true, sweep, check, part[boundary]);
+            stop = finish_sweep(sweep);
+          }
+          barrier.wait();
+          if (stop) break;
+        }
+      }
     }
-    if (it > opt_.max_iterations) {
-      it = opt_.max_iterations;
+    if (!converged) {
       d.hit_iteration_cap = true;
       ++cap_hits_;
     }
@@ -477,10 +816,11 @@ StepDiagnostics World::step() {
   d.iterations = it;
   d.residual = residual;
 
-  for (std::size_t b = 0; b < n; ++b)
-    if (kind_[b] != BodyKind::fixed) x_[b] += h * v_[b];
+  integrate_positions();
   step_ = this_step;
-  previous_ = contacts_;
+  previous_.resize(contacts_.size());
+  for (std::size_t k = 0; k < contacts_.size(); ++k)
+    previous_[k] = {info_[k].key, contacts_[k].pn, contacts_[k].pt, contacts_[k].status};
   check_state(d);
   return d;
 }
@@ -488,15 +828,18 @@ StepDiagnostics World::step() {
 void World::check_state(StepDiagnostics& d) const {
   const std::size_t n = x_.size();
   for (std::size_t b = 0; b < n; ++b) {
-    if (!finite(x_[b]) || !finite(v_[b]) || !finite(w_[b]))
+    const SolverBody& sb = body_[b];
+    if (!finite(x_[b]) || !finite(sb.v) || !finite(sb.w))
       throw NoResultError(fmt::format("sim diverged at step {}: non-finite state of body {}", d.step, b));
     if (kind_[b] == BodyKind::mobile)
-      d.kinetic_energy += 0.5 * mass_[b] * v_[b].squaredNorm() + 0.5 * inertia_[b] * w_[b].squaredNorm();
+      d.kinetic_energy += 0.5 * mass_[b] * sb.v.squaredNorm() + 0.5 * inertia_[b] * sb.w.squaredNorm();
   }
   // Contacts: status counts from the final sweep, overlaps at the new positions.
   double worst = 0.0;
-  const ContactRow* worst_row = nullptr;
-  for (const ContactRow& r : contacts_) {
+  std::size_t worst_row = contacts_.size();
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    const ContactRow& r = contacts_[k];
+    const ContactInfo& c = info_[k];
     ++d.contacts;
     if (r.pn > 0.0) {
       ++d.active_contacts;
@@ -505,30 +848,32 @@ void World::check_state(StepDiagnostics& d) const {
     }
     const auto j = static_cast<std::size_t>(r.j);
     double gap = 0.0, dia = 0.0;
-    if (r.i >= 0) {
-      const auto i = static_cast<std::size_t>(r.i);
+    if (c.i >= 0) {
+      const auto i = static_cast<std::size_t>(c.i);
       gap = (x_[j] - x_[i]).norm() - radius_[i] - radius_[j];
       dia = radius_[i] + radius_[j];
     } else {
-      const Wall& wall = walls_[static_cast<std::size_t>(r.wall)];
+      const Wall& wall = walls_[static_cast<std::size_t>(c.wall)];
       gap = (x_[j] - wall.point).dot(wall.normal) - radius_[j];
       dia = 2.0 * radius_[j];
     }
     const double ov = -gap / dia;
     if (ov > worst) {
       worst = ov;
-      worst_row = &r;
+      worst_row = k;
     }
   }
   d.max_overlap = worst;
-  if (worst_row != nullptr && worst > opt_.max_overlap) {
-    if (worst_row->i >= 0)
+  if (worst_row < contacts_.size() && worst > opt_.max_overlap) {
+    const ContactInfo& c = info_[worst_row];
+    const int j = contacts_[worst_row].j;
+    if (c.i >= 0)
       throw NoResultError(fmt::format(
           "sim diverged at step {}: overlap {:.4g} d between bodies {} and {} (limit {} d)", d.step,
-          worst, worst_row->i, worst_row->j, opt_.max_overlap));
+          worst, c.i, j, opt_.max_overlap));
     throw NoResultError(fmt::format(
         "sim diverged at step {}: overlap {:.4g} d between body {} and wall {} (limit {} d)", d.step,
-        worst, worst_row->j, worst_row->wall, opt_.max_overlap));
+        worst, j, c.wall, opt_.max_overlap));
   }
   for (const RopeRow& r : ropes_) d.active_ropes += r.lambda > 0.0 ? 1 : 0;
   const auto [rope_excess, worst_rope] = largest_excess(ropes_, [&](const RopeRow& r) {
@@ -562,13 +907,14 @@ void World::check_state(StepDiagnostics& d) const {
 std::vector<ContactRecord> World::contacts() const {
   std::vector<ContactRecord> out;
   out.reserve(contacts_.size());
-  for (const ContactRow& r : contacts_) {
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    const ContactRow& r = contacts_[k];
     ContactRecord c;
-    c.body_i = r.i;
-    c.wall = r.wall;
+    c.body_i = info_[k].i;
+    c.wall = info_[k].wall;
     c.body_j = r.j;
     c.normal = r.n;
-    c.gap = r.gap;
+    c.gap = info_[k].gap;
     c.normal_impulse = r.pn;
     c.tangential_impulse = r.pt;
     c.status = r.pn > 0.0 ? r.status : ContactStatus::open;
@@ -583,8 +929,14 @@ WorldState World::state() const {
   s.step = step_;
   s.iteration_cap_hits = cap_hits_;
   s.position = x_;
-  s.velocity = v_;
-  s.angular_velocity = w_;
+  s.orientation = q_;
+  const std::size_t n = x_.size();
+  s.velocity.reserve(n);
+  s.angular_velocity.reserve(n);
+  for (std::size_t b = 0; b < n; ++b) {
+    s.velocity.push_back(body_[b].v);
+    s.angular_velocity.push_back(body_[b].w);
+  }
   s.diameter.reserve(radius_.size());
   for (double r : radius_) s.diameter.push_back(2.0 * r);
   s.mass = mass_;
@@ -594,13 +946,14 @@ WorldState World::state() const {
   for (const RopeRow& r : ropes_) s.ropes.push_back({r.i, r.j, r.max_length, r.lambda});
   for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda});
   s.contacts.reserve(contacts_.size());
-  for (const ContactRow& r : contacts_) {
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    const ContactRow& r = contacts_[k];
     ContactRecord c;
-    c.body_i = r.i;
-    c.wall = r.wall;
+    c.body_i = info_[k].i;
+    c.wall = info_[k].wall;
     c.body_j = r.j;
     c.normal = r.n;
-    c.gap = r.gap;
+    c.gap = info_[k].gap;
     c.normal_impulse = r.pn;
     c.tangential_impulse = r.pt;
     c.status = r.status;
@@ -614,7 +967,8 @@ World World::from_state(const WorldState& s) {
   const std::size_t n = s.position.size();
   auto bad = [](const std::string& what) { throw ConfigError("sim state: " + what); };
   if (s.velocity.size() != n || s.angular_velocity.size() != n || s.diameter.size() != n ||
-      s.mass.size() != n || s.inertia.size() != n || s.kind.size() != n)
+      s.mass.size() != n || s.inertia.size() != n || s.kind.size() != n ||
+      (!s.orientation.empty() && s.orientation.size() != n))
     bad(fmt::format("body arrays of different lengths ({} positions)", n));
   if (n > static_cast<std::size_t>(std::numeric_limits<int>::max())) bad("too many bodies");
   if (s.step < 0 || s.iteration_cap_hits < 0) bad("negative step count");
@@ -627,14 +981,24 @@ World World::from_state(const WorldState& s) {
     if (!(s.diameter[b] > 0.0) || !std::isfinite(s.diameter[b]) || !(s.mass[b] > 0.0) ||
         !std::isfinite(s.mass[b]) || !(s.inertia[b] > 0.0) || !std::isfinite(s.inertia[b]))
       bad(fmt::format("body {}: diameter, mass and inertia must be positive and finite", b));
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    if (!s.orientation.empty()) {
+      q = s.orientation[b];
+      const double qn = q.norm();
+      if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-6)
+        bad(fmt::format("body {}: orientation quaternion of norm {} (expected 1)", b, qn));
+    }
     w.x_.push_back(s.position[b]);
-    w.v_.push_back(s.velocity[b]);
-    w.w_.push_back(s.angular_velocity[b]);
+    w.q_.push_back(q);  // as stored: renormalising could change the bits
+    SolverBody sb;
+    sb.v = s.velocity[b];
+    sb.w = s.angular_velocity[b];
+    sb.inv_mass = k == BodyKind::mobile ? 1.0 / s.mass[b] : 0.0;
+    sb.inv_inertia = k == BodyKind::mobile ? 1.0 / s.inertia[b] : 0.0;
+    w.body_.push_back(sb);
     w.radius_.push_back(0.5 * s.diameter[b]);
     w.mass_.push_back(s.mass[b]);
     w.inertia_.push_back(s.inertia[b]);
-    w.inv_mass_.push_back(k == BodyKind::mobile ? 1.0 / s.mass[b] : 0.0);
-    w.inv_inertia_.push_back(k == BodyKind::mobile ? 1.0 / s.inertia[b] : 0.0);
     w.kind_.push_back(k);
   }
   for (const Wall& wall : s.walls) {
@@ -654,8 +1018,9 @@ World World::from_state(const WorldState& s) {
     w.angles_.back().lambda = a.impulse;
   }
   const int nb = static_cast<int>(n);
-  for (const ContactRecord& c : s.contacts) {
-    const std::size_t k = w.contacts_.size();
+  std::uint64_t last_key = 0;
+  for (std::size_t k = 0; k < s.contacts.size(); ++k) {
+    const ContactRecord& c = s.contacts[k];
     if (c.body_j < 0 || c.body_j >= nb) bad(fmt::format("contact {}: body {} out of range", k, c.body_j));
     const bool wall_row = c.body_i < 0;
     if (wall_row ? (c.wall < 0 || c.wall >= static_cast<int>(w.walls_.size()))
@@ -664,34 +1029,21 @@ World World::from_state(const WorldState& s) {
     if (!finite(c.normal) || !std::isfinite(c.gap) || !std::isfinite(c.normal_impulse) ||
         !finite(c.tangential_impulse))
       bad(fmt::format("contact {}: non-finite value", k));
+    const std::uint64_t key = wall_row ? wall_key(c.wall, c.body_j) : pair_key(c.body_i, c.body_j);
+    if (k > 0 && !(last_key < key)) bad(fmt::format("contact {}: rows not in the engine's order", k));
+    last_key = key;
+    // Only the warm-start data and the records matter: the rows are rebuilt every step.
     ContactRow r;
-    r.i = wall_row ? -1 : c.body_i;
-    r.wall = wall_row ? c.wall : -1;
+    r.i = wall_row ? nb : c.body_i;
     r.j = c.body_j;
-    r.key = wall_row ? wall_key(r.wall, r.j) : pair_key(r.i, r.j);
-    if (k > 0 && !(w.contacts_.back().key < r.key))
-      bad(fmt::format("contact {}: rows not in the engine's order", k));
-    const auto j = static_cast<std::size_t>(r.j);
     r.n = c.normal;
-    r.gap = c.gap;
-    r.rj = w.radius_[j];
-    if (wall_row) {
-      r.wn = w.inv_mass_[j];
-      r.wt = r.wn + r.rj * r.rj * w.inv_inertia_[j];
-      r.mu = w.walls_[static_cast<std::size_t>(r.wall)].friction;
-    } else {
-      const auto i = static_cast<std::size_t>(r.i);
-      r.ri = w.radius_[i];
-      r.wn = w.inv_mass_[i] + w.inv_mass_[j];
-      r.wt = r.wn + r.ri * r.ri * w.inv_inertia_[i] + r.rj * r.rj * w.inv_inertia_[j];
-      r.mu = w.opt_.friction;
-    }
     r.pn = c.normal_impulse;
     r.pt = c.tangential_impulse;
     r.status = c.status;
     w.contacts_.push_back(r);
+    w.info_.push_back({key, wall_row ? -1 : c.body_i, wall_row ? c.wall : -1, c.gap});
+    w.previous_.push_back({key, r.pn, r.pt, r.status});
   }
-  w.previous_ = w.contacts_;
   w.step_ = s.step;
   w.cap_hits_ = s.iteration_cap_hits;
   return w;
@@ -702,13 +1054,17 @@ std::uint64_t World::state_hash() const {
   f.u(static_cast<std::uint64_t>(step_));
   for (std::size_t b = 0; b < x_.size(); ++b) {
     f.v(x_[b]);
-    f.v(v_[b]);
-    f.v(w_[b]);
+    f.v(body_[b].v);
+    f.v(body_[b].w);
+    f.d(q_[b].w());
+    f.d(q_[b].x());
+    f.d(q_[b].y());
+    f.d(q_[b].z());
   }
-  for (const ContactRow& r : contacts_) {
-    f.u(r.key);
-    f.d(r.pn);
-    f.v(r.pt);
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    f.u(info_[k].key);
+    f.d(contacts_[k].pn);
+    f.v(contacts_[k].pt);
   }
   for (const RopeRow& r : ropes_) f.d(r.lambda);
   for (const AngleRow& r : angles_) f.d(r.lambda);

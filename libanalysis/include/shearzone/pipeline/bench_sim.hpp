@@ -7,10 +7,13 @@
 // (floor and four side walls, no lid; about as tall as wide), dropped under gravity
 // with a cheap solver (h = 5e-4 s, tolerance 1e-2, at most 30 sweeps) until the
 // translational kinetic energy per bead falls below 1e-3 m g d (at least the time to
-// close the lattice gaps, at most settle_max_steps). The settled state is then carried
-// (positions, velocities and the contact impulses, scaled by the new h over the old)
-// into worlds with the measured options (World::from_state).
-//  1. Speed (sim_speed.csv): per bead count, `warmup_steps` untimed then `steps` timed
+// close the lattice gaps, at most settle_max_steps), then relaxed with the measured h,
+// tolerance and cap on one thread (at least relax_min_steps, until a step converges with
+// a kinetic energy per bead below 1e-5 m g d, at most relax_max_steps): the cheap drop
+// leaves the beads jiggling, and the target is a packing at rest. The relaxed state is
+// then carried (positions, velocities and the contact impulses, scaled by the new h over
+// the old) into worlds with the measured options (World::from_state).
+//  1. Speed (sim_speed.csv): per bead count and thread count, `warmup_steps` untimed then `steps` timed
 //     steps with h, tolerance and iteration cap (warm-started); wall-clock seconds of the
 //     timed steps only. row_updates counts every row visit of the NLGS sweeps,
 //     active_row_updates only the local solves of active rows (StepDiagnostics).
@@ -18,7 +21,7 @@
 //     steps × iteration caps, each run for the same simulated time `accuracy_duration_s`
 //     from the same settled state: mean sweeps and final residual per step, the largest
 //     overlap / d over the run, the kinetic energy at its end and the seconds per step.
-// One thread (the engine is serial; `threads` must be 1).
+// The accuracy table runs on one thread.
 #pragma once
 
 #include <cstdint>
@@ -33,7 +36,7 @@ namespace shearzone::pipeline {
 
 struct BenchSimOptions {
   std::vector<int> beads = {2000, 5000, 10000};  ///< bead counts of the speed table
-  int threads = 1;                 ///< engine threads; only 1 is supported
+  std::vector<int> threads = {1};  ///< engine thread counts of the speed table
   int steps = 20;                  ///< timed steps per bead count
   int warmup_steps = 10;           ///< untimed steps before the timing (warm start)
   double time_step_s = 5e-4;       ///< h of the speed table
@@ -44,6 +47,9 @@ struct BenchSimOptions {
   std::vector<int> accuracy_max_iterations = {25, 50, 100, 200};
   double accuracy_duration_s = 0.01;  ///< simulated time per accuracy setting
   std::int64_t settle_max_steps = 4000;
+  std::int64_t relax_min_steps = 50;   ///< relaxation with the measured solver: at least
+  std::int64_t relax_max_steps = 400;  ///< ... and at most this many steps
+  int freeze_sweeps = 16;              ///< engine freeze_sweeps (0: no freezing)
   std::uint64_t seed = 1;
   bool quick = false;  ///< a smoke run: small packings, few steps (overrides the above)
   std::filesystem::path out_dir;

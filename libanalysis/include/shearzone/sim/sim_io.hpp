@@ -3,14 +3,15 @@
 // and the per-step diagnostics CSV. Writing goes through shearzone/io (H5File,
 // CsvWriter); atomicity is the caller's business (write to AtomicOutput::temp_path()).
 //
-// Checkpoint layout (format "shearzone-sim-checkpoint", format_version 1), float64
+// Checkpoint layout (format "shearzone-sim-checkpoint", format_version 2; version 1
+// files, without orientations, still read), float64
 // unless stated; a group is absent when its count is 0:
 //     /                 attributes: format, format_version, step, iteration_cap_hits,
 //                       time_s, n_bodies, n_walls, n_ropes, n_angles, n_contacts,
 //                       option_* (every sim::Options field, SI units), and the
 //                       caller's metadata as string attributes
 //     /bodies/position [n,3] m, velocity [n,3] m/s, angular_velocity [n,3] rad/s,
-//             diameter [n] m, mass [n] kg, inertia [n] kg m², kind [n] uint8
+//             orientation [n,4] unit quaternion (w, x, y, z), diameter [n] m, mass [n] kg, inertia [n] kg m², kind [n] uint8
 //             (0 mobile, 1 fixed, 2 kinematic)
 //     /walls/point [w,3], normal [w,3], friction [w]
 //     /ropes/bodies [r,2] int64, max_length [r] m, impulse [r] N s
@@ -95,7 +96,10 @@ void write_snapshot_xdmf(std::ostream& out, const std::string& h5_name, std::siz
 /// The diagnostics CSV: one row per step. Columns (units in the names):
 /// step, time_s, iterations, residual, cap_hit, contacts, active_contacts,
 /// sliding_contacts, sticking_contacts, active_ropes, active_angles, max_overlap_over_d,
-/// max_rope_excess_over_d, max_angle_excess_rad, kinetic_energy_J, row_updates.
+/// max_rope_excess_over_d, max_angle_excess_rad, kinetic_energy_J, row_updates,
+/// active_row_updates, frozen_skips, rows (the StepDiagnostics fields of the same names:
+/// local solves, those on rows in contact or loaded, row visits skipped as frozen, rows of
+/// the step).
 class DiagnosticsCsv {
  public:
   DiagnosticsCsv(std::ostream& out, const core::Metadata& metadata);

@@ -19,15 +19,29 @@
 //     r = √Σ|W ΔP|² / √Σ|W P| (velocity corrections made by the sweep over the velocity
 //     the impulses carry; an angle row is scaled by its mean bond length), converged
 //     when r ≤ tolerance. Hitting max_iterations is counted.
-//  5. Positions: x ← x + h v⁺ for mobile and kinematic spheres. Orientations are NOT
-//     stored (spheres: only ω matters for the dynamics); ω is integrated.
+//     Freezing (§6, "contact freezing"): a row without impulse whose local solve left it
+//     unchanged on two consecutive visits, with a positive gap (or a slack rope, an angle
+//     below its limit), is skipped for the next `freeze_sweeps` sweeps. A sweep that meets
+//     the tolerance with rows skipped is followed by a check sweep over the frozen rows
+//     only; the step ends when none of them changes (so a converged step satisfies every
+//     row), otherwise the changed rows are unfrozen and the sweeps go on. The freeze
+//     state restarts with every step (nothing to checkpoint).
+//     Threads (`threads` = T > 1): the bodies are split into T slabs along the longest
+//     axis of the mobile bodies' bounding box (at the quantiles of their coordinate);
+//     rows whose bodies all lie in one slab are swept by that slab's thread, in parallel;
+//     the rows across slabs are swept by one thread after them (before them in backward
+//     sweeps). Deterministic for a fixed T (a different T is a different Gauss–Seidel
+//     order: same tolerance, other bits).
+//  5. Positions: x ← x + h v⁺ for mobile and kinematic spheres; orientations
+//     q ← exp(h ω⁺/2) q (unit quaternions, renormalised).
 //  6. Diagnostics and divergence checks on the new state (see StepDiagnostics); a
 //     violation throws NoResultError naming the step and the bodies.
 //
 // Impulses are P = h·R (N s); a rope's λ/h is its tension (N); an angle row's λ is an
 // impulse·length (N s m). Consecutive beads of a chain keep their ordinary frictional
 // contact row besides the rope row (bond length in [d, L_max]).
-// Determinism: one thread, fixed row order; the same inputs give bit-identical states.
+// Determinism: fixed row order; the same inputs and thread count give bit-identical
+// states.
 #pragma once
 
 #include <cstdint>
@@ -64,6 +78,8 @@ struct Options {
   double max_overlap = 0.05;              ///< divergence: overlap / d
   double max_rope_excess = 0.05;          ///< divergence: (|x_j − x_i| − L_max) / d
   double max_angle_excess = 0.034906585039886591;  ///< divergence: θ − θ_max (rad), 2°
+  int freeze_sweeps = 16; ///< sweeps a quiet zero-impulse row is skipped (0: never freeze)
+  int threads = 1;        ///< sweep threads (slabs); 1 = serial
 };
 
 /// One step's diagnostics (the future diagnostics CSV row).
@@ -82,12 +98,16 @@ struct StepDiagnostics {
   double max_rope_excess = 0.0;   ///< max (|x_j − x_i| − L_max)/d after the step (≥ 0)
   double max_angle_excess = 0.0;  ///< max θ − θ_max (rad) after the step (≥ 0)
   double kinetic_energy = 0.0;    ///< Σ ½ m v² + ½ I ω² over mobile spheres (J)
-  std::int64_t row_updates = 0;   ///< row visits in this step's sweeps (every row, every sweep)
-  /// Active row updates: the visits of row_updates whose local solve worked on an active
-  /// row, i.e. one whose impulse is non-zero after the local solve or that is in contact
-  /// (contact gap ≤ 0, rope taut |x_j − x_i| ≥ L_max, angle row at or past θ_max).
-  /// Skipped rope/angle rows (no mobile body, straight-chain guard) never count.
+  /// Row updates: local solves done in this step's sweeps. Frozen rows skipped by a sweep
+  /// and rows that cannot act (a rope or angle row without a mobile body, the
+  /// straight-chain guard) do not count.
+  std::int64_t row_updates = 0;
+  /// Active row updates: the row updates on rows in contact or loaded, i.e. whose impulse
+  /// is non-zero after the local solve or whose constraint is closed (contact gap ≤ 0, rope
+  /// taut |x_j − x_i| ≥ L_max, angle row at or past θ_max).
   std::int64_t active_row_updates = 0;
+  std::int64_t frozen_skips = 0;  ///< row visits skipped because the row was frozen
+  int rows = 0;                   ///< rows of this step (contacts + ropes + angles)
 };
 
 /// A contact row of the last step, for tests and force analysis. The impulse P acts on
@@ -123,6 +143,7 @@ struct WorldState {
   std::int64_t step = 0;
   std::int64_t iteration_cap_hits = 0;
   std::vector<Vec3> position, velocity, angular_velocity;
+  std::vector<Eigen::Quaterniond> orientation;  ///< unit quaternions (body to world)
   std::vector<double> diameter, mass, inertia;
   std::vector<BodyKind> kind;
   std::vector<Wall> walls;  ///< normals as stored (unit)
@@ -162,9 +183,11 @@ class World {
   [[nodiscard]] const Options& options() const { return opt_; }
   [[nodiscard]] int body_count() const { return static_cast<int>(x_.size()); }
   [[nodiscard]] const Vec3& position(int b) const { return x_.at(static_cast<std::size_t>(b)); }
-  [[nodiscard]] const Vec3& velocity(int b) const { return v_.at(static_cast<std::size_t>(b)); }
-  [[nodiscard]] const Vec3& angular_velocity(int b) const {
-    return w_.at(static_cast<std::size_t>(b));
+  [[nodiscard]] const Vec3& velocity(int b) const { return body_at(b).v; }
+  [[nodiscard]] const Vec3& angular_velocity(int b) const { return body_at(b).w; }
+  /// Orientation (body frame to world), identity at creation.
+  [[nodiscard]] const Eigen::Quaterniond& orientation(int b) const {
+    return q_.at(static_cast<std::size_t>(b));
   }
   [[nodiscard]] double diameter(int b) const { return 2.0 * radius_.at(static_cast<std::size_t>(b)); }
   [[nodiscard]] double mass(int b) const { return mass_.at(static_cast<std::size_t>(b)); }
@@ -198,11 +221,36 @@ class World {
   [[nodiscard]] std::uint64_t state_hash() const;
 
  private:
-  struct ContactRow {
+  // Solver view of a body: one cache line (sentinel bodies after the real ones stand
+  // for the walls: zero velocity, zero inverse mass).
+  struct alignas(64) SolverBody {
+    Vec3 v = Vec3::Zero();
+    Vec3 w = Vec3::Zero();
+    double inv_mass = 0.0;
+    double inv_inertia = 0.0;
+  };
+  // Hot contact row, two cache lines. A wall row has i = a wall sentinel and ri = 0.
+  struct alignas(64) ContactRow {
+    int i = 0, j = 0;
+    Vec3 n = Vec3::UnitZ();  // from i (or the wall) to j
+    double bias = 0.0;       // gap / h
+    double ri = 0.0, rj = 0.0;
+    double inv_wn = 0.0, inv_wt = 0.0;
+    double mu = 0.0;
+    double pn = 0.0;
+    Vec3 pt = Vec3::Zero();
+    std::int32_t frozen_until = 0;
+    std::uint8_t quiet = 0;
+    ContactStatus status = ContactStatus::open;
+  };
+  // Cold contact data, parallel to contacts_.
+  struct ContactInfo {
     std::uint64_t key = 0;
-    int i = -1, wall = -1, j = -1;
-    Vec3 n = Vec3::UnitZ();
-    double gap = 0.0, ri = 0.0, rj = 0.0, wn = 0.0, wt = 0.0, mu = 0.0;
+    int i = -1, wall = -1;  // i = −1 for a wall row
+    double gap = 0.0;
+  };
+  struct PreviousContact {
+    std::uint64_t key = 0;
     double pn = 0.0;
     Vec3 pt = Vec3::Zero();
     ContactStatus status = ContactStatus::open;
@@ -211,35 +259,62 @@ class World {
     int i = 0, j = 0;
     double max_length = 0.0;
     Vec3 e = Vec3::UnitX();
-    double c = 0.0, wb = 0.0, lambda = 0.0;
+    double c = 0.0, bias = 0.0, wb = 0.0, lambda = 0.0;
+    std::int32_t frozen_until = 0;
+    std::uint8_t quiet = 0;
   };
   struct AngleRow {
     int a = 0, b = 0, c = 0;
     double max_angle = 0.0, cos_max = 1.0;
     Vec3 ga = Vec3::Zero(), gb = Vec3::Zero(), gc = Vec3::Zero();  // ∂c/∂x
-    double ca = 0.0, wa = 0.0, scale = 0.0, lambda = 0.0;
+    double ca = 0.0, bias = 0.0, wa = 0.0, scale = 0.0, lambda = 0.0;
+    std::int32_t frozen_until = 0;
+    std::uint8_t quiet = 0;
     bool live = false;  // W_a above the straight-chain guard
   };
+  // Rows of one slab (or of the boundary between slabs), by index.
+  struct RowLists {
+    std::vector<int> contacts, ropes, angles;
+    void clear() {
+      contacts.clear();
+      ropes.clear();
+      angles.clear();
+    }
+  };
+  struct SweepTotals {
+    double dv2 = 0.0, wp2 = 0.0;
+    std::int64_t updates = 0, active = 0, skipped = 0, changed = 0;
+  };
 
+  [[nodiscard]] const SolverBody& body_at(int b) const {
+    if (b < 0 || b >= body_count()) check_body(b, "access");
+    return body_[static_cast<std::size_t>(b)];
+  }
   void check_body(int b, const char* what) const;
   void find_contacts(double alert);
   void prepare_rows();
-  // Each returns whether the row was active (see StepDiagnostics::active_row_updates).
-  bool sweep_contact(ContactRow& r, double inv_h, double& dv2, double& wp2);
-  bool sweep_rope(RopeRow& r, double inv_h, double& dv2, double& wp2);
-  bool sweep_angle(AngleRow& r, double inv_h, double& dv2, double& wp2);
+  void partition_rows();
+  void sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out);
   void apply_contact(const ContactRow& r, const Vec3& p);
+  void integrate_positions();
   void check_state(StepDiagnostics& d) const;
 
   Options opt_;
-  // Bodies, structure of arrays.
-  std::vector<Vec3> x_, v_, w_;
-  std::vector<double> radius_, mass_, inertia_, inv_mass_, inv_inertia_;
+  // Bodies: positions and orientations, solver view (+ sentinels), properties.
+  std::vector<Vec3> x_;
+  std::vector<Eigen::Quaterniond> q_;
+  std::vector<SolverBody> body_;
+  std::vector<double> radius_, mass_, inertia_;
   std::vector<BodyKind> kind_;
   std::vector<Wall> walls_;
-  std::vector<ContactRow> contacts_, previous_;
+  std::vector<ContactRow> contacts_;
+  std::vector<ContactInfo> info_;
+  std::vector<PreviousContact> previous_;
   std::vector<RopeRow> ropes_;
   std::vector<AngleRow> angles_;
+  // Sweep order: lists_[t] for slab t, lists_.back() for the rows across slabs.
+  std::vector<RowLists> lists_;
+  std::vector<int> slab_;  // slab of each body (threads > 1)
   // Cell-grid scratch.
   std::vector<int> cell_of_, cell_start_, cell_bodies_;
   std::int64_t step_ = 0;

@@ -1,0 +1,207 @@
+// `shearzone sim` as a job (pipeline::run_sim_job): kinematic beads follow their
+// prescribed velocity, fill.settle starts the run from a relaxed packing, sim.threads
+// runs are reproducible, the diagnostics CSV has the row-count columns, and bad scene
+// values are one ConfigError naming file:line and key.
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/pipeline/sim_job.hpp"
+#include "shearzone/sim/sim_io.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+using shearzone::testing::TempDir;
+using sim::Vec3;
+
+namespace {
+
+pipeline::SimJobSummary run_scene(const TempDir& dir, const std::string& text, const std::string& out,
+                                  const std::string& restart = "") {
+  testing::write_file(dir / "s.toml", text);
+  pipeline::SimJobOptions o;
+  o.scene = dir / "s.toml";
+  o.output_dir = dir / out;
+  if (!restart.empty()) o.restart = dir / restart;
+  return pipeline::run_sim_job(o, core::standard_metadata("test"));
+}
+
+/// `text` with `from` replaced by `to` (which must be there).
+std::string with(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  REQUIRE(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
+std::string scene_error(const std::string& text) {
+  TempDir dir("sim-job-bad");
+  try {
+    (void)run_scene(dir, text, "run");
+  } catch (const ConfigError& e) {
+    CHECK(testing::list_dir(dir.path()) == std::vector<std::string>{"s.toml"});  // no output
+    return e.what();
+  }
+  FAIL("no ConfigError");
+  return {};
+}
+
+// A kinematic bead pushing a mobile bead along the floor of a box.
+const std::string kPush =
+    "[sim]\nduration_s = 0.1\ntime_step_s = 5e-4\n[output]\nsnapshot_every = 0\n"
+    "[box]\nmin_m = [-0.05, -0.05, 0]\nmax_m = [0.05, 0.05, 0.1]\n"
+    "[beads]\ndiameter_m = 0.01\npositions_m = [0, 0, 0.005]\n"
+    "kinematic_positions_m = [-0.0101, 0, 0.005]\n"
+    "kinematic_velocity_m_per_s = [0.1, 0, 0]\n"
+    "kinematic_angular_velocity_rad_per_s = [0, 0, 3]\n";
+
+// Ten 3-bead chains settled into a small box around a kinematic bead on the floor.
+const std::string kSettle =
+    "[sim]\nduration_s = 0.02\ntime_step_s = 5e-4\nfriction = 0.3\ntolerance = 1e-3\n"
+    "max_iterations = 100\n[output]\nsnapshot_every = 10\n"
+    "[box]\nmin_m = [-0.025, -0.025, 0]\nmax_m = [0.025, 0.025, 0.1]\nfriction = 0.3\n"
+    "[beads]\ndiameter_m = 0.01\nkinematic_positions_m = [0.0, 0.0, 0.005]\n"
+    "kinematic_velocity_m_per_s = [-0.01, 0, 0]\n"
+    "[chains]\nbeads_per_chain = 3\nl_max_m = 0.001\nmax_angle_deg = 60\n"
+    "[fill]\ncount = 10\nmin_m = [-0.025, -0.025, 0.011]\nmax_m = [0.025, 0.025, 0.05]\n"
+    "settle = true\nrelax_kinetic_energy = 1e-4\n";
+
+}  // namespace
+
+TEST_CASE("sim job: a kinematic bead moves by x0 + v t and pushes a mobile bead", "[pipeline][sim]") {
+  TempDir dir("sim-job-kin");
+  const auto sum = run_scene(dir, kPush, "run");
+  CHECK(sum.bodies == 2);
+  CHECK(sum.kinematic_bodies == 1);
+  CHECK(sum.steps == 200);
+  const sim::WorldState st = sim::read_checkpoint(dir / "run" / "checkpoint.h5");
+  REQUIRE(st.kind.size() == 2);
+  // The container's bodies (fixed, then kinematic beads) come before the explicit mobile ones.
+  const std::size_t kin = 0, mob = 1;
+  CHECK(st.kind[kin] == sim::BodyKind::kinematic);
+  CHECK(st.kind[mob] == sim::BodyKind::mobile);
+  const Vec3 expected = Vec3(-0.0101, 0, 0.005) + 0.1 * Vec3(0.1, 0, 0);
+  CHECK((st.position[kin] - expected).norm() < 1e-15);
+  CHECK(st.velocity[kin] == Vec3(0.1, 0, 0));
+  CHECK(st.angular_velocity[kin] == Vec3(0, 0, 3));
+  // The mobile bead (from x = 0, 0.1 mm ahead of it) was pushed along: it ends in contact
+  // in front of the kinematic bead (at x = -0.1 mm), about 9.9 mm from where it started.
+  CHECK(st.position[mob].x() - st.position[kin].x() > 0.01 * (1.0 - 0.05));
+  CHECK(st.position[mob].x() > 0.0095);
+}
+
+TEST_CASE("sim job: fill.settle starts the run from a relaxed packing at step 0", "[pipeline][sim]") {
+  TempDir dir("sim-job-settle");
+  const auto sum = run_scene(dir, kSettle, "run");
+  CHECK(sum.fill_settled);
+  CHECK(sum.fill_settle_steps > 0);
+  CHECK(sum.fill_relaxed);
+  CHECK(sum.fill_kinetic_energy <= 1e-4);
+  CHECK(sum.first_step == 0);
+  CHECK(sum.steps == 40);
+  CHECK(sum.bodies == 31);
+  CHECK(sum.kinematic_bodies == 1);
+  CHECK(sum.ropes == 20);
+  CHECK(sum.angles == 10);
+
+  const auto h5 = io::H5File::open_read(dir / "run" / "snapshots.h5");
+  const auto steps = h5.read<std::int64_t>("/step");
+  REQUIRE(steps.data.size() == 5);
+  CHECK(steps.data.front() == 0);
+  const auto chain = h5.read<std::int64_t>("/chain_id").data;
+  REQUIRE(chain.size() == 31);
+  CHECK(chain[0] == 0);  // the kinematic bead is its own chain
+  for (std::size_t b = 1; b < 31; ++b) CHECK(chain[b] == 1 + static_cast<std::int64_t>((b - 1) / 3));
+  // The kinematic bead stood still during the fill and moves with the run only.
+  const auto pos = h5.read<double>("/position").data;
+  CHECK(pos[0] == 0.0);
+  CHECK(pos[2] == 0.005);
+  // The packing is settled: every bead is below the fill region's top at step 0.
+  for (std::size_t b = 1; b < 31; ++b) CHECK(pos[3 * b + 2] < 0.05);
+  const sim::WorldState st = sim::read_checkpoint(dir / "run" / "checkpoint.h5");
+  CHECK(st.step == 40);
+  CHECK(std::abs(st.position[0].x() - (-0.01 * 0.02)) < 1e-15);
+
+  const auto diag = io::read_csv(dir / "run" / "diagnostics.csv");
+  CHECK(diag.columns == sim::DiagnosticsCsv::columns());
+  const std::vector<std::string> tail(diag.columns.end() - 4, diag.columns.end());
+  CHECK(tail == std::vector<std::string>{"row_updates", "active_row_updates", "frozen_skips", "rows"});
+  CHECK(diag.numeric_column("step").front() == 1.0);
+  CHECK(diag.numeric_column("rows").front() >= 30.0);  // at least the ropes, angles and contacts
+  CHECK(diag.numeric_column("active_row_updates").front() <= diag.numeric_column("row_updates").front());
+  CHECK(core::metadata_value(diag.metadata, "fill_relaxed") == "true");
+  CHECK(core::metadata_value(diag.metadata, "fill_settle_steps") == std::to_string(sum.fill_settle_steps));
+  CHECK(core::metadata_value(diag.metadata, "threads") == "1");
+
+  // A restart takes the world from the checkpoint and does not fill again.
+  const std::string longer = with(kSettle, "duration_s = 0.02", "duration_s = 0.03");
+  const auto more = run_scene(dir, longer, "run2", "run/checkpoint.h5");
+  CHECK_FALSE(more.fill_settled);
+  CHECK(more.first_step == 40);
+  CHECK(more.steps == 20);
+}
+
+TEST_CASE("sim job: sim.threads = 2 runs reproduce the state hash", "[pipeline][sim]") {
+  TempDir dir("sim-job-threads");
+  // Ten chains placed loosely (no settle) and falling for 40 steps: short, and enough
+  // contacts across the two slabs.
+  std::string text = with(kSettle, "[output]", "threads = 2\nfreeze_sweeps = 8\n[output]");
+  text = with(text, "settle = true\nrelax_kinetic_energy = 1e-4\n", "");
+  text = with(text, "max_m = [0.025, 0.025, 0.05]", "max_m = [0.025, 0.025, 0.1]");
+  const auto a = run_scene(dir, text, "a");
+  const auto b = run_scene(dir, text, "b");
+  CHECK_FALSE(a.fill_settled);
+  CHECK(a.threads == 2);
+  CHECK(a.steps == 40);
+  CHECK(a.state_hash == b.state_hash);
+  const sim::WorldState st = sim::read_checkpoint(dir / "a" / "checkpoint.h5");
+  CHECK(st.options.threads == 2);
+  CHECK(st.options.freeze_sweeps == 8);
+}
+
+TEST_CASE("sim job: bad scene values are one ConfigError naming file:line and key", "[pipeline][sim]") {
+  const std::string head = "[sim]\nduration_s = 0.01\n";
+  CHECK_THAT(scene_error(head + "threads = 0\n"), Contains("s.toml:3: key \"sim.threads\": 0 (expected in [1, 256])"));
+  CHECK_THAT(scene_error(head + "threads = 2.5\n"), Contains("s.toml:3: key \"sim.threads\""));
+  CHECK_THAT(scene_error(head + "freeze_sweeps = -1\n"),
+             Contains("s.toml:3: key \"sim.freeze_sweeps\": -1 (expected in [0, 1000000])"));
+  CHECK_THAT(scene_error(head + "[beads]\ndiameter_m = 0.01\nkinematic_velocity_m_per_s = [1, 0, 0]\n"),
+             Contains("s.toml:5: key \"beads.kinematic_velocity_m_per_s\": needs beads.kinematic_positions_m"));
+  CHECK_THAT(scene_error(head + "[beads]\ndiameter_m = 0.01\nkinematic_positions_m = [0, 0, 0.1]\n"
+                                "kinematic_velocity_m_per_s = [1, 0]\n"),
+             Contains("s.toml:6: key \"beads.kinematic_velocity_m_per_s\": 2 values (expected 3)"));
+  const std::string fill = head +
+                           "[box]\nmin_m = [-0.03, -0.03, 0]\nmax_m = [0.03, 0.03, 0.1]\n[beads]\ndiameter_m = 0.01\n"
+                           "[fill]\ncount = 4\nmin_m = [-0.02, -0.02, 0]\nmax_m = [0.02, 0.02, 0.05]\n";
+  CHECK_THAT(scene_error(fill + "relax_max_steps = 10\n"),
+             Contains("s.toml:12: key \"fill.relax_max_steps\": only applies with fill.settle = true"));
+  CHECK_THAT(scene_error(fill + "settle = true\ninsert_fraction = 0.5\n"),
+             Contains("s.toml:13: key \"fill.insert_fraction\": 0.5 (expected in (0, 0.35])"));
+  CHECK_THAT(scene_error(fill + "settle = true\nsettle_max_iterations = 0\n"),
+             Contains("s.toml:13: key \"fill.settle_max_iterations\": 0 (expected in [1, 2147483647])"));
+  CHECK_THAT(scene_error(fill + "settle = 1\n"), Contains("s.toml:12: key \"fill.settle\": integer value is not allowed"));
+  const std::string with_mobile =
+      with(fill + "settle = true\n", "diameter_m = 0.01\n", "diameter_m = 0.01\npositions_m = [0, 0, 0.005]\n");
+  CHECK_THAT(scene_error(with_mobile),
+             Contains("s.toml:8: key \"beads.positions_m\": explicit mobile beads cannot be combined with fill.settle"));
+  const std::string lid = with(with(fill + "settle = true\n", "[beads]", "lid = true\n[beads]"), "count = 4", "count = 100");
+  CHECK_THAT(scene_error(lid), Contains("s.toml:13: key \"fill.settle\": the drop column reaches z ="));
+  const std::string outside = with(fill, "max_m = [0.02, 0.02, 0.05]", "max_m = [0.04, 0.02, 0.05]");
+  CHECK_THAT(scene_error(outside), Contains("s.toml:11: key \"fill.max_m\": the fill region must lie inside the box"));
+  const std::string in_the_way =
+      with(fill + "settle = true\n", "diameter_m = 0.01\n", "diameter_m = 0.01\nkinematic_positions_m = [0, 0, 0.052]\n");
+  CHECK_THAT(scene_error(in_the_way), Contains("s.toml:8: key \"beads.kinematic_positions_m\": bead 0 at (0, 0, 0.052) "
+                                               "reaches into the drop region"));
+  CHECK_THAT(scene_error(head + "[fill]\nsettle = true\n"), Contains("s.toml: [fill] needs count"));
+  CHECK_THAT(scene_error(with(fill + "settle = true\n", "duration_s = 0.01\n", "duration_s = 0.01\ngravity_m_per_s2 = [0, 0, 0]\n")),
+             Contains("s.toml:13: key \"fill.settle\": needs gravity with a downward"));
+  CHECK_THAT(scene_error(head + "friction = -0.1\n"), Contains("s.toml:3: key \"sim.friction\": -0.1 (expected >= 0)"));
+  CHECK_THAT(scene_error(head + "time_step_s = 0\n"), Contains("s.toml:3: key \"sim.time_step_s\": 0 (expected > 0)"));
+}
