@@ -240,6 +240,9 @@ void World::find_contacts(double alert) {
   }
   const int sentinel = static_cast<int>(n);
   const double fric = opt_.friction;
+  std::vector<std::size_t> order;  // scratch of the per-body sort, reused
+  std::vector<ContactRow> rows;
+  std::vector<ContactInfo> infos;
   for (std::size_t i = 0; i < n; ++i) {
     const bool mi = kind_[i] == BodyKind::mobile;
     const std::size_t first = contacts_.size();
@@ -271,14 +274,12 @@ void World::find_contacts(double alert) {
         }
     // Rows of body i in the order of j (the cells are visited in grid order).
     if (contacts_.size() - first > 1) {
-      std::vector<std::size_t> order(contacts_.size() - first);
+      order.resize(contacts_.size() - first);
       for (std::size_t k = 0; k < order.size(); ++k) order[k] = first + k;
       std::sort(order.begin(), order.end(),
                 [&](std::size_t a, std::size_t b) { return contacts_[a].j < contacts_[b].j; });
-      std::vector<ContactRow> rows;
-      std::vector<ContactInfo> infos;
-      rows.reserve(order.size());
-      infos.reserve(order.size());
+      rows.clear();
+      infos.clear();
       for (std::size_t k : order) {
         rows.push_back(contacts_[k]);
         infos.push_back(info_[k]);
@@ -687,6 +688,8 @@ void World::integrate_positions() {
 }
 
 StepDiagnostics World::step() {
+  static_assert(sizeof(SolverBody) == 64, "one cache line per body");
+  static_assert(sizeof(ContactRow) == 128, "two cache lines per contact row");
   const double h = opt_.time_step;
   const std::int64_t this_step = step_ + 1;
   const std::size_t n = x_.size();

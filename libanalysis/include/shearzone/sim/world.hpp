@@ -229,9 +229,13 @@ class World {
     double inv_mass = 0.0;
     double inv_inertia = 0.0;
   };
-  // Hot contact row, two cache lines. A wall row has i = a wall sentinel and ri = 0.
+  // Hot contact row, two cache lines; the freeze state sits in the first, so a skipped
+  // row costs one line. A wall row has i = a wall sentinel and ri = 0.
   struct alignas(64) ContactRow {
     int i = 0, j = 0;
+    std::int32_t frozen_until = 0;
+    std::uint8_t quiet = 0;
+    ContactStatus status = ContactStatus::open;
     Vec3 n = Vec3::UnitZ();  // from i (or the wall) to j
     double bias = 0.0;       // gap / h
     double ri = 0.0, rj = 0.0;
@@ -239,9 +243,6 @@ class World {
     double mu = 0.0;
     double pn = 0.0;
     Vec3 pt = Vec3::Zero();
-    std::int32_t frozen_until = 0;
-    std::uint8_t quiet = 0;
-    ContactStatus status = ContactStatus::open;
   };
   // Cold contact data, parallel to contacts_.
   struct ContactInfo {
