@@ -35,8 +35,6 @@ std::uint64_t wall_key(int w, int j) {
 /// treated as inactive (sin θ ≈ 0, the constraint cannot bind within one step).
 constexpr double kAngleGuard = 1e-12;
 
-/// Rows per thread below which a T-slab sweep runs on one thread (results unchanged).
-constexpr int kParallelRowsPerThread = 2000;
 
 struct Fnv {
   std::uint64_t h = 1469598103934665603ULL;
@@ -91,6 +89,8 @@ World::World(const Options& options) : opt_(options) {
   if (opt_.freeze_sweeps < 0 || opt_.freeze_sweeps > 1000000)
     bad("freeze_sweeps", opt_.freeze_sweeps, "in [0, 1e6]");
   if (opt_.threads < 1 || opt_.threads > 256) bad("threads", opt_.threads, "in [1, 256]");
+  if (opt_.parallel_min_rows_per_thread < 0)
+    bad("parallel_min_rows_per_thread", opt_.parallel_min_rows_per_thread, ">= 0");
 }
 
 int World::add_sphere(const Vec3& position, double diameter, double density, BodyKind kind) {
@@ -785,7 +785,10 @@ StepDiagnostics World::step() {
       SpinBarrier barrier;
       // Small problems run the same slabs on one thread (the same bits: the slabs share no
       // body), since waking the pool each step costs more than the sweep saves there.
-      const int workers = d.rows >= kParallelRowsPerThread * T ? T : 1;
+      const int workers =
+          static_cast<std::int64_t>(d.rows) >= static_cast<std::int64_t>(opt_.parallel_min_rows_per_thread) * T
+              ? T
+              : 1;
 #pragma omp parallel num_threads(workers)
       {
 #pragma omp single
