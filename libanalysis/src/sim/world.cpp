@@ -537,14 +537,30 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   SolverBody* const B = body_.data();
   const int freeze = opt_.freeze_sweeps;
 
-  auto contact = [&](ContactRow& r) {
+  // A visit that left a zero-impulse row unchanged; one that changed a row.
+  auto stays_open = [&](auto& r, bool closed) {
+    if (closed) ++t.active;
+    else note_quiet(r, sweep, freeze);
+  };
+  auto unfreeze = [&](auto& r) {
+    r.quiet = 0;
+    r.frozen_until = 0;
+    ++t.changed;
+  };
+  // Frozen rows are skipped by normal sweeps, and only they are solved by a check sweep.
+  auto skip = [&](const auto& r) {
     if ((r.frozen_until > sweep) != check) {
       ++t.skipped;
-      return;
+      return true;
     }
+    ++t.updates;
+    return false;
+  };
+
+  auto contact = [&](ContactRow& r) {
+    if (skip(r)) return;
     SolverBody& bi = B[r.i];
     SolverBody& bj = B[r.j];
-    ++t.updates;
     const Vec3 n = r.n;
     const Vec3 u = (bj.v - bi.v) - (r.rj * bj.w + r.ri * bi.w).cross(n);
     const double un = u.dot(n);
@@ -571,14 +587,11 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     const bool closed = r.bias <= 0.0;
     if (dpn == 0.0 && dpt.squaredNorm() == 0.0) {
       if (pn == 0.0) {  // open, stays open
-        if (closed) ++t.active;
-        else note_quiet(r, sweep, freeze);
+        stays_open(r, closed);
         return;
       }
     }
-    r.quiet = 0;
-    r.frozen_until = 0;
-    ++t.changed;
+    unfreeze(r);
     r.pn = pn;
     r.pt = pt;
     const double wn = bi.inv_mass + bj.inv_mass;
@@ -594,67 +607,47 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     if (closed || pn != 0.0) ++t.active;
   };
 
-  auto rope = [&](RopeRow& r) {
-    if ((r.frozen_until > sweep) != check) {
-      ++t.skipped;
-      return;
-    }
-    SolverBody& bi = B[r.i];
-    SolverBody& bj = B[r.j];
-    ++t.updates;
-    const double rate = r.e.dot(bj.v - bi.v);
-    const double lam = std::max(0.0, r.lambda + (rate - r.bias) / r.wb);
+  // The end of a rope or angle visit: λ is the new impulse, `closed` whether the
+  // constraint is at or past its limit, w2 the squared residual weight, `apply(dλ)` puts
+  // the change on the bodies.
+  auto finish_scalar = [&](auto& r, double lam, bool closed, double w2, auto&& apply) {
     const double dl = lam - r.lambda;
-    const bool closed = r.c <= 0.0;
     if (dl == 0.0 && lam == 0.0) {
-      if (closed) ++t.active;
-      else note_quiet(r, sweep, freeze);
+      stays_open(r, closed);
       return;
     }
-    r.quiet = 0;
-    r.frozen_until = 0;
-    ++t.changed;
+    unfreeze(r);
     r.lambda = lam;
-    if (dl != 0.0) {
-      bi.v += (bi.inv_mass * dl) * r.e;
-      bj.v -= (bj.inv_mass * dl) * r.e;
-    }
-    t.dv2 += r.wb * r.wb * dl * dl;
-    t.wp2 += r.wb * r.wb * lam * lam;
+    if (dl != 0.0) apply(dl);
+    t.dv2 += w2 * dl * dl;
+    t.wp2 += w2 * lam * lam;
     ++t.active;
   };
 
+  auto rope = [&](RopeRow& r) {
+    if (skip(r)) return;
+    SolverBody& bi = B[r.i];
+    SolverBody& bj = B[r.j];
+    const double rate = r.e.dot(bj.v - bi.v);
+    finish_scalar(r, std::max(0.0, r.lambda + (rate - r.bias) / r.wb), r.c <= 0.0, r.wb * r.wb,
+                  [&](double dl) {
+                    bi.v += (bi.inv_mass * dl) * r.e;
+                    bj.v -= (bj.inv_mass * dl) * r.e;
+                  });
+  };
+
   auto angle = [&](AngleRow& r) {
-    if ((r.frozen_until > sweep) != check) {
-      ++t.skipped;
-      return;
-    }
+    if (skip(r)) return;
     SolverBody& ba = B[r.a];
     SolverBody& bb = B[r.b];
     SolverBody& bc = B[r.c];
-    ++t.updates;
     const double rate = r.ga.dot(ba.v) + r.gb.dot(bb.v) + r.gc.dot(bc.v);
-    const double lam = std::max(0.0, r.lambda - (rate + r.bias) / r.wa);
-    const double dl = lam - r.lambda;
-    const bool closed = r.ca <= 0.0;
-    if (dl == 0.0 && lam == 0.0) {
-      if (closed) ++t.active;
-      else note_quiet(r, sweep, freeze);
-      return;
-    }
-    r.quiet = 0;
-    r.frozen_until = 0;
-    ++t.changed;
-    r.lambda = lam;
-    if (dl != 0.0) {
-      ba.v += (ba.inv_mass * dl) * r.ga;
-      bb.v += (bb.inv_mass * dl) * r.gb;
-      bc.v += (bc.inv_mass * dl) * r.gc;
-    }
-    const double s2 = r.scale * r.scale * r.wa * r.wa;
-    t.dv2 += s2 * dl * dl;
-    t.wp2 += s2 * lam * lam;
-    ++t.active;
+    finish_scalar(r, std::max(0.0, r.lambda - (rate + r.bias) / r.wa), r.ca <= 0.0,
+                  r.scale * r.scale * r.wa * r.wa, [&](double dl) {
+                    ba.v += (ba.inv_mass * dl) * r.ga;
+                    bb.v += (bb.inv_mass * dl) * r.gb;
+                    bc.v += (bc.inv_mass * dl) * r.gc;
+                  });
   };
 
   ContactRow* const C = contacts_.data();
@@ -910,21 +903,26 @@ void World::check_state(StepDiagnostics& d) const {
         angle_excess * 180.0 / std::numbers::pi, opt_.max_angle_excess * 180.0 / std::numbers::pi));
 }
 
+ContactRecord World::record(std::size_t k) const {
+  const ContactRow& r = contacts_[k];
+  ContactRecord c;
+  c.body_i = info_[k].i;
+  c.wall = info_[k].wall;
+  c.body_j = r.j;
+  c.normal = r.n;
+  c.gap = info_[k].gap;
+  c.normal_impulse = r.pn;
+  c.tangential_impulse = r.pt;
+  c.status = r.status;  // raw: the status of the last visit
+  return c;
+}
+
 std::vector<ContactRecord> World::contacts() const {
   std::vector<ContactRecord> out;
   out.reserve(contacts_.size());
   for (std::size_t k = 0; k < contacts_.size(); ++k) {
-    const ContactRow& r = contacts_[k];
-    ContactRecord c;
-    c.body_i = info_[k].i;
-    c.wall = info_[k].wall;
-    c.body_j = r.j;
-    c.normal = r.n;
-    c.gap = info_[k].gap;
-    c.normal_impulse = r.pn;
-    c.tangential_impulse = r.pt;
-    c.status = r.pn > 0.0 ? r.status : ContactStatus::open;
-    out.push_back(c);
+    out.push_back(record(k));
+    if (!(contacts_[k].pn > 0.0)) out.back().status = ContactStatus::open;
   }
   return out;
 }
@@ -952,19 +950,7 @@ WorldState World::state() const {
   for (const RopeRow& r : ropes_) s.ropes.push_back({r.i, r.j, r.max_length, r.lambda});
   for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda});
   s.contacts.reserve(contacts_.size());
-  for (std::size_t k = 0; k < contacts_.size(); ++k) {
-    const ContactRow& r = contacts_[k];
-    ContactRecord c;
-    c.body_i = info_[k].i;
-    c.wall = info_[k].wall;
-    c.body_j = r.j;
-    c.normal = r.n;
-    c.gap = info_[k].gap;
-    c.normal_impulse = r.pn;
-    c.tangential_impulse = r.pt;
-    c.status = r.status;
-    s.contacts.push_back(c);
-  }
+  for (std::size_t k = 0; k < contacts_.size(); ++k) s.contacts.push_back(record(k));
   return s;
 }
 

@@ -296,6 +296,7 @@ class World {
     return body_[static_cast<std::size_t>(b)];
   }
   void check_body(int b, const char* what) const;
+  [[nodiscard]] ContactRecord record(std::size_t k) const;  // contact row k, raw status
   void find_contacts(double alert);
   void prepare_rows();
   void partition_rows();
