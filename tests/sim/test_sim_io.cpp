@@ -161,6 +161,32 @@ TEST_CASE("Checkpoint reading rejects bad files and inconsistent states", "[sim]
   REQUIRE(s.contacts.size() >= 2);
   std::swap(s.contacts[0], s.contacts[1]);
   CHECK_THROWS_AS(World::from_state(s), shearzone::ConfigError);
+  s = a.state();
+  s.orientation[0].coeffs() *= 2.0;  // not a unit quaternion
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("orientation quaternion of norm 2"));
+  s = a.state();
+  s.options.threads = 0;
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("threads"));
+  s = a.state();
+  s.options.freeze_sweeps = -1;
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("freeze_sweeps"));
+}
+
+TEST_CASE("A checkpoint keeps the orientations, the thread count and the freeze setting", "[sim]") {
+  TempDir dir("sim_ckpt_v2");
+  World a = make_scene();
+  for (int k = 0; k < 30; ++k) a.step();
+  WorldState s = a.state();
+  s.options.threads = 2;
+  s.options.freeze_sweeps = 5;
+  const World b = World::from_state(s);
+  write_checkpoint(dir / "c.h5", b);
+  const WorldState r = read_checkpoint(dir / "c.h5");
+  CHECK(r.options.threads == 2);
+  CHECK(r.options.freeze_sweeps == 5);
+  REQUIRE(r.orientation.size() == s.orientation.size());
+  for (std::size_t k = 0; k < r.orientation.size(); ++k)
+    CHECK(r.orientation[k].coeffs() == s.orientation[k].coeffs());  // bit-exact
 }
 
 TEST_CASE("Chain ids come from the rope graph", "[sim]") {
