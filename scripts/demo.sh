@@ -33,17 +33,22 @@ echo "== 3. Bead top view around an oscillating four-blade vane (shear zone), 25
 echo "== 4. PIV of the bead clip, with the rotating vane masked (-> HDF5 fields)"
 "$SZ" piv "$OUT/beads_vane/video.mp4" -o "$OUT/beads_vane/fields.h5" \
     --centre 319.5,239.5 --vane 4,6,110 --phi0-rad 0.3 --f-hz 0.5 --N 9
+"$PY" scripts/plot_piv.py "$OUT/beads_vane/piv_field.png" "$OUT/beads_vane/fields.h5" \
+    "$OUT/beads_vane/video.mp4" --every 3 --circles-px 110,235 \
+    --title "PIV of the synthetic bead clip (circles: vane tips, cup wall)"
 echo "== 5. PIV of two real frames of moving sand (PIVlab example data, MIT)"
 "$SZ" piv data-samples/pivlab-sand/Fuerteventura_000000.jpeg \
     data-samples/pivlab-sand/Fuerteventura_000001.jpeg -o "$OUT/sand_vectors.csv"
+"$PY" scripts/plot_piv.py "$OUT/sand_piv.png" "$OUT/sand_vectors.csv" \
+    data-samples/pivlab-sand/Fuerteventura_000000.jpeg --title "PIV of two frames of moving sand (PIVlab)"
 echo "== 6. Radial profile v(r) of the clip and the shear-zone width r_c"
 # The toy clip moves fast (the cup is 235 px = 34 mm, 2 s of a 0.5 Hz cycle), so the
 # threshold is set where its profile crosses: v_c = 2 mm/s instead of the paper's 40 um/s.
 "$SZ" profile "$OUT/beads_vane/fields.h5" -o "$OUT/beads_vane/profile.csv" \
-    --radii-px 110,235 --cup-radius-m 0.034 --group-by-pair
+    --radii-px 110,235 --cup-radius-m 0.034
 "$SZ" width "$OUT/beads_vane/profile.csv" -o "$OUT/beads_vane/widths.csv" --vc 2e-3
 "$PY" scripts/plot_fig2.py profiles "$OUT/beads_vane/fig2a_profile.png" \
-    "$OUT/beads_vane/profile.csv" --vc 2e-3
+    "$OUT/beads_vane/profile.csv" --vc 2e-3 --widths "$OUT/beads_vane/widths.csv"
 echo "== 7. Fits and collapse of r_c(phi0) for four chain lengths (data-samples/widths)"
 T=data-samples/widths/rc_phi0_synthetic.csv
 F="$OUT/fits"
@@ -73,8 +78,12 @@ L="$OUT/laos"
 echo "== 9. Contact dynamics: 60 chains of 6 beads poured into a box (snapshots + XDMF for ParaView)"
 "$SZ" sim data-samples/sim/pour_chains.toml -o "$OUT/sim_pour"
 echo "== 10. Ground-truth plots"
-"$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png"
-"$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png"
+"$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \
+    --image "$OUT/pair_rotation/A.png" --every 2
+"$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png" \
+    --image "$OUT/beads_vane/video.mp4" --every 2
+echo "== 11. Every figure present and a valid PNG"
+"$PY" scripts/check_figures.py "$OUT"
 
 echo
 echo "Outputs are in $OUT/:"

@@ -1,13 +1,22 @@
 #!/usr/bin/python3
-"""LAOS figures from the CSVs of `shearzone laos` (matplotlib; no computing here).
+"""LAOS figures from the CSVs of `shearzone laos` (matplotlib; no computing beyond error bars).
 
     plot_laos.py lissajous OUT.png OUTDIR [--N 45]   # Fig 5: elastic and viscous Lissajous curves
     plot_laos.py tandelta OUT.png SUMMARY.csv        # Fig 6: tan delta_1 against phi0, per N
     plot_laos.py taumax OUT.png SUMMARY.csv          # Fig 3A: tau_max against phi0, per N
-    plot_laos.py taun OUT.png SUMMARY.csv POWER.csv  # Fig 3D: tau_max against N with power laws
+    plot_laos.py taun OUT.png SUMMARY.csv POWER.csv [--offset 2]  # Fig 3D: tau_max against N, power laws
 
 OUTDIR is a `shearzone laos` output folder (lissajous_NN.csv files); POWER.csv is the long
-output of `shearzone fit power SUMMARY.csv --x N --y tau_max_N_m --group phi0_rad`.
+output of `shearzone fit power SUMMARY.csv --x N --y tau_max_N_m --group phi0_nominal_rad`.
+
+Error bars: tan delta_1 uses a tan_delta_1_se column when the summary has one, else the
+standard errors of K1' and K1'' propagated to first order,
+se = |tan delta| sqrt((se''/K'')^2 + (se'/K')^2). tau_max uses tau_max_se_N_m when present,
+else the cycle-to-cycle standard error (std / sqrt(n) over the cycles used) from the
+cycles.csv next to SUMMARY.csv. Fig 3D shifts each amplitude's series by a factor
+offset^k (k = 0, 1, ...) so that the curves, which nearly coincide above the yield
+amplitude, stay apart; the legend gives the factor, and the right panel shows the fitted
+exponents with their standard errors.
 Run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
 import argparse
@@ -16,12 +25,13 @@ import math
 import os
 import sys
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import szplot
+from szcsv import header, num, read_csv
 
-from szcsv import header, num, read_csv  # noqa: E402
+plt = szplot.plt
+from matplotlib.lines import Line2D  # noqa: E402
 
 
 def col(row, *prefixes):
@@ -39,92 +49,176 @@ def lissajous(a):
         files = [p for p in files if header(p).get("N") == a.N]
     if not files:
         sys.exit(f"plot_laos.py: no lissajous_*.csv in {a.outdir}" + (f" with N = {a.N}" if a.N else ""))
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 4))
-    for path in files:
+    files.sort(key=lambda p: num(header(p).get("phi0_rad")))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(6.6, 2.8), sharey=True)
+    cmap = plt.get_cmap("viridis")
+    for i, path in enumerate(files):
         rows = read_csv(path)
         if not rows:
             continue
         meta = header(path)
         cx = col(rows[0], "phi_over_phi0", "x_")
-        cy = col(rows[0], "rate_over", "phidot_over", "y_")
+        cy = col(rows[0], "phidot_over", "rate_over", "y_")
         ct = col(rows[0], "tau_N_m", "torque_N_m", "stress_Pa", "sigma_Pa")
-        label = meta.get("phi0_rad", os.path.basename(path))
-        try:
-            label = f"phi0 = {float(label):.3g} rad"
-        except ValueError:
-            pass
-        line = ax1.plot([num(r[cx]) for r in rows], [num(r[ct]) for r in rows], lw=0.8, label=label)
-        ax2.plot([num(r[cy]) for r in rows], [num(r[ct]) for r in rows], lw=0.8, color=line[0].get_color())
-    ax1.set_xlabel("phi / phi0")
-    ax1.set_ylabel("torque (N m)")
-    ax1.set_title("elastic Lissajous")
-    ax2.set_xlabel("dphi/dt / max")
-    ax2.set_title("viscous Lissajous")
-    ax1.legend(fontsize=6)
-    fig.suptitle("Fig. 5: Lissajous-Bowditch curves" + (f", N = {a.N}" if a.N else ""))
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=150)
+        scale, unit = (1e3, "mN m") if ct.endswith("N_m") else (1.0, "Pa")
+        colour = cmap(0.9 * i / max(len(files) - 1, 1))
+        phi0 = num(meta.get("phi0_rad"))
+        label = f"{phi0:.3g} rad" if math.isfinite(phi0) else os.path.basename(path)
+        x, y, t = (np.array([num(r[c]) for r in rows]) for c in (cx, cy, ct))
+        # one polyline per cycle, so that the loops do not join across cycles
+        cyc = np.array([num(r.get("cycle")) for r in rows])
+        for j, c in enumerate(np.unique(cyc[np.isfinite(cyc)]) if np.isfinite(cyc).any() else [None]):
+            m = (cyc == c) if c is not None else np.ones(len(rows), bool)
+            ax1.plot(x[m], t[m] * scale, lw=0.9, color=colour, label=label if j == 0 else None)
+            ax2.plot(y[m], t[m] * scale, lw=0.9, color=colour)
+        for ax, k, xx in ((ax1, "tau_elastic", x), (ax2, "tau_viscous", y)):
+            ck = next((c for c in rows[0] if c.startswith(k)), None)
+            if ck:
+                if np.isfinite(cyc).any():  # the fullest cycle (the first one may hold a single sample)
+                    cs, cn = np.unique(cyc[np.isfinite(cyc)], return_counts=True)
+                    first = cyc == cs[np.argmax(cn)]
+                else:
+                    first = np.ones(len(rows), bool)
+                order = np.argsort(xx[first])
+                ax.plot(xx[first][order], np.array([num(r[ck]) for r in rows])[first][order] * scale,
+                        ls="--", lw=0.8, color=colour)
+    ax1.set_xlabel(r"strain $\varphi/\varphi_0$ (dimensionless)")
+    ax1.set_ylabel(f"torque $\\tau$ ({unit})")
+    ax1.set_title("(a) elastic: torque against angle")
+    ax2.set_xlabel(r"rate $\dot\varphi/\dot\varphi_{\max}$ (dimensionless)")
+    ax2.set_title("(b) viscous: torque against rate")
+    for ax in (ax1, ax2):
+        ax.axhline(0, color="0.8", lw=0.5, zorder=0)
+        ax.axvline(0, color="0.8", lw=0.5, zorder=0)
+    h, lab = ax1.get_legend_handles_labels()
+    h += [Line2D([], [], color="k", lw=0.9), Line2D([], [], color="k", lw=0.8, ls="--")]
+    lab += ["measured", "elastic (a), viscous (b)\npart: odd harmonics"]
+    ax2.legend(h, lab, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
+               title=r"amplitude $\varphi_0$", title_fontsize=7, alignment="left")
+    fig.suptitle("Fig. 5  Lissajous–Bowditch curves" + (f", chain length N = {a.N}" if a.N else ""))
+    szplot.tight(fig, w_pad=0.8)
+    szplot.save(fig, a.out)
 
 
-def by_n(rows, y):
-    groups = {}
-    for r in rows:
-        if r.get("status", "ok") != "ok":
+def cycle_se(summary_path, y):
+    """{(source, segment): standard error of y over the used cycles} from cycles.csv."""
+    path = os.path.join(os.path.dirname(os.path.abspath(summary_path)), "cycles.csv")
+    if not os.path.exists(path):
+        return {}
+    vals = {}
+    for r in read_csv(path):
+        if r.get("used", "1") not in ("1", "true") or y not in r:
             continue
-        groups.setdefault(r.get("N", "") or "?", []).append((num(r["phi0_rad"]), num(r[y])))
-    return groups
+        vals.setdefault((r.get("source"), r.get("segment")), []).append(num(r[y]))
+    out = {}
+    for k, v in vals.items():
+        v = np.array([x for x in v if math.isfinite(x)])
+        out[k] = float(np.std(v, ddof=1) / math.sqrt(len(v))) if len(v) > 1 else math.nan
+    return out
 
 
-def per_n_plot(a, y, ylabel, title, logy=False):
-    rows = read_csv(a.summary)
-    fig, ax = plt.subplots(figsize=(5, 4))
-    for n, pts in sorted(by_n(rows, y).items(), key=lambda kv: num(kv[0])):
-        pts.sort()
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=4, label=f"N = {n}")
+def errors(a, rows, y):
+    """(error per row, description) for the quantity y of the summary rows."""
+    cols = rows[0].keys() if rows else []
+    cands = [f"{y[:-4]}_se_N_m"] if y.endswith("_N_m") else []
+    for c in cands + [f"{y}_se"]:
+        if c in cols:
+            return np.array([num(r[c]) for r in rows]), "standard error"
+    if y == "tan_delta_1" and {"K1_prime_N_m_per_rad", "K1_dprime_N_m_per_rad"} <= set(cols):
+        k1, k2 = (np.array([num(r[c]) for r in rows]) for c in ("K1_prime_N_m_per_rad", "K1_dprime_N_m_per_rad"))
+        s1, s2 = (np.array([num(r.get(c)) for r in rows])
+                  for c in ("K1_prime_se_N_m_per_rad", "K1_dprime_se_N_m_per_rad"))
+        return np.abs(k2 / k1) * np.hypot(s1 / k1, s2 / k2), r"SE of $K_1'$, $K_1''$ propagated"
+    se = cycle_se(a.summary, y)
+    if se:
+        return np.array([se.get((r.get("source"), r.get("segment")), math.nan) for r in rows]), \
+            "cycle-to-cycle standard error"
+    return np.full(len(rows), math.nan), None
+
+
+def ok_rows(rows):
+    return [r for r in rows if (r.get("status") or "ok") == "ok"]
+
+
+def phi0_key(r):
+    return num(r.get("phi0_nominal_rad") or r.get("phi0_rad"))
+
+
+def per_n_plot(a, y, ylabel, title, scale=1.0, hline=None):
+    rows = ok_rows(read_csv(a.summary))
+    err, kind = errors(a, rows, y)
+    groups = {}
+    for r, e in zip(rows, err):
+        groups.setdefault(r.get("N") or "?", []).append((num(r["phi0_rad"]), num(r[y]) * scale, e * scale))
+    fig, ax = plt.subplots(figsize=(3.4, 2.8))
+    for i, (n, pts) in enumerate(sorted(groups.items(), key=lambda kv: num(kv[0]))):
+        pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]) and p[1] > 0)
+        x, v, e = (np.array([p[k] for p in pts]) for k in range(3))
+        e = np.nan_to_num(e)
+        ax.errorbar(x, v, yerr=[np.minimum(e, 0.9 * v), e], ms=3.5, lw=0.9, elinewidth=0.7,
+                    label=f"{n}", **szplot.series(i, line=True))
+    if hline is not None:
+        ax.axhline(hline[0], color="0.5", lw=0.7, ls=":", zorder=0)
+        ax.text(0.02, hline[0], hline[1], transform=ax.get_yaxis_transform(), ha="left", va="bottom",
+                fontsize=7, color="0.4")
     ax.set_xscale("log")
-    if logy:
-        ax.set_yscale("log")
-    ax.set_xlabel("phi0 (rad)")
+    ax.set_yscale("log")
+    ax.set_xlabel(r"vane amplitude $\varphi_0$ (rad)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=150)
+    szplot.legend_outside(ax, title="chain length $N$" + (f"\nbars: {kind}" if kind else ""))
+    szplot.save(fig, a.out)
 
 
 def taun(a):
-    rows = read_csv(a.summary)
-    power = read_csv(a.power)
+    rows = ok_rows(read_csv(a.summary))
+    rows = [r for r in rows if r.get("N")]
+    err, kind = errors(a, rows, "tau_max_N_m")
     fits = {}
-    for r in power:
+    for r in read_csv(a.power):
         fits.setdefault(r["group"], {})[r["parameter"]] = r
     groups = {}
-    for r in rows:
-        if r.get("status", "ok") != "ok" or not r.get("N"):
-            continue
-        groups.setdefault(num(r["phi0_rad"]), []).append((num(r["N"]), num(r["tau_max_N_m"])))
-    fig, ax = plt.subplots(figsize=(5, 4))
-    for phi0, pts in sorted(groups.items()):
-        pts.sort()
-        line = ax.plot([p[0] for p in pts], [p[1] for p in pts], "o", label=f"phi0 = {phi0:.3g} rad")
-        f = None
-        for g, v in fits.items():
-            if math.isclose(num(g), phi0, rel_tol=0.02):
-                f = v
-        if f and "A" in f and "k" in f:
+    for r, e in zip(rows, err):
+        groups.setdefault(phi0_key(r), []).append((num(r["N"]), num(r["tau_max_N_m"]) * 1e3, e * 1e3))
+    fig, (ax, axk) = plt.subplots(1, 2, figsize=(6.4, 2.9), gridspec_kw={"width_ratios": [1.3, 1]})
+    ks = []
+    for i, (phi0, pts) in enumerate(sorted(groups.items())):
+        pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]))
+        n, t, e = (np.array([p[k] for p in pts]) for k in range(3))
+        shift = a.offset ** i
+        st = szplot.series(i)
+        lab = f"{phi0:.3g} rad" + (f" (×{shift:g})" if shift != 1 else "")
+        e = np.nan_to_num(e) * shift
+        ax.errorbar(n, t * shift, yerr=[np.minimum(e, 0.9 * t * shift), e], ms=4, elinewidth=0.7, zorder=3,
+                    label=lab, **st)
+        f = next((v for g, v in fits.items() if math.isclose(num(g), phi0, rel_tol=0.02)), None)
+        if f and "A" in f and "k" in f and len(n):
             A, k = num(f["A"]["value"]), num(f["k"]["value"])
-            lo, hi = pts[0][0], pts[-1][0]
-            xs = [lo * (hi / lo) ** (i / 50) for i in range(51)]
-            ax.plot(xs, [A * x ** k for x in xs], "--", color=line[0].get_color(), lw=1,
-                    label=f"N^{k:.3f} +- {num(f['k']['std_error']):.3f}")
+            xs = np.geomspace(n.min() / 1.25, n.max() * 1.25, 60)
+            ax.plot(xs, A * 1e3 * xs ** k * shift, color=st["color"], lw=0.9, ls=szplot.LINESTYLES[i % 4], zorder=2)
+            ks.append((phi0, k, num(f["k"].get("std_error")), i))
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("N")
-    ax.set_ylabel("tau_max (N m)")
-    ax.set_title("Fig. 3D: torque against chain length")
-    ax.legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(a.out, dpi=150)
+    ax.set_xlabel(r"chain length $N$ (beads)")
+    ylab = r"max. torque $\tau_{\max}$ (mN m)"
+    ax.set_ylabel(ylab + (", shifted" if a.offset != 1 else ""))
+    ax.set_title(r"(a) $\tau_{\max}$ against $N$, lines: $A N^k$ fits")
+    h, lab = ax.get_legend_handles_labels()
+    axk.legend(h[::-1], lab[::-1], loc="upper left", bbox_to_anchor=(1.04, 1.0), borderaxespad=0.0,
+               title=r"amplitude $\varphi_0$ (a, b)" + (f"\nbars: {kind}" if kind else ""), title_fontsize=7,
+               alignment="left")
+    for phi0, k, kse, i in ks:
+        st = szplot.series(i)
+        axk.errorbar([phi0], [k], yerr=[[kse if math.isfinite(kse) else 0]] * 2, ms=4, elinewidth=0.8, **st)
+    if ks:
+        axk.plot([p[0] for p in ks], [p[1] for p in ks], color="0.6", lw=0.7, zorder=0)
+    axk.set_xscale("log")
+    axk.set_xlabel(r"vane amplitude $\varphi_0$ (rad)")
+    axk.set_ylabel(r"exponent $k$ (dimensionless)")
+    axk.set_title(r"(b) fitted exponent $k$ ± SE")
+    fig.suptitle(r"Fig. 3D  Maximum torque against chain length")
+    szplot.tight(fig, w_pad=1.0)
+    szplot.save(fig, a.out)
 
 
 def main():
@@ -142,13 +236,18 @@ def main():
     p.add_argument("out")
     p.add_argument("summary")
     p.add_argument("power")
+    p.add_argument("--offset", type=float, default=2.0,
+                   help="factor between successive amplitudes' series (1: no shift)")
     a = ap.parse_args()
+    szplot.setup()
     if a.panel == "lissajous":
         lissajous(a)
     elif a.panel == "tandelta":
-        per_n_plot(a, "tan_delta_1", "tan delta_1", "Fig. 6: loss tangent")
+        per_n_plot(a, "tan_delta_1", r"loss tangent $\tan\delta_1$ (dimensionless)",
+                   r"Fig. 6  Loss tangent $\tan\delta_1 = K_1''/K_1'$", hline=(1.0, r"$\tan\delta_1 = 1$"))
     elif a.panel == "taumax":
-        per_n_plot(a, "tau_max_N_m", "tau_max (N m)", "Fig. 3A: maximum torque", logy=True)
+        per_n_plot(a, "tau_max_N_m", r"max. torque $\tau_{\max}$ (mN m)", "Fig. 3A  Maximum torque against amplitude",
+                   scale=1e3)
     else:
         taun(a)
     print(f"plot_laos.py: {a.panel} -> {a.out}")

@@ -1,58 +1,57 @@
-#!/usr/bin/env python3
-"""Plot a displacement field CSV (x_px,y_px,u_px,v_px) as arrows over the image frame.
+#!/usr/bin/python3
+"""Plot a ground-truth displacement field CSV (x_px,y_px,u_px,v_px) as arrows.
 
-    python3 scripts/plot_truth.py truth.csv truth.png
+    /usr/bin/python3 scripts/plot_truth.py truth.csv truth.png [--image FRAME] [--every 1]
 
-Reads the CSV exactly as shearzone writes it (``#`` header lines, one row of column
-names); computes nothing beyond what is needed to draw. The y axis points down, as in
-the image (README, "Conventions").
+Reads the CSV exactly as `shearzone synth` writes it (`#` header lines, one row of column
+names); computes nothing beyond what is needed to draw. Image axes: x right, y down, pixel
+centre (j, i) (README, "Conventions"). With --image (A.png, or the clip's video: frame 0)
+the arrows are drawn over the frame. Arrows are coloured by |d| and magnified (see the key).
 """
+import argparse
+import os
 import sys
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import szplot
+from szcsv import header, num, read_csv
 
-
-def read_csv(path):
-    meta = {}
-    with open(path, encoding="utf-8-sig") as f:
-        lines = f.readlines()
-    body = []
-    for line in lines:
-        if line.startswith("#"):
-            key, _, value = line[1:].partition(":")
-            meta[key.strip()] = value.strip()
-        elif line.strip():
-            body.append(line)
-    names = body[0].strip().split(",")
-    data = np.loadtxt(body[1:], delimiter=",", ndmin=2)
-    return meta, {n: data[:, i] for i, n in enumerate(names)}
+plt = szplot.plt
 
 
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: plot_truth.py truth.csv out.png")
-    meta, c = read_csv(sys.argv[1])
-    speed = np.hypot(c["u_px"], c["v_px"])
-    xs = np.unique(c["x_px"])
-    spacing = float(np.min(np.diff(xs))) if xs.size > 1 else 1.0
-    # The longest arrow spans 90 % of the grid spacing.
-    scale = max(float(speed.max()), 1e-12) / (0.9 * spacing)
-    fig, ax = plt.subplots(figsize=(6, 5), dpi=120)
-    q = ax.quiver(c["x_px"], c["y_px"], c["u_px"], c["v_px"], speed, angles="xy",
-                  scale_units="xy", scale=scale, cmap="viridis")
-    fig.colorbar(q, ax=ax, label="|d| (px per frame)")
-    ax.set_xlabel("x (px)")
-    ax.set_ylabel("y (px, down)")
-    ax.set_aspect("equal")
-    ax.invert_yaxis()
-    ax.set_title(f"synthetic ground truth: {meta.get('field', '?')} field", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(sys.argv[2])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("truth")
+    ap.add_argument("out")
+    ap.add_argument("--image", help="frame to draw under the arrows (image, or video: frame 0)")
+    ap.add_argument("--every", type=int, default=1, help="an arrow at every k-th grid point")
+    a = ap.parse_args()
+    szplot.setup()
+    meta = header(a.truth)
+    rows = read_csv(a.truth)
+    x, y, u, v = (np.array([num(r[c]) for r in rows]) for c in ("x_px", "y_px", "u_px", "v_px"))
+    img = szplot.read_image(a.image, 0) if a.image else None
+    if img is not None:
+        h, w = img.shape[:2]
+    else:
+        size = meta.get("image_size_px", "")
+        w, h = (int(s) for s in size.split("x")) if "x" in size else (x.max() + 8, y.max() + 8)
+    fig, ax = plt.subplots(figsize=(5.2, 5.2 * h / w + 0.9))
+    q, _ = szplot.draw_field(ax, img, x, y, u, v, None, every=a.every, unit="px")
+    if img is None:
+        ax.set_xlim(-0.5, w - 0.5)
+        ax.set_ylim(h - 0.5, -0.5)
+    sequence = "per frame" in meta.get("truth", "")
+    unit = "px per frame, disp_scale = 1" if sequence else "px, frame A to B"
+    szplot.colorbar(fig, ax, q, f"true displacement $|d|$\n({unit})")
+    field = meta.get("field", "?")
+    where = f", over {os.path.basename(a.image)}" + (" frame 0" if a.image.lower().endswith((".mp4", ".avi")) else "") \
+        if a.image else ""
+    ax.set_title(f"Synthetic ground truth: {field} field{where}", fontsize=8)
+    szplot.save(fig, a.out)
+    print(f"plot_truth.py: {a.truth} -> {a.out}")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -14,8 +14,8 @@ PACKAGES=(
   libtbb-dev libfftw3-dev libfmt-dev
   # header-only libraries
   catch2 libcli11-dev libtoml11-dev
-  # figure scripts
-  python3 python3-matplotlib python3-numpy
+  # figure scripts (h5py: PIV fields in HDF5; opencv: video frames under the vectors)
+  python3 python3-matplotlib python3-numpy python3-h5py python3-opencv
 )
 
 missing=()

@@ -1,6 +1,11 @@
 // `shearzone profile`: PIV fields -> radial profile v(r) (CSV) and its per-group
 // companion. Flags map onto pipeline::ProfileJobOptions; --config FILE.toml sets them.
+#include <cmath>
 #include <cstdio>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
 #include <memory>
 
 #include "shearzone/pipeline/profile_job.hpp"
@@ -23,6 +28,9 @@ int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
   j.output = s.output;
   j.noise_ref = s.noise_ref;
   if (!s.centre.empty()) {
+    if (!std::isfinite(s.centre[0]) || !std::isfinite(s.centre[1]))
+      throw ConfigError(fmt::format("--centre {},{}: expected two finite pixel coordinates", s.centre[0],
+                                    s.centre[1]));
     j.centre_x_px = s.centre[0];
     j.centre_y_px = s.centre[1];
   }
@@ -50,9 +58,10 @@ int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
                 "-> %s\n",
                 sum.pairs_used, sum.pairs_read, sum.groups, sum.groups == 1 ? "" : "s", sum.bins,
                 sum.bin_m, sum.Rv_m, sum.R_m, j.output.string().c_str());
-    std::printf("profile: centre (%.2f, %.2f) px [%s], %.4g m/px, noise floor %.3g m/s\n",
+    std::printf("profile: centre (%.2f, %.2f) px [%s], %.4g m/px [%s], noise floor %.3g m/s, "
+                "errors from %s\n",
                 sum.centre_x_px, sum.centre_y_px, sum.geometry_source.c_str(), sum.m_per_px,
-                sum.noise_floor_m_per_s);
+                sum.scale_source.c_str(), sum.noise_floor_m_per_s, sum.grouping.c_str());
   }
   return kExitOk;
 }
@@ -83,6 +92,8 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
       ->delimiter(',');
   c->add_option("--m-per-px", j.m_per_px, "Scale, m per px (default: the file's m_per_px)");
   c->add_option("--cup-radius-m", j.cup_radius_m, "Cup inner radius R in m: scale = R_m / R_px");
+  c->add_option("--scale-from", j.scale_from,
+                "Which scale to use when sources disagree by > 1 %: m-per-px, cup-radius, file");
   // Bins
   c->add_option("--bin-m", j.bin_m, "Bin width, m");
   c->add_option("--bin-px", j.bin_px, "Bin width, px");
@@ -100,7 +111,10 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
   c->add_option("--phase-bins", j.phase_bins,
                 "Phase-resolved: K profiles <stem>_phaseKK.csv over equal phase bins")
       ->capture_default_str();
-  c->add_flag("--group-by-pair", j.group_by_pair, "Bootstrap groups are pairs, not cycles");
+  c->add_option("--groups", j.groups,
+                "What standard errors and the r_c bootstrap resample: auto (cycles when >= 8, "
+                "else pairs), cycles, pairs")
+      ->capture_default_str();
   c->add_option("--dt-s", j.dt_s, "Time step of a CSV pair, s");
   // Noise
   c->add_option("--noise-ref", s->noise_ref, "Static reference fields (.h5 or .csv) for the noise floor");

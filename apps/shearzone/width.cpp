@@ -1,4 +1,5 @@
 // `shearzone width`: radial profiles -> shear-zone width r_c with a bootstrap interval.
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -28,13 +29,31 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   int usable = 0;
   for (const auto& r : rows) {
     usable += r.status == "ok";
-    if (!r.advice.empty()) std::fprintf(stderr, "shearzone: warning: %s\n", r.advice.c_str());
-    if (ctx.level != core::LogLevel::kQuiet)
-      std::printf("width: %s: r_c = %.5g m (%s)\n", r.label.c_str(), r.rc_m, r.status.c_str());
+    if (ctx.level != core::LogLevel::kQuiet) {
+      if (std::isfinite(r.rc_m))
+        std::printf("width: %s: r_c = %.5g m (%s)\n", r.label.c_str(), r.rc_m, r.status.c_str());
+      else
+        std::printf("width: %s: no r_c (%s)\n", r.label.c_str(), r.status.c_str());
+    }
   }
   if (ctx.level != core::LogLevel::kQuiet)
     std::printf("width: %zu profile%s, %d ok -> %s\n", rows.size(), rows.size() == 1 ? "" : "s",
                 usable, j.output.string().c_str());
+  if (usable == 0) {
+    // Exit 3 with one line: the statuses, and the advice of the first noise-limited row.
+    std::string why;
+    for (const auto& r : rows) why += fmt::format("{}{}: {}", why.empty() ? "" : ", ", r.label, r.status);
+    for (const auto& r : rows)
+      if (!r.advice.empty()) {
+        why += "; " + r.advice;
+        break;
+      }
+    std::fprintf(stderr, "shearzone: error: %s: no profile gave a usable r_c (%s)\n",
+                 j.output.string().c_str(), why.c_str());
+    return kExitNoResult;
+  }
+  for (const auto& r : rows)
+    if (!r.advice.empty()) std::fprintf(stderr, "shearzone: warning: %s\n", r.advice.c_str());
   return kExitOk;
 }
 

@@ -234,6 +234,8 @@ double CsvTable::number(std::size_t row, std::size_t col, bool require_finite) c
   return v;
 }
 
+bool CsvTable::cell_empty(std::size_t row, std::size_t col) const { return trim(rows.at(row).at(col)).empty(); }
+
 std::vector<double> CsvTable::numeric_column(std::string_view name, bool require_finite) const {
   const std::size_t c = column_index(name);
   std::vector<double> out(rows.size());

@@ -202,6 +202,14 @@ void ProfileJobOptions::validate() const {
   if (set(noise_min_m) != set(noise_max_m) || (set(noise_min_m) && !(noise_min_m < noise_max_m)))
     throw ConfigError("--noise-region-m: expected two radii, min < max, in m");
   if (!(bead_diameter_m > 0)) throw ConfigError("--bead-diameter-m: must be positive");
+  if (set(m_per_px) && !(std::isfinite(m_per_px) && m_per_px > 0))
+    throw ConfigError(fmt::format("--m-per-px {}: expected a positive number", m_per_px));
+  if (set(cup_radius_m) && !(std::isfinite(cup_radius_m) && cup_radius_m > 0))
+    throw ConfigError(fmt::format("--cup-radius-m {}: expected a positive number", cup_radius_m));
+  if (!scale_from.empty() && scale_from != "m-per-px" && scale_from != "cup-radius" && scale_from != "file")
+    throw ConfigError(fmt::format("--scale-from {}: expected m-per-px, cup-radius or file", scale_from));
+  if (groups != "auto" && groups != "cycles" && groups != "pairs")
+    throw ConfigError(fmt::format("--groups {}: expected auto, cycles or pairs", groups));
   if (phase_bins < 0 || phase_bins > 360)
     throw ConfigError(fmt::format("--phase-bins {}: expected 0..360", phase_bins));
 }
@@ -239,21 +247,63 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     throw ConfigError(fmt::format("{}: no cup centre: give --centre X Y or --detect-cup FRAME (the "
                                   "file has no centre_x_px/centre_y_px attributes)",
                                   o.input.string()));
-  double m_per_px = o.m_per_px;
-  if (!set(m_per_px) && !set(o.cup_radius_m)) m_per_px = src->attribute("m_per_px");
+  // Scale: every source there is, then one of them (see ProfileJobOptions).
+  struct ScaleSource {
+    const char* name;
+    double m_per_px;
+    std::string text;
+  };
+  std::vector<ScaleSource> scales;
+  if (set(o.m_per_px)) scales.push_back({"m-per-px", o.m_per_px, fmt::format("--m-per-px {}", num(o.m_per_px))});
+  if (set(o.cup_radius_m) && set(R_px)) {
+    const double m = profile::m_per_px_from_radius(o.cup_radius_m, R_px);
+    scales.push_back({"cup-radius", m, fmt::format("--cup-radius-m {} / R = {} px = {} m/px",
+                                                    num(o.cup_radius_m), num(R_px), fmt::format("{:.6g}", m))});
+  }
+  const double file_scale = src->attribute("m_per_px");
+  if (set(file_scale))
+    scales.push_back({"file", file_scale, fmt::format("m_per_px = {} in {}", num(file_scale), o.input.string())});
+  double m_per_px = kUnset;
+  if (!o.scale_from.empty()) {
+    for (const auto& sc : scales)
+      if (o.scale_from == sc.name) {
+        m_per_px = sc.m_per_px;
+        sum.scale_source = sc.text + " (--scale-from)";
+      }
+    if (!set(m_per_px))
+      throw ConfigError(fmt::format("--scale-from {}: that source of the scale is not available{}",
+                                    o.scale_from,
+                                    o.scale_from == "cup-radius" ? " (give --cup-radius-m and R in px)"
+                                    : o.scale_from == "file"     ? " (the field file has no m_per_px)"
+                                                                 : " (give --m-per-px)"));
+  } else if (!scales.empty()) {
+    for (std::size_t a = 0; a < scales.size(); ++a)
+      for (std::size_t b = a + 1; b < scales.size(); ++b) {
+        const double rel = std::abs(scales[a].m_per_px - scales[b].m_per_px) /
+                           std::min(scales[a].m_per_px, scales[b].m_per_px);
+        if (rel > kScaleTolerance)
+          throw ConfigError(fmt::format(
+              "{}: two scales disagree by {:.3g} %: {} and {}; say which to use with --scale-from {} "
+              "or --scale-from {}",
+              o.input.string(), 100 * rel, scales[a].text, scales[b].text, scales[a].name, scales[b].name));
+      }
+    m_per_px = scales.front().m_per_px;
+    sum.scale_source = scales.front().text;
+    if (scales.size() > 1) sum.scale_source += fmt::format(" (agrees with {} within 1 %)", scales[1].text);
+  }
   if (!set(m_per_px)) {
     if (!set(o.cup_radius_m))
       throw ConfigError(fmt::format("{}: no scale: give --m-per-px or --cup-radius-m (with the cup "
                                     "radius in px)",
                                     o.input.string()));
-    if (!set(R_px))
-      throw ConfigError("--cup-radius-m needs the cup radius in px: give --radii-px RV R or "
-                        "--detect-cup FRAME");
-    m_per_px = profile::m_per_px_from_radius(o.cup_radius_m, R_px);
+    throw ConfigError("--cup-radius-m needs the cup radius in px: give --radii-px RV,R or "
+                      "--detect-cup FRAME");
   }
+  if (!(std::isfinite(m_per_px) && m_per_px > 0))
+    throw InputError(fmt::format("{}: scale {} m/px: expected a positive number", o.input.string(), num(m_per_px)));
   if (!set(R_px)) {
     if (!set(o.cup_radius_m))
-      throw ConfigError("no cup radius: give --radii-px RV R, --detect-cup FRAME or --cup-radius-m");
+      throw ConfigError("no cup radius: give --radii-px RV,R, --detect-cup FRAME or --cup-radius-m");
     R_px = o.cup_radius_m / m_per_px;
   }
   profile::ProfileOptions po;
@@ -264,6 +314,9 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   po.r_max_m = R_px * m_per_px;
   po.bin_m = set(o.bin_m) ? o.bin_m : (set(o.bin_px) ? o.bin_px * m_per_px : 0.5 * o.bead_diameter_m);
   po.exclude_replaced = o.exclude_replaced;
+  po.grouping = o.groups == "cycles"  ? profile::Grouping::kCycles
+                : o.groups == "pairs" ? profile::Grouping::kPairsPhaseDetrended
+                                      : profile::Grouping::kNone;
   po.validate();
 
   // Pair selection.
@@ -273,7 +326,6 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   if (selecting && !(f > 0))
     throw ConfigError("--cycles / --phase-range-deg / --phase-bins need the oscillation frequency: "
                       "give --f-hz (the field file has no f_Hz attribute)");
-  const bool by_cycle = f > 0 && !o.group_by_pair;
   const int nphase = std::max(1, o.phase_bins);
   const double phase_w = (o.phase_max_deg - o.phase_min_deg) / nphase;
 
@@ -286,21 +338,23 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     double t_a = 0, dt = 0;
     src->read(k, field, t_a, dt);
     ++sum.pairs_read;
-    int group = static_cast<int>(k);
+    int cycle = profile::PairSeries::kNoCycle;
+    double phase = kUnset;
     std::size_t ph = 0;
     if (f > 0) {
       const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, o.t0_s);
       if (!o.cycles.empty() && std::find(o.cycles.begin(), o.cycles.end(), cp.cycle) == o.cycles.end())
         continue;
       if (cp.phase_deg < o.phase_min_deg || cp.phase_deg >= o.phase_max_deg) continue;
-      if (by_cycle) group = cp.cycle;
+      cycle = cp.cycle;
+      phase = cp.phase_deg / 360.0;
       ph = std::min(static_cast<std::size_t>(nphase - 1),
                     static_cast<std::size_t>((cp.phase_deg - o.phase_min_deg) / phase_w));
     }
     if (!(dt > 0))
       throw InputError(fmt::format("{}: pair {}: dt_s = {}: expected a positive time step",
                                    o.input.string(), k, dt));
-    accs[ph].add(field, dt, group);
+    accs[ph].add(field, dt, cycle, phase);
     dts.push_back(dt);
     ++sum.pairs_used;
     if (progress) progress(k + 1, n);
@@ -325,7 +379,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
       ref->read(k, rf, t_a, dt);
       // The reference is static: its displacements are noise in px per pair; convert
       // them with the time step of the measurement so that both floors compare.
-      racc->add(rf, dt_main, static_cast<int>(k));
+      racc->add(rf, dt_main);
     }
     noise_method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)",
                                o.noise_ref.string(), ref->size());
@@ -347,6 +401,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   meta.emplace_back("centre_x_px", num(cx));
   meta.emplace_back("centre_y_px", num(cy));
   meta.emplace_back("m_per_px", num(m_per_px));
+  meta.emplace_back("scale_source", sum.scale_source);
   meta.emplace_back("Rv_m", num(po.r_min_m));
   meta.emplace_back("R_m", num(po.r_max_m));
   meta.emplace_back("bin_m", num(po.bin_m));
@@ -357,7 +412,6 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   std::string cyc;
   for (int c : o.cycles) cyc += (cyc.empty() ? "" : ",") + std::to_string(c);
   meta.emplace_back("cycles", cyc.empty() ? "all" : cyc);
-  meta.emplace_back("groups", by_cycle ? "cycles" : "pairs");
   meta.emplace_back("dt_s", num(median(dts)));
   const double fps = src->attribute("fps");
   if (set(fps)) meta.emplace_back("fps", num(fps));
@@ -367,8 +421,9 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     if (!v.empty()) meta.emplace_back(tag, v);
   }
   meta.emplace_back("v_abs_sem_m_per_s",
-                    "standard deviation of the group means / sqrt(groups) (one group: of the "
-                    "vectors / sqrt(n))");
+                    "standard deviation of 1000 bootstrap replicates of the bin mean (seed 1) under "
+                    "`groups`; empty with a single pair");
+  meta.emplace_back("empty_cells", "a bin without vectors (n_vectors = 0) has no velocity values");
 
   // One profile (and its groups file) per phase bin; all appear together or none.
   std::vector<std::unique_ptr<io::AtomicOutput>> outs;
@@ -386,31 +441,51 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     const profile::RadialProfile p = racc ? acc.finish_with_reference_noise(*racc)
                                           : acc.finish_with_region_noise(noise_lo, noise_hi);
     sum.groups += p.n_groups;
-    if (ph == 0) sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;
+    if (ph == 0) {
+      sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;
+      sum.grouping = profile::grouping_name(p.grouping);
+      sum.rho = p.rho;
+    }
     core::Metadata m = meta;
     m.emplace_back("phase_range_deg", num(plo) + "," + num(phi));
     m.emplace_back("n_pairs", std::to_string(p.n_pairs));
+    m.emplace_back("groups", profile::grouping_name(p.grouping));
     m.emplace_back("n_groups", std::to_string(p.n_groups));
+    m.emplace_back("noise_lag1_rho", p.grouping == profile::Grouping::kCycles || p.grouping == profile::Grouping::kNone ? "" : fmt::format("{:.3f}", p.rho));
     m.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
     outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
     {
       io::CsvWriter w(outs.back()->stream(), m,
                       {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s",
                        "v_abs_sem_m_per_s", "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
-      for (const auto& b : p.bins)
-        w.row(std::vector<double>{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise,
-                                  static_cast<double>(b.n_vectors), static_cast<double>(b.n_masked),
-                                  static_cast<double>(b.n_invalid)});
+      for (const auto& b : p.bins) {
+        const bool have = b.n_vectors > 0;
+        auto cell = [&](double v) { return have && std::isfinite(v) ? num(v) : std::string(); };
+        w.row(std::vector<std::string>{num(b.r_m), cell(b.v_abs), cell(b.v_theta), cell(b.v_r),
+                                       cell(b.v_abs_rms), cell(b.v_abs_sem), num(b.v_noise),
+                                       std::to_string(b.n_vectors), std::to_string(b.n_masked),
+                                       std::to_string(b.n_invalid)});
+      }
     }
     outs.push_back(std::make_unique<io::AtomicOutput>(gpath, o.force));
     {
       core::Metadata gm = header;
       gm.emplace_back("profile", path.filename().string());
-      gm.emplace_back("group", by_cycle ? "oscillation cycle" : "pair index");
-      io::CsvWriter w(outs.back()->stream(), gm, {"group", "r_m", "v_abs_m_per_s", "n_vectors"});
-      for (const auto& g : p.groups)
-        w.row(std::vector<double>{static_cast<double>(g.group), p.bins[g.bin].r_m, g.v_abs,
-                                  static_cast<double>(g.n_vectors)});
+      gm.emplace_back("pair", "index of the pair among the selected ones, in time order");
+      gm.emplace_back("cycle", "oscillation cycle floor(f (t - t0)); empty when f is unknown");
+      gm.emplace_back("phase_deg", "oscillation phase at the pair's mid-time; empty when f is unknown");
+      io::CsvWriter w(outs.back()->stream(), gm,
+                      {"pair", "cycle", "phase_deg", "r_m", "v_abs_m_per_s", "n_vectors"});
+      const auto& ps = p.pairs;
+      for (std::size_t k = 0; k < ps.num_pairs(); ++k)
+        for (std::size_t b = 0; b < ps.n_bins; ++b) {
+          const double nv = ps.n_vectors[k * ps.n_bins + b];
+          if (nv == 0) continue;
+          const bool known = ps.cycle[k] != profile::PairSeries::kNoCycle;
+          w.row(std::vector<std::string>{std::to_string(k), known ? std::to_string(ps.cycle[k]) : "",
+                                         known ? num(360.0 * ps.phase[k]) : "", num(p.bins[b].r_m),
+                                         num(ps.v_abs[k * ps.n_bins + b]), num(nv)});
+        }
     }
   }
   for (auto& out : outs) out->commit();
@@ -444,6 +519,9 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   wo.confidence = o.confidence;
   wo.seed = o.seed;
   wo.validate();
+  for (const auto& [k, v] : o.tags)
+    if (k != "N" && k != "phi0_rad")
+      throw ConfigError(fmt::format("--tag {}={}: only N and phi0_rad are width columns", k, v));
   io::check_output_allowed(o.output, o.force);
 
   struct Row {
@@ -458,25 +536,51 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     if (t.num_rows() == 0) throw InputError(fmt::format("{}: the profile has no rows", path.string()));
     profile::WidthInput in;
     in.r_m = t.numeric_column("r_m");
-    in.v_abs = t.numeric_column("v_abs_m_per_s");
-    in.v_abs_sem = t.numeric_column("v_abs_sem_m_per_s");
     in.v_noise = t.numeric_column("v_noise_m_per_s");
     for (double x : t.numeric_column("n_vectors")) {
       if (!(x >= 0 && x == std::floor(x)))
         throw InputError(fmt::format("{}: column \"n_vectors\": {} is not a count", path.string(), x));
       in.n_vectors.push_back(static_cast<std::size_t>(x));
     }
+    // v_abs is empty in bins without vectors; a bin with vectors must carry a number.
+    const std::size_t cv = t.column_index("v_abs_m_per_s");
+    for (std::size_t r = 0; r < t.num_rows(); ++r)
+      in.v_abs.push_back(in.n_vectors[r] == 0 && t.cell_empty(r, cv) ? kUnset
+                                                                                       : t.number(r, cv));
     in.R_m = meta_number(t, "R_m");
     if (!set(in.R_m)) {
       const double bin = meta_number(t, "bin_m");
       in.R_m = in.r_m.back() + (set(bin) ? 0.5 * bin : 0.0);
     }
+    const std::string grouping = meta_value(t, "groups");
+    if (!grouping.empty() && !profile::parse_grouping(grouping, in.grouping))
+      throw InputError(fmt::format("{}: header \"groups: {}\": expected cycles, pairs_phase_detrended, "
+                                   "pairs or none",
+                                   path.string(), grouping));
     const std::filesystem::path gpath = path.parent_path() / (path.stem().string() + "_groups.csv");
-    if (std::filesystem::exists(gpath)) {
+    if (in.grouping != profile::Grouping::kNone) {
+      if (!std::filesystem::exists(gpath))
+        throw InputError(fmt::format("{}: the per-pair means {} are missing (written beside the profile "
+                                     "by `shearzone profile`); the interval needs them",
+                                     path.string(), gpath.string()));
       const io::CsvTable g = io::read_csv(gpath);
-      const auto grp = g.numeric_column("group"), r = g.numeric_column("r_m"),
+      in.pairs.n_bins = in.r_m.size();
+      const std::size_t cc = g.column_index("cycle"), cph = g.column_index("phase_deg");
+      const auto pair = g.numeric_column("pair"), r = g.numeric_column("r_m"),
                  v = g.numeric_column("v_abs_m_per_s"), nv = g.numeric_column("n_vectors");
       for (std::size_t k = 0; k < g.num_rows(); ++k) {
+        if (!(pair[k] >= 0 && pair[k] == std::floor(pair[k]) && pair[k] < 1e8))
+          throw InputError(fmt::format("{}:{}: column \"pair\": {} is not a pair index", gpath.string(),
+                                       g.row_lines[k], num(pair[k])));
+        const auto pk = static_cast<std::size_t>(pair[k]);
+        if (pk + 1 < in.pairs.num_pairs() || pk > in.pairs.num_pairs())
+          throw InputError(fmt::format("{}:{}: pair {} out of order: rows must come pair by pair",
+                                       gpath.string(), g.row_lines[k], pk));
+        if (pk == in.pairs.num_pairs()) {
+          const bool known = !g.cell_empty(k, cc);
+          in.pairs.add_pair(known ? static_cast<int>(g.number(k, cc)) : profile::PairSeries::kNoCycle,
+                            known ? g.number(k, cph) / 360.0 : kUnset);
+        }
         // Bin index from the radius (same bins as the profile).
         const auto it = std::min_element(in.r_m.begin(), in.r_m.end(), [&](double a, double b) {
           return std::abs(a - r[k]) < std::abs(b - r[k]);
@@ -484,8 +588,9 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
         if (std::abs(*it - r[k]) > 1e-9 * std::max(1.0, std::abs(r[k])) + 1e-12)
           throw InputError(fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.row_lines[k],
                                        num(r[k]), path.string()));
-        in.groups.push_back({static_cast<int>(grp[k]), static_cast<std::size_t>(it - in.r_m.begin()), v[k],
-                             static_cast<std::size_t>(nv[k])});
+        const std::size_t idx = pk * in.pairs.n_bins + static_cast<std::size_t>(it - in.r_m.begin());
+        in.pairs.v_abs[idx] = v[k];
+        in.pairs.n_vectors[idx] = nv[k];
       }
     }
     Row row;
@@ -503,6 +608,8 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     wr.status = profile::width_status_name(row.res.status);
     wr.rc_m = row.res.rc_m;
     if (row.res.status == profile::WidthStatus::kNoiseLimited) {
+      // An r_c that cannot be trusted is not reported.
+      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = kUnset;
       // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
       const double sigma = meta_number(t, "noise_sigma_m_per_s");
       const double dt = meta_number(t, "dt_s"), fps = meta_number(t, "fps");
@@ -520,10 +627,6 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     report.push_back(wr);
     rows.push_back(std::move(row));
   }
-  for (const auto& [k, v] : o.tags)
-    if (k != "N" && k != "phi0_rad")
-      throw ConfigError(fmt::format("--tag {}={}: only N and phi0_rad are width columns", k, v));
-
   core::Metadata meta = header;
   meta.emplace_back("v_c_m_per_s", num(o.v_c_m_per_s));
   meta.emplace_back("noise_factor", num(o.noise_factor));
@@ -531,18 +634,30 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   meta.emplace_back("confidence", num(o.confidence));
   meta.emplace_back("seed", std::to_string(o.seed));
   meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
-                            "interpolation between bin centres; never_below: R");
-  meta.emplace_back("rc_ci", "percentile bootstrap over the profile's groups (cycles or pairs); "
-                             "one group: parametric from the bin standard errors");
+                            "interpolation between bin centres; never_below: R (a lower bound); "
+                            "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
+  meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
+                             "rc_ci_method; empty when there is no replicate (one pair)");
+  meta.emplace_back("rc_ci_method",
+                    "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
+                    "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
+                    "residuals an AR(1) series of lag-1 correlation rc_ci_rho (AR-sieve bootstrap); "
+                    "pairs: the same about the mean (frequency unknown); none: no interval");
   io::AtomicOutput out(o.output, o.force);
   {
     io::CsvWriter w(out.stream(), meta,
                     {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
-                     "v_noise_m_per_s", "n_pairs"});
-    for (const auto& r : rows)
-      w.row(std::vector<std::string>{r.label, r.N, r.phi0, num(r.res.rc_m), num(r.res.ci_low_m),
-                                     num(r.res.ci_high_m), profile::width_status_name(r.res.status),
-                                     num(r.res.v_noise_m_per_s), r.n_pairs});
+                     "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
+    auto cell = [](double v) { return std::isfinite(v) ? num(v) : std::string(); };
+    for (const auto& r : rows) {
+      const bool ci = std::isfinite(r.res.ci_low_m);
+      w.row(std::vector<std::string>{
+          r.label, r.N, r.phi0, cell(r.res.rc_m), cell(r.res.ci_low_m), cell(r.res.ci_high_m),
+          profile::width_status_name(r.res.status), ci ? profile::grouping_name(r.res.grouping) : "none",
+          ci ? std::to_string(r.res.bootstrap_units) : "",
+          ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
+          num(r.res.v_noise_m_per_s), r.n_pairs});
+    }
   }
   out.commit();
   return report;

@@ -45,19 +45,19 @@ ProfileAccumulator::ProfileAccumulator(ProfileOptions options) : opt_(options) {
   noise_by_bin_.resize(opt_.num_bins());
 }
 
-void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int group) {
+void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle, double phase) {
   if (!(std::isfinite(dt_s) && dt_s > 0))
     throw InputError(fmt::format("profile: pair time step {} s: expected a positive number", dt_s));
   const std::size_t n = f.size();
   if (f.u_px.size() != n || f.v_px.size() != n || f.flag.size() != n)
     throw InputError("profile: field arrays do not match the grid");
-  auto it = std::find(group_ids_.begin(), group_ids_.end(), group);
-  std::size_t gi = static_cast<std::size_t>(it - group_ids_.begin());
-  if (it == group_ids_.end()) {
-    group_ids_.push_back(group);
-    group_bins_.emplace_back(bins_.size());
-  }
-  std::vector<Sums>& gb = group_bins_[gi];
+  const std::size_t nb = bins_.size();
+  pair_cycle_.push_back(cycle);
+  pair_phase_.push_back(phase);
+  pair_s_.resize(pair_s_.size() + nb, 0.0);
+  pair_n_.resize(pair_n_.size() + nb, 0.0);
+  double* ps = pair_s_.data() + n_pairs_ * nb;
+  double* pn = pair_n_.data() + n_pairs_ * nb;
   const double scale = opt_.m_per_px / dt_s;  // px per pair -> m/s
   for (std::size_t i = 0; i < f.ny(); ++i)
     for (std::size_t j = 0; j < f.nx(); ++j) {
@@ -70,24 +70,23 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int group)
       const VectorFlag fl = f.flag[k];
       if (fl == VectorFlag::kMasked) {
         ++bins_[b].masked;
-        ++gb[b].masked;
         continue;
       }
       if (fl == VectorFlag::kInvalid || (opt_.exclude_replaced && fl == VectorFlag::kReplaced)) {
         ++bins_[b].invalid;
-        ++gb[b].invalid;
         continue;
       }
       const double u = f.u_px[k] * scale, v = f.v_px[k] * scale;
       const auto pc = core::polar_from_cartesian(x, y, u, v, opt_.centre_x_px, opt_.centre_y_px);
       const double a = std::hypot(u, v);
-      for (Sums* s : {&bins_[b], &gb[b]}) {
-        s->s_abs += a;
-        s->s_abs2 += a * a;
-        s->s_theta += pc.v_theta;
-        s->s_r += pc.v_r;
-        ++s->n;
-      }
+      Sums& s = bins_[b];
+      s.s_abs += a;
+      s.s_abs2 += a * a;
+      s.s_theta += pc.v_theta;
+      s.s_r += pc.v_r;
+      ++s.n;
+      ps[b] += a;
+      pn[b] += 1.0;
       NoiseSums& ns = noise_by_bin_[b];
       ns.s += pc.v_r;
       ns.s2 += pc.v_r * pc.v_r;
@@ -99,9 +98,21 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int group)
 RadialProfile ProfileAccumulator::finish_common() const {
   RadialProfile p;
   p.n_pairs = n_pairs_;
-  p.n_groups = group_ids_.size();
   p.bins.resize(bins_.size());
-  for (std::size_t b = 0; b < bins_.size(); ++b) {
+  const std::size_t nb = bins_.size();
+  p.pairs.n_bins = nb;
+  p.pairs.cycle = pair_cycle_;
+  p.pairs.phase = pair_phase_;
+  p.pairs.n_vectors = pair_n_;
+  p.pairs.v_abs.assign(pair_s_.size(), 0.0);
+  for (std::size_t i = 0; i < pair_s_.size(); ++i)
+    if (pair_n_[i] > 0) p.pairs.v_abs[i] = pair_s_[i] / pair_n_[i];
+  p.grouping = choose_grouping(p.pairs, opt_.grouping);
+  const BinMeanBootstrap boot(p.pairs, p.grouping);
+  p.n_groups = boot.units();
+  p.rho = boot.rho();
+  const std::vector<double> se = boot.standard_errors(opt_.se_replicates, opt_.seed);
+  for (std::size_t b = 0; b < nb; ++b) {
     const Sums& s = bins_[b];
     ProfileBin& o = p.bins[b];
     o.r_m = opt_.bin_centre_m(b);
@@ -114,30 +125,8 @@ RadialProfile ProfileAccumulator::finish_common() const {
     o.v_theta = s.s_theta / n;
     o.v_r = s.s_r / n;
     o.v_abs_rms = std::sqrt(s.s_abs2 / n);
-    // Standard error: spread of the group means when there are two or more groups.
-    std::vector<double> means;
-    for (std::size_t g = 0; g < group_bins_.size(); ++g)
-      if (group_bins_[g][b].n > 0)
-        means.push_back(group_bins_[g][b].s_abs / static_cast<double>(group_bins_[g][b].n));
-    if (means.size() >= 2) {
-      double m = 0;
-      for (double x : means) m += x;
-      m /= static_cast<double>(means.size());
-      double ss = 0;
-      for (double x : means) ss += (x - m) * (x - m);
-      o.v_abs_sem = std::sqrt(ss / static_cast<double>(means.size() - 1)) /
-                    std::sqrt(static_cast<double>(means.size()));
-    } else if (s.n >= 2) {
-      const double var = std::max(0.0, (s.s_abs2 - s.s_abs * s.s_abs / n) / (n - 1));
-      o.v_abs_sem = std::sqrt(var / n);
-    }
+    o.v_abs_sem = se[b];
   }
-  for (std::size_t g = 0; g < group_bins_.size(); ++g)
-    for (std::size_t b = 0; b < bins_.size(); ++b) {
-      const Sums& s = group_bins_[g][b];
-      if (s.n == 0) continue;
-      p.groups.push_back({group_ids_[g], b, s.s_abs / static_cast<double>(s.n), s.n});
-    }
   return p;
 }
 
@@ -170,6 +159,7 @@ RadialProfile ProfileAccumulator::finish_with_reference_noise(const ProfileAccum
   double s = 0;
   std::size_t n = 0;
   for (const auto& b : r.bins) {
+    if (b.n_vectors == 0) continue;
     s += b.v_abs * static_cast<double>(b.n_vectors);
     n += b.n_vectors;
   }

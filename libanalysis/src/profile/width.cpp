@@ -6,6 +6,7 @@
 #include <random>
 
 #include <fmt/format.h>
+#include <gsl/gsl_cdf.h>
 
 #include "shearzone/core/error.hpp"
 
@@ -36,12 +37,12 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
   for (const auto& b : p.bins) {
     w.r_m.push_back(b.r_m);
     w.v_abs.push_back(b.v_abs);
-    w.v_abs_sem.push_back(b.v_abs_sem);
     w.n_vectors.push_back(b.n_vectors);
     w.v_noise.push_back(b.v_noise);
   }
   w.R_m = R_m;
-  w.groups = p.groups;
+  w.pairs = p.pairs;
+  w.grouping = p.grouping;
   return w;
 }
 
@@ -93,51 +94,33 @@ WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
   res.v_noise_m_per_s = noise.empty() ? 0.0 : percentile(noise, 0.5);
   if (opt.v_c_m_per_s < opt.noise_factor * res.v_noise_m_per_s) res.status = WidthStatus::kNoiseLimited;
 
-  res.ci_low_m = res.ci_high_m = res.rc_m;
-  if (opt.bootstrap == 0) return res;
+  if (opt.bootstrap == 0 || in.grouping == Grouping::kNone || in.pairs.num_pairs() < 2) return res;
+  if (in.pairs.n_bins != nb)
+    throw InputError(fmt::format("width: the per-pair means have {} bins, the profile {}",
+                                 in.pairs.n_bins, nb));
+  const BinMeanBootstrap boot(in.pairs, in.grouping);
+  res.grouping = boot.grouping();
+  res.bootstrap_units = boot.units();
+  res.rho = boot.rho();
   std::mt19937_64 rng(opt.seed);
-  std::vector<double> rcs;
-  rcs.reserve(static_cast<std::size_t>(opt.bootstrap));
-  // Groups: [group index] -> per-bin (mean, n).
-  std::map<int, std::vector<std::pair<double, std::size_t>>> by_group;
-  for (const auto& g : in.groups) {
-    if (g.bin >= nb) continue;
-    auto& row = by_group[g.group];
-    if (row.empty()) row.assign(nb, {0.0, 0});
-    row[g.bin] = {g.v_abs, g.n_vectors};
-  }
-  std::vector<const std::vector<std::pair<double, std::size_t>>*> groups;
-  for (const auto& kv : by_group) groups.push_back(&kv.second);
-  std::vector<double> v(nb);
+  std::vector<double> rcs, v, nd;
   std::vector<std::size_t> n(nb);
+  rcs.reserve(static_cast<std::size_t>(opt.bootstrap));
   WidthStatus st;
-  if (groups.size() >= 2) {
-    res.bootstrap_groups = static_cast<int>(groups.size());
-    std::uniform_int_distribution<std::size_t> pick(0, groups.size() - 1);
-    std::vector<double> s(nb);
-    for (int b = 0; b < opt.bootstrap; ++b) {
-      std::fill(s.begin(), s.end(), 0.0);
-      std::fill(n.begin(), n.end(), 0);
-      for (std::size_t g = 0; g < groups.size(); ++g) {
-        const auto& row = *groups[pick(rng)];
-        for (std::size_t k = 0; k < nb; ++k) {
-          s[k] += row[k].first * static_cast<double>(row[k].second);
-          n[k] += row[k].second;
-        }
-      }
-      for (std::size_t k = 0; k < nb; ++k) v[k] = n[k] ? s[k] / static_cast<double>(n[k]) : 0.0;
-      rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st));
-    }
-  } else {
-    // One group: parametric bootstrap of the bin means from their standard errors.
-    if (in.v_abs_sem.size() != nb) return res;
-    std::normal_distribution<double> z(0.0, 1.0);
-    for (int b = 0; b < opt.bootstrap; ++b) {
-      for (std::size_t k = 0; k < nb; ++k) v[k] = in.v_abs[k] + in.v_abs_sem[k] * z(rng);
-      rcs.push_back(scan_rc(in.r_m, v, in.n_vectors, opt.v_c_m_per_s, in.R_m, st));
-    }
+  for (int b = 0; b < opt.bootstrap; ++b) {
+    boot.draw(rng, v, nd);
+    for (std::size_t k = 0; k < nb; ++k) n[k] = static_cast<std::size_t>(nd[k]);
+    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st));
   }
   const double a = 0.5 * (1.0 - opt.confidence);
+  if (res.grouping == Grouping::kCycles) {
+    // Few cycles: the bootstrap spread underestimates the sampling spread by
+    // sqrt((G-1)/G) and the normal quantile is too small for G - 1 degrees of
+    // freedom; widen the replicates about r_c by sqrt(G/(G-1)) t_(G-1)/z.
+    const double G = static_cast<double>(res.bootstrap_units);
+    const double f = std::sqrt(G / (G - 1.0)) * gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
+    for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
+  }
   res.ci_low_m = percentile(rcs, a);
   res.ci_high_m = percentile(rcs, 1.0 - a);
   return res;

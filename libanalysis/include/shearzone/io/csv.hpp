@@ -50,6 +50,8 @@ struct CsvTable {
   std::size_t column_index(std::string_view name) const;
   /// The cell as a number; throws InputError with line, column and value.
   double number(std::size_t row, std::size_t col, bool require_finite = true) const;
+  /// True when the cell holds nothing but blanks (a value left out on purpose).
+  bool cell_empty(std::size_t row, std::size_t col) const;
   /// A whole column as numbers (see number()).
   std::vector<double> numeric_column(std::string_view name, bool require_finite = true) const;
   /// A whole column as text.

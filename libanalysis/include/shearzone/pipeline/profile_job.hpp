@@ -22,6 +22,8 @@
 namespace shearzone::pipeline {
 
 inline constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
+/// Relative disagreement between two scale sources above which profile refuses.
+inline constexpr double kScaleTolerance = 0.01;
 
 struct ProfileJobOptions {
   std::filesystem::path input;   ///< fields .h5 or a single-pair .csv
@@ -33,9 +35,15 @@ struct ProfileJobOptions {
   double cup_radius_px = kUnset;   ///< R: last bin edge
   std::string detect_cup_frame;    ///< image (or video: first frame) to find the rim in
   double detect_min_radius_px = kUnset, detect_max_radius_px = kUnset;
-  // Calibration. Priority: m_per_px > attribute m_per_px > cup_radius_m / R_px.
+  // Calibration. Up to three sources of the scale: m_per_px (--m-per-px), the cup
+  // radius cup_radius_m / R_px (--cup-radius-m with R in px from --radii-px, the
+  // file or the rim detection), and the field file's m_per_px attribute. One source:
+  // it is used. Two or more that disagree by more than kScaleTolerance: ConfigError
+  // naming both, unless scale_from names the one to use ("m-per-px", "cup-radius",
+  // "file"); sources that agree: the first in that order.
   double m_per_px = kUnset;
   double cup_radius_m = kUnset;
+  std::string scale_from;  ///< "", "m-per-px", "cup-radius" or "file"
   // Bins. Priority: bin_m > bin_px > bead_diameter_m / 2.
   double bin_m = kUnset, bin_px = kUnset;
   double bead_diameter_m = 2.4e-3;  ///< the paper's steel beads
@@ -48,7 +56,9 @@ struct ProfileJobOptions {
   /// Phase-resolved profiles: K equal phase bins over the phase range, one output
   /// `<stem>_phaseKK.csv` each (0: one profile over the whole range).
   int phase_bins = 0;
-  bool group_by_pair = false;    ///< bootstrap groups: pairs instead of cycles
+  /// What standard errors and the r_c bootstrap resample: "auto" (cycles when at
+  /// least 8 hold data, else pairs), "cycles" or "pairs" (profile/resample.hpp).
+  std::string groups = "auto";
   double dt_s = kUnset;          ///< pair time step of a CSV field (required there)
   // Noise floor: a static reference field file, or a region (m); default: the
   // outer 15 % of the annulus.
@@ -61,7 +71,8 @@ struct ProfileJobSummary {
   std::size_t pairs_read = 0, pairs_used = 0, groups = 0, bins = 0;
   double centre_x_px = 0, centre_y_px = 0, m_per_px = 0, R_m = 0, Rv_m = 0, bin_m = 0;
   double noise_floor_m_per_s = 0;
-  std::string geometry_source;
+  std::string geometry_source, scale_source, grouping;
+  double rho = 0;
 };
 
 ProfileJobSummary run_profile_job(const ProfileJobOptions& options, const core::Metadata& header,
@@ -81,10 +92,11 @@ struct WidthJobOptions {
 
 struct WidthRow {
   std::string label, status, advice;
-  double rc_m = 0;
+  double rc_m = 0;  ///< NaN when not reported (noise_limited)
 };
 
 /// Returns one row per input (status and, for noise_limited, the advice text).
+/// The CLI exits 3 when no row has status "ok" (the file is still written).
 std::vector<WidthRow> run_width_job(const WidthJobOptions& options, const core::Metadata& header);
 
 }  // namespace shearzone::pipeline

@@ -10,11 +10,12 @@
 // neighbours) are used unless exclude_replaced is set.
 //
 // Per bin: mean |v| (the paper's v(r)), mean v_theta, mean v_r, RMS of |v|, the
-// standard error of mean |v| and the counts. The standard error is the spread of
-// the per-group means (a group is an oscillation cycle or a pair) over the square
-// root of the number of groups, because vectors of one pair are correlated; with a
-// single group it falls back to the spread of the vectors over sqrt(n) (which
-// understates it).
+// standard error of mean |v| and the counts. Bins without vectors carry no value
+// (NaN), never a zero. The standard error is the standard deviation of bootstrap
+// replicates of the bin mean under the grouping of profile/resample.hpp (whole
+// cycles, or pairs with the oscillation's phase modulation removed and the
+// residuals an AR(1) series); vectors of one pair are correlated, so a single
+// pair gives no standard error (NaN).
 //
 // Noise floor: |v| of pure PIV noise is not zero. With Gaussian noise of standard
 // deviation sigma per component, |v| follows a Rayleigh law of mean
@@ -28,9 +29,12 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/profile/resample.hpp"
 
 namespace shearzone::profile {
 
@@ -41,35 +45,35 @@ struct ProfileOptions {
   double r_max_m = 0;                       ///< last bin edge (the cup radius R), m
   double bin_m = 0;                         ///< bin width, m (> 0)
   bool exclude_replaced = false;            ///< also drop `replaced` vectors
+  /// What the standard errors resample: kNone = automatic (choose_grouping),
+  /// kCycles or kPairsPhaseDetrended/kPairs (= "pairs") to force one.
+  Grouping grouping = Grouping::kNone;
+  int se_replicates = 1000;                 ///< bootstrap replicates for the standard errors
+  std::uint64_t seed = 1;                   ///< their seed (deterministic)
   /// Throws ConfigError naming the option.
   void validate() const;
   std::size_t num_bins() const;
   double bin_centre_m(std::size_t k) const;
 };
 
+inline constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
+
 struct ProfileBin {
   double r_m = 0;
-  double v_abs = 0, v_theta = 0, v_r = 0;  ///< means, m/s
-  double v_abs_rms = 0;                    ///< sqrt(mean |v|^2), m/s
-  double v_abs_sem = 0;                    ///< standard error of v_abs, m/s
+  double v_abs = kNoValue, v_theta = kNoValue, v_r = kNoValue;  ///< means, m/s (NaN: no vector)
+  double v_abs_rms = kNoValue;             ///< sqrt(mean |v|^2), m/s
+  double v_abs_sem = kNoValue;             ///< standard error of v_abs, m/s (NaN: none)
   double v_noise = 0;                      ///< noise floor of v_abs, m/s
   std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
 };
 
-/// Per group (cycle or pair) and bin: the mean |v| and its count, for the
-/// bootstrap of the shear-zone width.
-struct GroupBin {
-  int group = 0;
-  std::size_t bin = 0;
-  double v_abs = 0;  ///< mean |v| of the group in the bin, m/s
-  std::size_t n_vectors = 0;
-};
-
 struct RadialProfile {
   std::vector<ProfileBin> bins;
-  std::vector<GroupBin> groups;  ///< group-major, bins with data only
+  PairSeries pairs;              ///< per-pair bin means, for the bootstrap of r_c
+  Grouping grouping = Grouping::kNone;  ///< what the standard errors resampled
   std::size_t n_pairs = 0;
-  std::size_t n_groups = 0;
+  std::size_t n_groups = 0;      ///< units resampled: cycles or pairs (0: none)
+  double rho = 0;                ///< lag-1 autocorrelation of the pairs' noise (pairs groupings)
   double noise_sigma_m_per_s = 0;  ///< per-component noise (outer-region method), m/s
 };
 
@@ -77,9 +81,12 @@ struct RadialProfile {
 class ProfileAccumulator {
  public:
   explicit ProfileAccumulator(ProfileOptions options);
-  /// Adds one pair: displacements in px over dt_s seconds, tagged with `group`.
-  /// Throws InputError if dt_s is not positive or the arrays do not match the grid.
-  void add(const core::VectorField& field, double dt_s, int group);
+  /// Adds one pair: displacements in px over dt_s seconds, with its oscillation
+  /// cycle and phase (fraction of a cycle in [0, 1)) when the frequency is known.
+  /// Pairs must come in time order. Throws InputError if dt_s is not positive or
+  /// the arrays do not match the grid.
+  void add(const core::VectorField& field, double dt_s, int cycle = PairSeries::kNoCycle,
+           double phase = kNoValue);
   std::size_t num_pairs() const { return n_pairs_; }
   const ProfileOptions& options() const { return opt_; }
 
@@ -103,8 +110,9 @@ class ProfileAccumulator {
 
   ProfileOptions opt_;
   std::vector<Sums> bins_;
-  std::vector<int> group_ids_;                    // in first-seen order
-  std::vector<std::vector<Sums>> group_bins_;     // [group][bin]
+  std::vector<int> pair_cycle_;
+  std::vector<double> pair_phase_;
+  std::vector<double> pair_s_, pair_n_;           // [pair * bins + bin]: sum |v|, count
   std::vector<NoiseSums> noise_by_bin_;          // v_r sums per bin
   std::size_t n_pairs_ = 0;
 };

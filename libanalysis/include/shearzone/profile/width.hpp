@@ -11,9 +11,10 @@
 //                 bins): |v| cannot fall below v_c for a physical reason, so the
 //                 r_c found (reported) cannot be trusted. This status wins over
 //                 the others.
-// Confidence interval: percentile bootstrap over the groups (cycles or pairs) of
-// the profile, resampled with replacement; with a single group, a parametric
-// bootstrap of the bin means from their standard errors. Seeded: deterministic.
+// Confidence interval: percentile bootstrap of the profile's per-pair bin means
+// under the grouping of profile/resample.hpp (whole cycles, or pairs with the
+// phase modulation removed and the residuals an AR(1) series); a single pair gives
+// no interval (NaN). Seeded: deterministic.
 #pragma once
 
 #include <cstdint>
@@ -38,19 +39,23 @@ struct WidthOptions {
 
 /// What the width needs from a profile (a RadialProfile, or one read back from CSV).
 struct WidthInput {
-  std::vector<double> r_m, v_abs, v_abs_sem;  ///< per bin
+  std::vector<double> r_m, v_abs;             ///< per bin (v_abs NaN where n = 0)
   std::vector<std::size_t> n_vectors;         ///< per bin (0: no data, skipped)
   std::vector<double> v_noise;                ///< per bin noise floor, m/s
   double R_m = 0;                             ///< cup radius (r_c when never below)
-  std::vector<GroupBin> groups;               ///< per-group bin means (may be empty)
+  PairSeries pairs;                           ///< per-pair bin means (may be empty)
+  Grouping grouping = Grouping::kNone;        ///< how to resample them (kNone: no interval)
   static WidthInput from_profile(const RadialProfile& p, double R_m);
 };
 
 struct WidthResult {
-  double rc_m = 0, ci_low_m = 0, ci_high_m = 0;
+  double rc_m = 0;
+  double ci_low_m = kNoValue, ci_high_m = kNoValue;  ///< NaN: no interval
   WidthStatus status = WidthStatus::kOk;
   double v_noise_m_per_s = 0;  ///< the noise floor used for the status
-  int bootstrap_groups = 0;    ///< groups resampled (0: parametric or none)
+  Grouping grouping = Grouping::kNone;  ///< what the bootstrap resampled
+  std::size_t bootstrap_units = 0;      ///< cycles or pairs resampled (0: none)
+  double rho = 0;                       ///< AR(1) lag-1 correlation (pairs groupings)
 };
 
 /// The scan alone: r_c of bin means `v` at radii `r` (bins with n = 0 skipped).
