@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <catch2/catch.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/version.hpp"
@@ -97,6 +98,37 @@ TEST_CASE("a PIV pair writes the vector CSV with options and conventions", "[pip
   for (std::size_t r = 0; r < u.size(); ++r)
     if (flags[r] == "valid" && std::abs(u[r] - 1.25) < 0.1) ++good;
   CHECK(good > 0.9 * u.size());
+}
+
+TEST_CASE("PIV reads PGM frames and frames named by content; the message names a non-image",
+          "[pipeline][piv]") {
+  testing::TempDir tmp("pivfmt");
+  pipeline::SynthJobOptions s;
+  s.synth.image.width_px = 96;
+  s.synth.image.height_px = 96;
+  s.synth.field.u_px = 1.25;
+  s.out_dir = tmp / "pair";
+  pipeline::run_synth_job(s, {});
+  const cv::Mat a = io::read_image_gray(tmp / "pair" / "A.png"), b = io::read_image_gray(tmp / "pair" / "B.png");
+  REQUIRE(cv::imwrite((tmp / "A.pgm").string(), a));
+  REQUIRE(cv::imwrite((tmp / "B.pgm").string(), b));
+  const auto ref = pipeline::run_piv_job(
+      job({(tmp / "pair" / "A.png").string(), (tmp / "pair" / "B.png").string()}, tmp / "png.csv"), {});
+  const auto pgm = pipeline::run_piv_job(
+      job({(tmp / "A.pgm").string(), (tmp / "B.pgm").string()}, tmp / "pgm.csv"), {});
+  CHECK(pgm.vectors_per_pair == ref.vectors_per_pair);
+  CHECK(io::read_csv(tmp / "pgm.csv").rows == io::read_csv(tmp / "png.csv").rows);
+  // Names that say nothing: the content decides.
+  std::filesystem::copy_file(tmp / "A.pgm", tmp / "A.raw0");
+  std::filesystem::copy_file(tmp / "B.pgm", tmp / "B.raw0");
+  pipeline::run_piv_job(job({(tmp / "A.raw0").string(), (tmp / "B.raw0").string()}, tmp / "raw.csv"), {});
+  CHECK(io::read_csv(tmp / "raw.csv").rows == io::read_csv(tmp / "png.csv").rows);
+  // A file that is no image: the message names it, not the CSV output.
+  testing::write_file(tmp / "B.txt", "not pixels\n");
+  CHECK_THROWS_WITH(
+      pipeline::run_piv_job(job({(tmp / "A.pgm").string(), (tmp / "B.txt").string()}, tmp / "x.csv"), {}),
+      Catch::Contains("B.txt: not an image"));
+  CHECK_FALSE(std::filesystem::exists(tmp / "x.csv"));
 }
 
 TEST_CASE("a video becomes an HDF5 field file in the documented layout", "[pipeline][piv]") {

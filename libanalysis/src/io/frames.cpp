@@ -90,7 +90,8 @@ std::vector<std::string> expand_glob(const std::string& pattern) {
 std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
                                          GreyMode grey) {
   if (inputs.empty()) throw ConfigError("no input frames given");
-  if (inputs.size() == 1 && is_video_extension(inputs[0]))
+  if (inputs.size() == 1 && (is_video_extension(inputs[0]) ||
+                             (!is_readable_image_extension(inputs[0]) && looks_like_video(inputs[0]))))
     return std::make_unique<VideoSource>(inputs[0], grey);
   if (!(fps > 0) || !std::isfinite(fps))
     throw ConfigError(fmt::format("fps = {}: must be > 0 for an image sequence", fps));
@@ -108,10 +109,13 @@ std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs,
   }
   for (const auto& p : paths) {
     if (!std::filesystem::exists(p)) throw InputError(fmt::format("{}: no such file", p));
-    if (!is_image_extension(p))
-      throw InputError(fmt::format("{}: unsupported input; expected an image (.png, .tif, .bmp, "
-                                   ".jpg) or a video (.mp4, .avi, .mov, .mkv)",
-                                   p));
+    // Known image extensions are read as images (the decoder names a bad file); any
+    // other name is taken by content.
+    if (!is_readable_image_extension(p) && !looks_like_image(p))
+      throw InputError(fmt::format("{}: not an image or a video: the name and the first bytes "
+                                   "match none of the formats read (images: {}; videos: .mp4, "
+                                   ".avi, .mov, .mkv)",
+                                   p, decoded_image_formats()));
   }
   return std::make_unique<ImageSequenceSource>(std::move(paths), fps, grey);
 }

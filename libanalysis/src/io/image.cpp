@@ -24,9 +24,10 @@ std::string lower_ext(const std::filesystem::path& p) {
   return e;
 }
 
-enum class Format { kPng, kJpeg, kBmp, kTiff, kUnknown };
+enum class Format { kPng, kJpeg, kBmp, kTiff, kPnm, kWebp, kJpeg2000, kHdr, kExr, kUnknown };
 
-Format sniff(const std::string& b) {
+/// The format from the first bytes (magic numbers), whatever the extension says.
+Format sniff(std::string_view b) {
   auto u = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
   if (b.size() >= 8 && u(0) == 0x89 && b.compare(1, 3, "PNG") == 0) return Format::kPng;
   if (b.size() >= 3 && u(0) == 0xFF && u(1) == 0xD8 && u(2) == 0xFF) return Format::kJpeg;
@@ -34,8 +35,21 @@ Format sniff(const std::string& b) {
   if (b.size() >= 4 && ((b[0] == 'I' && b[1] == 'I' && u(2) == 42 && u(3) == 0) ||
                         (b[0] == 'M' && b[1] == 'M' && u(2) == 0 && u(3) == 42)))
     return Format::kTiff;
+  // Netpbm: P1..P6 followed by white space (PBM, PGM, PPM; ASCII or binary).
+  if (b.size() >= 3 && b[0] == 'P' && b[1] >= '1' && b[1] <= '6' && std::isspace(u(2)))
+    return Format::kPnm;
+  if (b.size() >= 12 && b.compare(0, 4, "RIFF") == 0 && b.compare(8, 4, "WEBP") == 0) return Format::kWebp;
+  if ((b.size() >= 12 && b.compare(4, 8, "jP  \r\n\x87\n") == 0) ||
+      (b.size() >= 4 && u(0) == 0xFF && u(1) == 0x4F && u(2) == 0xFF && u(3) == 0x51))
+    return Format::kJpeg2000;
+  if (b.size() >= 6 && (b.compare(0, 10, "#?RADIANCE") == 0 || b.compare(0, 6, "#?RGBE") == 0))
+    return Format::kHdr;
+  if (b.size() >= 4 && u(0) == 0x76 && u(1) == 0x2F && u(2) == 0x31 && u(3) == 0x01) return Format::kExr;
   return Format::kUnknown;
 }
+
+constexpr const char* kDecodedFormats =
+    "PNG, JPEG, TIFF, BMP, PGM/PPM/PBM, WebP, JPEG 2000";
 
 /// Checks the end marker of formats whose decoders may accept truncated data.
 void check_complete(const std::string& b, Format f, const std::string& source) {
@@ -77,6 +91,24 @@ bool is_image_extension(const std::filesystem::path& path) {
   return e == ".png" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".jpg" ||
          e == ".jpeg";
 }
+
+bool is_readable_image_extension(const std::filesystem::path& path) {
+  const std::string e = lower_ext(path);
+  for (const char* x : {".png", ".tif", ".tiff", ".bmp", ".dib", ".jpg", ".jpeg", ".jpe", ".pgm", ".ppm",
+                        ".pbm", ".pnm", ".pxm", ".webp", ".jp2", ".j2k"})
+    if (e == x) return true;
+  return false;
+}
+
+bool looks_like_image(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[16] = {};
+  in.read(head, sizeof(head));
+  const Format f = sniff(std::string_view(head, static_cast<std::size_t>(in.gcount())));
+  return f != Format::kUnknown;
+}
+
+const char* decoded_image_formats() { return kDecodedFormats; }
 
 GreyMode grey_mode_from_name(const std::string& name) {
   for (GreyMode m : {GreyMode::kLuma, GreyMode::kMean, GreyMode::kRed, GreyMode::kGreen, GreyMode::kBlue})
@@ -125,7 +157,12 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
                           GreyMode mode) {
   const Format f = sniff(bytes);
   if (f == Format::kUnknown)
-    throw InputError(fmt::format("{}: not a PNG, TIFF, BMP or JPEG image", source));
+    throw InputError(fmt::format("{}: not an image: its first bytes match none of the formats read "
+                                 "({})",
+                                 source, kDecodedFormats));
+  if (f == Format::kHdr || f == Format::kExr)
+    throw InputError(fmt::format("{}: a floating-point {} image; expected 8- or 16-bit samples ({})",
+                                 source, f == Format::kHdr ? "Radiance HDR" : "OpenEXR", kDecodedFormats));
   check_complete(bytes, f, source);
   cv::Mat raw;
   try {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <fstream>
+#include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -30,6 +32,17 @@ bool is_video_extension(const std::filesystem::path& path) {
   std::string e = path.extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
   return e == ".mp4" || e == ".avi" || e == ".mov" || e == ".mkv";
+}
+
+bool looks_like_video(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  char h[12] = {};
+  in.read(h, sizeof(h));
+  if (in.gcount() < 12) return false;
+  const std::string_view b(h, 12);
+  auto u = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
+  return b.compare(4, 4, "ftyp") == 0 || (b.compare(0, 4, "RIFF") == 0 && b.compare(8, 4, "AVI ") == 0) ||
+         (u(0) == 0x1A && u(1) == 0x45 && u(2) == 0xDF && u(3) == 0xA3);
 }
 
 VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string()) {

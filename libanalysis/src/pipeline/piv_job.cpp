@@ -17,6 +17,7 @@
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/io/image.hpp"
+#include "shearzone/io/video.hpp"
 #include "shearzone/piv/mask.hpp"
 #include "shearzone/piv/piv.hpp"
 #include "shearzone/piv/vane_angle.hpp"
@@ -108,11 +109,27 @@ void PivJobOptions::validate() const {
     throw ConfigError(fmt::format("{}: output must end in .csv (one pair) or .h5 (any number "
                                   "of pairs)",
                                   output.string()));
-  if (ext == ".csv" && !(inputs.size() == 2 && io::is_image_extension(inputs[0]) &&
-                         io::is_image_extension(inputs[1])))
-    throw ConfigError(fmt::format("{}: CSV output holds one pair (two image files); use .h5 for "
-                                  "sequences and videos",
-                                  output.string()));
+  if (ext == ".csv") {
+    // One pair: exactly two image files. Say what the inputs really are.
+    auto is_image = [](const std::string& in) {
+      return io::is_readable_image_extension(in) || (std::filesystem::exists(in) && io::looks_like_image(in));
+    };
+    if (inputs.size() == 1 && (io::is_video_extension(inputs[0]) || io::looks_like_video(inputs[0])))
+      throw ConfigError(fmt::format("{}: {} is a video (many pairs); a CSV holds one pair: use an "
+                                    ".h5 output",
+                                    output.string(), inputs[0]));
+    if (inputs.size() != 2)
+      throw ConfigError(fmt::format("{}: a CSV holds one pair, i.e. two image files; got {} input{} "
+                                    "(use an .h5 output for sequences and videos)",
+                                    output.string(), inputs.size(), inputs.size() == 1 ? "" : "s"));
+    for (const auto& in : inputs) {
+      if (!std::filesystem::exists(in)) throw InputError(fmt::format("{}: no such file", in));
+      if (!is_image(in))
+        throw InputError(fmt::format("{}: not an image: the name and the first bytes match none of "
+                                     "the formats read ({})",
+                                     in, io::decoded_image_formats()));
+    }
+  }
   if (pair_spacing < 1)
     throw ConfigError(fmt::format("pair spacing {}: must be >= 1", pair_spacing));
   if (stride < 1) throw ConfigError(fmt::format("stride {}: must be >= 1", stride));

@@ -45,7 +45,18 @@ std::string encode_image(const cv::Mat& image, const std::filesystem::path& path
 /// existing file unless `force`.
 void write_image(const std::filesystem::path& path, const cv::Mat& image, bool force);
 
-/// True if the extension is one of the still-image formats above.
+/// True if the extension is one of the still-image formats above (writable).
 bool is_image_extension(const std::filesystem::path& path);
+
+/// True if the extension is one of the formats read: those above and .pgm/.ppm/
+/// .pbm/.pnm/.pxm, .webp, .jp2/.j2k, .dib, .jpe.
+bool is_readable_image_extension(const std::filesystem::path& path);
+
+/// True if the file's first bytes are the magic number of a format read (any
+/// extension); false if it cannot be opened.
+bool looks_like_image(const std::filesystem::path& path);
+
+/// The formats read, for messages: "PNG, JPEG, TIFF, ...".
+const char* decoded_image_formats();
 
 }  // namespace shearzone::io

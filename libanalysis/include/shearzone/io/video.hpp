@@ -86,4 +86,8 @@ class VideoWriter {
 /// True for the video extensions VideoReader is meant for (.mp4, .avi, .mov, .mkv).
 bool is_video_extension(const std::filesystem::path& path);
 
+/// True if the file's first bytes are those of a video container (ISO media /
+/// MP4 / MOV "ftyp", AVI "RIFF....AVI ", Matroska/WebM), whatever its name.
+bool looks_like_video(const std::filesystem::path& path);
+
 }  // namespace shearzone::io
