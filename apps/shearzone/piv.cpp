@@ -115,7 +115,12 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   c->add_option("--max-displacement", p.max_displacement_px, "Global limit on |d|, px")
       ->capture_default_str();
-  c->add_option("--min-peak", p.min_peak, "Smallest normalised correlation peak")
+  c->add_option("--min-peak", p.min_peak,
+                "Peak-height threshold: a vector peaking below min(this, --min-peak-relative x the "
+                "pair's median peak) is invalid")
+      ->capture_default_str();
+  c->add_option("--min-peak-relative", p.min_peak_relative,
+                "Fraction of the pass's median correlation peak (0: --min-peak alone)")
       ->capture_default_str();
   c->add_option("--min-peak-ratio", p.min_peak_ratio, "Smallest first/second peak ratio")
       ->capture_default_str();

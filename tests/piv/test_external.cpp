@@ -120,9 +120,8 @@ std::vector<std::vector<double>> read_rows(const std::string& path, std::size_t 
 // Issue #3: on the OpenPIV tutorial pair, the median |difference| from the shipped
 // openpiv windef output is at most 0.05 px. Compared like with like: our settings
 // matched to openpiv's (64/32/16 at 50 %, cubic B-spline, no final repeat and no
-// predictor smoothing, median threshold 3, and a low peak threshold as real PIV
-// images with out-of-plane loss have low peaks: with the default --min-peak 0.6,
-// 46 % of these vectors are flagged invalid).
+// predictor smoothing, median threshold 3; the default peak-height validation, which
+// is relative to the pair's median peak).
 TEST_CASE("the OpenPIV tutorial pair agrees with openpiv's own result", "[piv][external]") {
   constexpr double kMedianDiffPx = 0.05;
   piv::PivOptions o;
@@ -131,7 +130,6 @@ TEST_CASE("the OpenPIV tutorial pair agrees with openpiv's own result", "[piv][e
   o.final_pass_repeats = 0;
   o.predictor_smoothing = 0;
   o.median_threshold = 3;
-  o.min_peak = 0.3;
   const std::string d = kData + "/openpiv-test1/";
   GridField g{piv::PivEngine(o)
                   .process(io::read_image_gray(d + "exp1_001_a.bmp"), io::read_image_gray(d + "exp1_001_b.bmp"))
@@ -149,6 +147,41 @@ TEST_CASE("the OpenPIV tutorial pair agrees with openpiv's own result", "[piv][e
   INFO("median |difference| " << median << " px over " << diff.size() << " vectors");
   CHECK(diff.size() > 2500);
   CHECK(median <= kMedianDiffPx);
+}
+
+// Seeded particles peak lower than bead textures (median 0.64 on the tutorial pair
+// against 0.98 on the PIVlab sand): the default validation must keep such a
+// recording. Measured with all defaults: 95.2 % valid (an absolute 0.6 left 45.7 %),
+// and the valid vectors stay within 0.09 px RMS of openpiv's windef field.
+TEST_CASE("default validation keeps a seeded-particle recording", "[piv][external]") {
+  constexpr double kMinValidFraction = 0.90;
+  constexpr double kMaxRmsFromOpenpivPx = 0.1;
+  const std::string d = kData + "/openpiv-test1/";
+  const auto res = piv::PivEngine(piv::PivOptions{})
+                       .process(io::read_image_gray(d + "exp1_001_a.bmp"), io::read_image_gray(d + "exp1_001_b.bmp"));
+  const auto& f = res.field;
+  const double valid = static_cast<double>(f.count(VectorFlag::kValid)) / static_cast<double>(f.size());
+  GridField g{f};
+  double s = 0;
+  std::size_t n = 0;
+  for (const auto& r : read_rows(d + "openpiv-0.25.4_windef_64-32-16_ov50.csv", 5)) {
+    const double x = r[0], y = r[1];
+    if (r[4] != 0 || x < f.x_px.front() || x > f.x_px.back() || y < f.y_px.front() || y > f.y_px.back())
+      continue;
+    // The nearest of our vectors must be valid to count.
+    const auto j = static_cast<std::size_t>(std::lround((x - f.x_px.front()) / (f.x_px[1] - f.x_px[0])));
+    const auto i = static_cast<std::size_t>(std::lround((y - f.y_px.front()) / (f.y_px[1] - f.y_px[0])));
+    if (i >= f.ny() || j >= f.nx() || f.flag[f.index(i, j)] != VectorFlag::kValid) continue;
+    const double du = g.at(f.u_px, x, y) - r[2], dv = g.at(f.v_px, x, y) - r[3];
+    s += du * du + dv * dv;
+    ++n;
+  }
+  const double rms = std::sqrt(s / static_cast<double>(n));
+  INFO("valid " << valid << ", peak threshold " << res.passes.back().peak_threshold << ", RMS from openpiv "
+                << rms << " px over " << n);
+  CHECK(valid >= kMinValidFraction);
+  CHECK(res.passes.back().peak_threshold < 0.6);
+  CHECK(rms <= kMaxRmsFromOpenpivPx);
 }
 
 // Issue #3: fluidimage's Oseen vortex against the UVmat civ2 vectors, 0.1 px RMS after

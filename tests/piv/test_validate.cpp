@@ -87,3 +87,21 @@ TEST_CASE("holes with no known vector anywhere become zero, not NaN", "[piv]") {
     CHECK(f.v_px[k] == 0.0f);
   }
 }
+
+TEST_CASE("replacements stay only where the neighbours were measured", "[piv]") {
+  auto f = uniform_field(9, 2.0f, -1.0f);
+  // An isolated outlier (all 8 neighbours valid) and a 3x3 block of replaced vectors.
+  const std::size_t lone = f.index(1, 1);
+  f.flag[lone] = VectorFlag::kReplaced;
+  for (std::size_t i = 5; i < 8; ++i)
+    for (std::size_t j = 5; j < 8; ++j) f.flag[f.index(i, j)] = VectorFlag::kReplaced;
+  // A corner of the grid: 3 in-grid neighbours, all valid, is still supported.
+  const std::size_t corner = f.index(0, 8);
+  f.flag[corner] = VectorFlag::kReplaced;
+  CHECK(piv::demote_unsupported_replacements(f) == 9 - 4);  // the block's centre and
+  CHECK(f.flag[lone] == VectorFlag::kReplaced);             // its 4 edge-middles (4 of 8
+  CHECK(f.flag[corner] == VectorFlag::kReplaced);           // valid) fail; its corners
+  CHECK(f.flag[f.index(6, 6)] == VectorFlag::kInvalid);     // (5 of 8 valid) stay
+  CHECK(f.flag[f.index(5, 6)] == VectorFlag::kInvalid);
+  CHECK(f.flag[f.index(5, 5)] == VectorFlag::kReplaced);
+}

@@ -118,10 +118,16 @@ void PivJobOptions::validate() const {
       throw ConfigError(fmt::format("{}: {} is a video (many pairs); a CSV holds one pair: use an "
                                     ".h5 output",
                                     output.string(), inputs[0]));
+    std::size_t files = 0;
+    for (const auto& in : inputs)
+      files += in.find_first_of("*?[") != std::string::npos && !std::filesystem::exists(in)
+                   ? io::expand_glob(in).size()
+                   : 1;
     if (inputs.size() != 2)
-      throw ConfigError(fmt::format("{}: a CSV holds one pair, i.e. two image files; got {} input{} "
-                                    "(use an .h5 output for sequences and videos)",
-                                    output.string(), inputs.size(), inputs.size() == 1 ? "" : "s"));
+      throw ConfigError(fmt::format("{}: a CSV holds one pair, i.e. two image files; the input{} "
+                                    "give{} {} file{}: use an .h5 output for sequences and videos",
+                                    output.string(), inputs.size() == 1 ? "" : "s",
+                                    inputs.size() == 1 ? "s" : "", files, files == 1 ? "" : "s"));
     for (const auto& in : inputs) {
       if (!std::filesystem::exists(in)) throw InputError(fmt::format("{}: no such file", in));
       if (!is_image(in))

@@ -449,6 +449,14 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     core::Metadata m = meta;
     m.emplace_back("phase_range_deg", num(plo) + "," + num(phi));
     m.emplace_back("n_pairs", std::to_string(p.n_pairs));
+    {
+      std::size_t nv = 0;
+      for (const auto& b : p.bins) nv += b.n_vectors;
+      m.emplace_back("replaced_vectors_used",
+                     fmt::format("{} of {} vectors averaged ({:.2f} %): interpolations from valid "
+                                 "neighbours, kept by piv only for isolated holes",
+                                 p.n_replaced_used, nv, nv ? 100.0 * static_cast<double>(p.n_replaced_used) / static_cast<double>(nv) : 0.0));
+    }
     m.emplace_back("groups", profile::grouping_name(p.grouping));
     m.emplace_back("n_groups", std::to_string(p.n_groups));
     m.emplace_back("noise_lag1_rho", p.grouping == profile::Grouping::kCycles || p.grouping == profile::Grouping::kNone ? "" : fmt::format("{:.3f}", p.rho));

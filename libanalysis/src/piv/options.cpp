@@ -72,6 +72,7 @@ void PivOptions::validate() const {
     throw ConfigError(fmt::format("PivOptions::max_displacement_px = {}: must be > 0",
                                   num(max_displacement_px)));
   range("min_peak", min_peak, 0.0, 1.0, "must satisfy 0 <= min_peak <= 1");
+  range("min_peak_relative", min_peak_relative, 0.0, 1.0, "must satisfy 0 <= min_peak_relative <= 1 (0: off)");
   range("min_peak_ratio", min_peak_ratio, 1.0, 100.0, "must satisfy 1 <= min_peak_ratio <= 100");
   range("min_window_std", min_window_std, 0.0, 0.5, "must satisfy 0 <= min_window_std <= 0.5");
   range("mask_fraction", mask_fraction, 0.0, 1.0, "must satisfy 0 <= mask_fraction <= 1");
@@ -92,6 +93,7 @@ core::Metadata PivOptions::to_metadata() const {
           {"piv_std_threshold", num(std_threshold)},
           {"piv_max_displacement_px", num(max_displacement_px)},
           {"piv_min_peak", num(min_peak)},
+          {"piv_min_peak_relative", num(min_peak_relative)},
           {"piv_min_peak_ratio", num(min_peak_ratio)},
           {"piv_min_window_std", num(min_window_std)},
           {"piv_mask_fraction", num(mask_fraction)},

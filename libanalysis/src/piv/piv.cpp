@@ -295,7 +295,9 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           // (1 - |dx|/W)(1 - |dy|/W)) and by the gradients a large window spans, and
           // quasi-periodic textures (bead packings) give strong second peaks, so the
           // height and ratio tests apply after deformation only.
-          const bool weak = !first && (pk.height < opt_.min_peak || pk.ratio < opt_.min_peak_ratio);
+          // The height test with a relative threshold waits for the whole pass (below).
+          const bool weak = !first && ((opt_.min_peak_relative <= 0 && pk.height < opt_.min_peak) ||
+                                       pk.ratio < opt_.min_peak_ratio);
           if (!pk.found || weak) {
             f.flag[k] = VectorFlag::kInvalid;
             continue;
@@ -309,6 +311,37 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     if (first && f.count(VectorFlag::kMasked) == f.size())
       throw InputError("PIV: the mask covers every interrogation window; nothing to measure");
 
+    // Peak-height test relative to the recording: min(min_peak, relative x the median
+    // peak of this pass's matched windows). Seeded-particle recordings peak lower
+    // (0.6-0.7 on the OpenPIV tutorial pair) than bead or sand textures (0.9-1.0), so
+    // one absolute height either empties the first or keeps outliers in the second.
+    // A pass whose matches are ambiguous (median first/second peak ratio below
+    // kCleanPeakRatio) keeps the absolute min_peak: an aliased pass (every window
+    // wrong) also has low peaks (median 0.30, ratio 1.6 for a shift of 0.6 windows),
+    // while real recordings have median ratios of 3.3-8 (tutorial pair, Oseen,
+    // Karman, PIVlab jet and sand).
+    constexpr double kCleanPeakRatio = 2.5;
+    double peak_threshold = first ? 0.0 : opt_.min_peak;
+    if (!first && opt_.min_peak_relative > 0) {
+      std::vector<float> peaks, ratios;
+      peaks.reserve(f.size());
+      ratios.reserve(f.size());
+      for (std::size_t k = 0; k < f.size(); ++k)
+        if (f.flag[k] == VectorFlag::kValid) {
+          peaks.push_back(f.peak[k]);
+          ratios.push_back(f.peak_ratio[k]);
+        }
+      auto median = [](std::vector<float>& v) {
+        auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+        std::nth_element(v.begin(), mid, v.end());
+        return static_cast<double>(*mid);
+      };
+      if (!peaks.empty() && median(ratios) >= kCleanPeakRatio)
+        peak_threshold = std::min(opt_.min_peak, opt_.min_peak_relative * median(peaks));
+      for (std::size_t k = 0; k < f.size(); ++k)
+        if (f.flag[k] == VectorFlag::kValid && f.peak[k] < peak_threshold) f.flag[k] = VectorFlag::kInvalid;
+    }
+
     // Step 4: validate and fill.
     flag_outliers(f, opt_);
     fill_holes(f, {VectorFlag::kReplaced, VectorFlag::kInvalid, VectorFlag::kMasked});
@@ -318,6 +351,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     rep.step_px = g.step;
     rep.nx = static_cast<std::size_t>(g.nx);
     rep.ny = static_cast<std::size_t>(g.ny);
+    rep.peak_threshold = peak_threshold;
     rep.valid = f.count(VectorFlag::kValid);
     rep.replaced = f.count(VectorFlag::kReplaced);
     rep.masked = f.count(VectorFlag::kMasked);
@@ -334,6 +368,8 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     prev = g;
   }
 
+  // Replacements count only where they are interpolations between measurements.
+  demote_unsupported_replacements(f);
   // Masked vectors are not measurements: zero them.
   for (std::size_t k = 0; k < f.size(); ++k)
     if (f.flag[k] == VectorFlag::kMasked) f.u_px[k] = f.v_px[k] = 0.0f;

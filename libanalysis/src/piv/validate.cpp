@@ -124,6 +124,29 @@ std::size_t flag_outliers(core::VectorField& f, const PivOptions& o) {
   return count;
 }
 
+std::size_t demote_unsupported_replacements(core::VectorField& f, double min_valid_fraction) {
+  const int nx = static_cast<int>(f.nx()), ny = static_cast<int>(f.ny());
+  std::vector<std::size_t> demote;
+  for (int i = 0; i < ny; ++i)
+    for (int j = 0; j < nx; ++j) {
+      const std::size_t k = f.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
+      if (f.flag[k] != VectorFlag::kReplaced) continue;
+      int around = 0, valid = 0;
+      for (int di = -1; di <= 1; ++di)
+        for (int dj = -1; dj <= 1; ++dj) {
+          const int ii = i + di, jj = j + dj;
+          if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= ny || jj >= nx) continue;
+          const VectorFlag q = f.flag[f.index(static_cast<std::size_t>(ii), static_cast<std::size_t>(jj))];
+          if (q == VectorFlag::kMasked) continue;
+          ++around;
+          valid += q == VectorFlag::kValid;
+        }
+      if (valid < 3 || valid < min_valid_fraction * around) demote.push_back(k);
+    }
+  for (std::size_t k : demote) f.flag[k] = VectorFlag::kInvalid;  // decided on the flags before
+  return demote.size();
+}
+
 void fill_holes(core::VectorField& f, const std::vector<VectorFlag>& holes) {
   const int nx = static_cast<int>(f.nx()), ny = static_cast<int>(f.ny());
   auto is_hole = [&](VectorFlag fl) {

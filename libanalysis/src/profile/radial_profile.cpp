@@ -76,6 +76,7 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
         ++bins_[b].invalid;
         continue;
       }
+      if (fl == VectorFlag::kReplaced) ++replaced_used_;
       const double u = f.u_px[k] * scale, v = f.v_px[k] * scale;
       const auto pc = core::polar_from_cartesian(x, y, u, v, opt_.centre_x_px, opt_.centre_y_px);
       const double a = std::hypot(u, v);
@@ -98,6 +99,7 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
 RadialProfile ProfileAccumulator::finish_common() const {
   RadialProfile p;
   p.n_pairs = n_pairs_;
+  p.n_replaced_used = replaced_used_;
   p.bins.resize(bins_.size());
   const std::size_t nb = bins_.size();
   p.pairs.n_bins = nb;

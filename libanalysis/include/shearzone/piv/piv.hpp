@@ -39,6 +39,7 @@ struct PassReport {
   int step_px = 0;
   std::size_t nx = 0, ny = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;
+  double peak_threshold = 0;  ///< the peak-height threshold applied (0: none, first pass)
 };
 
 struct PivResult {

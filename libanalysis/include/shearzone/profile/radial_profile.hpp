@@ -72,6 +72,7 @@ struct RadialProfile {
   PairSeries pairs;              ///< per-pair bin means, for the bootstrap of r_c
   Grouping grouping = Grouping::kNone;  ///< what the standard errors resampled
   std::size_t n_pairs = 0;
+  std::size_t n_replaced_used = 0;  ///< `replaced` vectors averaged (0 with exclude_replaced)
   std::size_t n_groups = 0;      ///< units resampled: cycles or pairs (0: none)
   double rho = 0;                ///< lag-1 autocorrelation of the pairs' noise (pairs groupings)
   double noise_sigma_m_per_s = 0;  ///< per-component noise (outer-region method), m/s
@@ -115,6 +116,7 @@ class ProfileAccumulator {
   std::vector<double> pair_s_, pair_n_;           // [pair * bins + bin]: sum |v|, count
   std::vector<NoiseSums> noise_by_bin_;          // v_r sums per bin
   std::size_t n_pairs_ = 0;
+  std::size_t replaced_used_ = 0;
 };
 
 /// Oscillation cycle and phase of a time t (s) for a vane angle
