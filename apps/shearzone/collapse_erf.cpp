@@ -28,11 +28,11 @@ int run_collapse_erf(CLI::App& c, CollapseErfCli& s, const Context& ctx) {
   j.out_dir = s.output;
   j.fit.loss = fit::parse_loss(s.loss);
   const auto sum = pipeline::run_collapse_erf_job(j, ctx.header());
-  if (ctx.level != core::LogLevel::kQuiet) {
-    std::fputs(sum.report.c_str(), stdout);
-    std::printf("collapse erf: %zu groups, global fit %s -> %s\n", sum.labels.size(),
-                fit::status_name(sum.result.global_status), j.out_dir.string().c_str());
-  }
+  if (ctx.level == core::LogLevel::kVerbose) std::fputs(sum.report.c_str(), stdout);
+  if (ctx.level != core::LogLevel::kQuiet)
+    std::printf("collapse erf: %zu groups, global fit %s -> %s%s\n", sum.labels.size(),
+                fit::status_name(sum.result.global_status), j.out_dir.string().c_str(),
+                ctx.level == core::LogLevel::kVerbose ? "" : " (-v prints the report)");
   if (sum.result.global_status != fit::FitStatus::kOk)
     throw NoResultError(fmt::format("collapse erf: the global fit is not usable ({}: {})",
                                     fit::status_name(sum.result.global_status),

@@ -35,12 +35,14 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
     j.subtract_at = s.subtract_at;
   }
   const auto sum = pipeline::run_fit_job(j, ctx.header());
-  if (ctx.level != core::LogLevel::kQuiet) {
-    std::fputs(sum.report.c_str(), stdout);
-    std::printf("fit: %zu of %zu group%s usable -> %s, %s, %s\n", sum.usable, sum.groups.size(),
+  // Stdout: a one-line summary; the full report (parameters, intervals, diagnostics
+  // per group) with -v. Every number of it is in the CSVs.
+  if (ctx.level == core::LogLevel::kVerbose) std::fputs(sum.report.c_str(), stdout);
+  if (ctx.level != core::LogLevel::kQuiet)
+    std::printf("fit: %zu of %zu group%s usable -> %s, %s, %s%s\n", sum.usable, sum.groups.size(),
                 sum.groups.size() == 1 ? "" : "s", sum.long_csv.string().c_str(),
-                sum.wide_csv.string().c_str(), sum.summary_csv.string().c_str());
-  }
+                sum.wide_csv.string().c_str(), sum.summary_csv.string().c_str(),
+                ctx.level == core::LogLevel::kVerbose ? "" : " (-v prints the report)");
   if (sum.usable == 0) {
     std::string why;
     for (const auto& g : sum.groups)

@@ -64,12 +64,18 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
                                          .c_str()
                                    : "",
                 j.output.string().c_str());
-    std::printf("  %3s %-10s %10s %11s %11s %11s %9s %8s %6s %3s %6s  %s\n", "#", "segment",
+    // The log column only when several logs are given.
+    const bool many = sum.logs > 1;
+    std::printf("  %3s %s%-10s %10s %11s %11s %11s %9s %8s %6s %3s %6s  %s\n", "#",
+                many ? fmt::format("{:<16.16s} ", "log").c_str() : "", "segment",
                 ss ? "gamma0" : "phi0/rad", ss ? "sig_max/Pa" : "tau_max/Nm", ss ? "G'1/Pa" : "K'1/Nm/rad",
                 ss ? "G''1/Pa" : "K''1/Nm/rad", "tan_d", "I3/I1", "phi_d", "M", "cycles", "status");
     for (const auto& r : sum.rows)
-      std::printf("  %3zu %-10.10s %10.4g %11.4g %11.4g %11.4g %9.4g %8.3g %6.3f %3d %3d/%-2d  %s\n",
-                  r.amplitude, r.segment.c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
+      std::printf("  %3zu %s%-10.10s %10.4g %11.4g %11.4g %11.4g %9.4g %8.3g %6.3f %3d %3d/%-2d  %s\n",
+                  r.amplitude,
+                  many ? fmt::format("{:<16.16s} ", std::filesystem::path(r.source).filename().string()).c_str()
+                       : "",
+                  r.segment.c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
                   r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, r.status.c_str());
   }
   return kExitOk;

@@ -64,10 +64,28 @@ TEST_CASE("an existing output is refused without force and left untouched", "[io
   }
 }
 
-TEST_CASE("an output in a missing folder is an input error naming the folder", "[io][atomic]") {
+TEST_CASE("missing output folders are created, and removed again if nothing is written",
+          "[io][atomic]") {
   testing::TempDir dir("atomic");
-  CHECK_THROWS_WITH(io::AtomicOutput(dir / "nope" / "x.csv", false),
-                    Contains("folder") && Contains("nope") && Contains("does not exist"));
+  {
+    io::AtomicOutput out(dir / "exp data" / "results" / "x.csv", false);
+    out.stream() << "x";
+  }  // not committed
+  CHECK_FALSE(fs::exists(dir / "exp data"));
+  {
+    io::AtomicOutput out(dir / "exp data" / "results" / "x.csv", false);
+    out.stream() << "x";
+    out.commit();
+  }
+  CHECK(fs::exists(dir / "exp data" / "results" / "x.csv"));
+  {
+    io::AtomicOutputSet set(dir / "a" / "b" / "run", false);
+    set.add("r.txt").stream() << "r";
+  }  // not committed
+  CHECK_FALSE(fs::exists(dir / "a"));
+  // A part of the path that is a file is an input error naming it.
+  testing::write_file(dir / "plain", "f");
+  CHECK_THROWS_WITH(io::AtomicOutput(dir / "plain" / "x.csv", false), Contains("plain") && Contains("not a folder"));
 }
 
 TEST_CASE("an output set into a new folder appears whole or not at all", "[io][atomic]") {

@@ -294,7 +294,7 @@ TEST_CASE("Bad logs are InputErrors naming file, line and column", "[io][log]") 
   SECTION("unknown unit suffix and no unit at all") {
     const auto p = dir / "nounit.csv";
     testing::write_file(p, "time_s,angle,torque_N_m\n0,0,0\n");
-    expect_input_error(p, o, {"nounit.csv:1", "\"angle\"", "no unit"});
+    expect_input_error(p, o, {"nounit.csv:1", "without a unit: \"angle\" (--angle-unit"});
   }
   SECTION("a column that is not there lists the columns") {
     const auto p = dir / "cols.csv";

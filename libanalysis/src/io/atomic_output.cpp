@@ -110,13 +110,42 @@ fs::path folder_of(const fs::path& p) {
 
 }  // namespace
 
+namespace {
+
+void remove_created_folders(const std::vector<fs::path>& created) noexcept {
+  std::error_code ec;
+  for (auto it = created.rbegin(); it != created.rend(); ++it) fs::remove(*it, ec);  // only if empty
+}
+
+/// Creates the missing folders of `dir` (like mkdir -p); returns them, outermost first.
+std::vector<fs::path> create_missing_folders(const fs::path& dir, const fs::path& for_output) {
+  std::vector<fs::path> missing;
+  std::error_code ec;
+  for (fs::path d = dir.lexically_normal(); !d.empty() && !fs::exists(d, ec); d = d.parent_path()) {
+    missing.push_back(d);
+    if (d == d.parent_path()) break;
+  }
+  std::vector<fs::path> created;
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    if (!fs::create_directory(*it, ec) && ec) {
+      remove_created_folders(created);
+      throw InputError(fmt::format("{}: cannot create output folder '{}': {}", for_output.string(),
+                                   it->string(), ec.message()));
+    }
+    created.push_back(*it);
+  }
+  return created;
+}
+
+}  // namespace
+
 void check_output_allowed(const fs::path& path, bool force) {
   std::error_code ec;
-  const fs::path dir = folder_of(path);
-  if (!fs::exists(dir, ec))
-    throw InputError(fmt::format("{}: cannot write output: folder '{}' does not exist",
-                                 path.string(), dir.string()));
-  if (!fs::is_directory(dir, ec))
+  // Missing folders are created when the output is written; a part of the path that
+  // exists as a file is an error.
+  fs::path dir = folder_of(path);
+  while (!dir.empty() && !fs::exists(dir, ec) && dir != dir.parent_path()) dir = dir.parent_path();
+  if (!dir.empty() && fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw InputError(fmt::format("{}: cannot write output: '{}' is not a folder", path.string(),
                                  dir.string()));
   if (fs::exists(path, ec)) {
@@ -135,6 +164,7 @@ void check_output_allowed(const fs::path& path, bool force) {
 AtomicOutput::AtomicOutput(fs::path final_path, bool force)
     : final_path_(std::move(final_path)) {
   check_output_allowed(final_path_, force);
+  created_dirs_ = create_missing_folders(folder_of(final_path_), final_path_);
   temp_path_ = temp_name_for(final_path_);
   registry_slot_ = register_path(temp_path_, false);
 }
@@ -154,6 +184,8 @@ void AtomicOutput::discard() noexcept {
   fs::remove(temp_path_, ec);
   release_slot(registry_slot_);
   registry_slot_ = -1;
+  remove_created_folders(created_dirs_);
+  created_dirs_.clear();
 }
 
 std::ostream& AtomicOutput::stream() {
@@ -203,9 +235,8 @@ AtomicOutputSet::AtomicOutputSet(fs::path dir, bool force) : dir_(std::move(dir)
   fs::path clean = dir_.lexically_normal();
   if (clean.filename().empty()) clean = clean.parent_path();
   const fs::path parent = folder_of(clean);
-  if (!fs::is_directory(parent, ec))
-    throw InputError(fmt::format("{}: cannot create output folder: '{}' does not exist",
-                                 dir_.string(), parent.string()));
+  check_output_allowed(clean, force_);
+  created_dirs_ = create_missing_folders(parent, dir_);
   staging_ = clean.parent_path() /
              fmt::format("{}.partial-{}-{}", clean.filename().string(), ::getpid(),
                          g_counter.fetch_add(1));
@@ -213,6 +244,7 @@ AtomicOutputSet::AtomicOutputSet(fs::path dir, bool force) : dir_(std::move(dir)
   fs::create_directory(staging_, ec);
   if (ec) {
     release_slot(staging_slot_);
+    remove_created_folders(created_dirs_);
     throw InputError(fmt::format("{}: cannot create output folder: {}", dir_.string(),
                                  ec.message()));
   }
@@ -226,6 +258,7 @@ AtomicOutputSet::~AtomicOutputSet() {
     fs::remove_all(staging_, ec);
   }
   release_slot(staging_slot_);
+  if (!committed_) remove_created_folders(created_dirs_);
 }
 
 void AtomicOutputSet::check(const std::string& name) const {

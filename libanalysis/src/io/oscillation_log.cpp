@@ -234,6 +234,29 @@ double column_scale(const LogReadOptions& o, UnitKind kind, const std::string& f
                                unit_kind_name(kind), accepted_units(kind)));
 }
 
+/// One error for every column that has neither a unit in the file nor an override:
+/// each with the option that gives it.
+struct UnitNeed {
+  UnitKind kind;
+  std::string column;
+  bool has_unit;
+};
+void require_units(const LogReadOptions& o, const std::vector<UnitNeed>& needs, const std::string& where) {
+  std::string missing;
+  for (const auto& n : needs) {
+    if (n.has_unit || !unit_override(o, n.kind).empty()) continue;
+    const char* option = n.kind == UnitKind::kTime                                     ? "--time-unit"
+                         : (n.kind == UnitKind::kAngle || n.kind == UnitKind::kStrain) ? "--angle-unit"
+                                                                                        : "--torque-unit";
+    missing += fmt::format("{}\"{}\" ({} {})", missing.empty() ? "" : ", ", n.column, option,
+                           accepted_units(n.kind));
+  }
+  if (!missing.empty())
+    throw InputError(fmt::format("{}: column{} without a unit: {}; give each with its option, or in "
+                                 "the header (\"time [s]\", time_s, angle_rad, torque_N_m)",
+                                 where, missing.find(", \"") == std::string::npos ? "" : "s", missing));
+}
+
 bool parse_plain_number(std::string_view s, double& v) { return parse_number(s, true, v); }
 
 /// Fills the convenience lookups from `parameters`.
@@ -372,9 +395,7 @@ VendorColumns resolve_vendor_columns(const std::vector<std::vector<std::string>>
 
   VendorColumns vc;
   const auto ti = find_vendor_column(alts, o.time_column, defaults.time_column, time_names());
-  if (ti) {
-    vc.time = make(*ti, UnitKind::kTime);
-  } else if (o.time_column != defaults.time_column && !o.time_column.empty()) {
+  if (!ti && o.time_column != defaults.time_column && !o.time_column.empty()) {
     require(ti, "time", time_names(), o.time_column, defaults.time_column);
   }
   const auto di = require(
@@ -387,6 +408,15 @@ VendorColumns resolve_vendor_columns(const std::vector<std::vector<std::string>>
                          strain ? stress_names() : torque_names()),
       strain ? "stress" : "torque", strain ? stress_names() : torque_names(), o.torque_column,
       defaults.torque_column);
+  {
+    std::vector<UnitNeed> needs;
+    if (ti) needs.push_back({UnitKind::kTime, shown[*ti], !unit_at(*ti).empty()});
+    needs.push_back({drive_kind(o.quantity), shown[di],
+                     !unit_at(di).empty() || drive_kind(o.quantity) == UnitKind::kStrain});
+    needs.push_back({response_kind(o.quantity), shown[ri], !unit_at(ri).empty()});
+    require_units(o, needs, where);
+  }
+  if (ti) vc.time = make(*ti, UnitKind::kTime);
   vc.drive = make(di, drive_kind(o.quantity));
   vc.response = make(ri, response_kind(o.quantity));
   return vc;
@@ -908,6 +938,14 @@ void read_generic(std::string_view text, const LogReadOptions& o, OscillationLog
     }
     return c;
   };
+  {
+    std::vector<UnitNeed> needs;
+    if (tm) needs.push_back({UnitKind::kTime, t.columns[tm->index], row_units[0].has_value() || tm->has_unit});
+    needs.push_back({drive_kind(o.quantity), t.columns[dm->index],
+                     row_units[1].has_value() || dm->has_unit || drive_kind(o.quantity) == UnitKind::kStrain});
+    needs.push_back({response_kind(o.quantity), t.columns[rm->index], row_units[2].has_value() || rm->has_unit});
+    require_units(o, needs, where);
+  }
   std::optional<Column> time;
   if (tm) time = make(*tm, UnitKind::kTime, row_units[0]);
   const Column drive = make(*dm, drive_kind(o.quantity), row_units[1]);

@@ -27,8 +27,10 @@
 
 namespace shearzone::io {
 
-/// Throws ConfigError if `path` exists and `force` is false, and InputError if its
-/// folder does not exist or is not a folder. Cheap: call it before any work.
+/// Throws ConfigError if `path` exists and `force` is false, and InputError if a
+/// part of its folder exists as a file. Missing folders are fine: the writers below
+/// create them (like `mkdir -p`) and remove those they created if the output is
+/// never committed. Cheap: call it before any work.
 void check_output_allowed(const std::filesystem::path& path, bool force);
 
 class AtomicOutput {
@@ -61,6 +63,7 @@ class AtomicOutput {
   std::unique_ptr<std::ofstream> stream_;
   int registry_slot_ = -1;
   bool committed_ = false;
+  std::vector<std::filesystem::path> created_dirs_;  ///< removed again unless committed
 };
 
 /// Several files in one output folder that appear together. If the folder does not
@@ -90,6 +93,7 @@ class AtomicOutputSet {
   std::filesystem::path staging_;  // empty when writing into an existing folder
   bool force_;
   bool committed_ = false;
+  std::vector<std::filesystem::path> created_dirs_;  ///< removed again unless committed
   int staging_slot_ = -1;
   std::vector<std::unique_ptr<AtomicOutput>> files_;
 };
