@@ -54,7 +54,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
                if (!sum.best_line.empty()) std::printf("%s\n", sum.best_line.c_str());
-               std::printf("plot: python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
+               std::printf("plot: /usr/bin/python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
              }
              (void)p;
              return kExitOk;
@@ -67,7 +67,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
                for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
-               std::printf("plot: python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
+               std::printf("plot: /usr/bin/python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
              }
              (void)s;
              return kExitOk;

@@ -32,7 +32,10 @@ core::Metadata job_metadata(const CollapseFssJobOptions& o, const CollapseFssJob
   m.emplace_back("dy_column", o.dy_column.empty() ? "none (dy = 1, rescaled so that S_min = 1)" : o.dy_column);
   m.emplace_back("L_column", o.L_column);
   std::string sizes;
-  for (double L : s.sizes) sizes += (sizes.empty() ? "" : ",") + num(L);
+  for (double L : s.sizes) {
+    if (!sizes.empty()) sizes += ',';
+    sizes += num(L);
+  }
   m.emplace_back("sizes", sizes);
   m.emplace_back("points", std::to_string(s.rows));
   m.emplace_back("x_window", window_text(f.window));

@@ -36,7 +36,8 @@ CircleFit fit_circle(const std::vector<cv::Point2d>& pts) {
     b(k) = -(x * x + y * y);
   }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const auto sv = svd.singularValues();
+  if (svd.singularValues().size() != 3) throw NoResultError("circle fit: fewer than 3 points");
+  const Eigen::Vector3d sv = svd.singularValues().head<3>();  // fixed size from here on
   if (sv(2) <= 1e-9 * sv(0))
     throw NoResultError("circle fit: the points are collinear (no circle)");
   Eigen::Vector3d s = svd.solve(b);

@@ -147,15 +147,14 @@ BinMeanBootstrap::BinMeanBootstrap(const PairSeries& s, Grouping g) : g_(g), nb_
   resid_.assign(np * nb_, 0.0);
   unit_n_ = s.n_vectors;
   const int K_full = phase_fit ? harmonics_for(np) : 0;
-  auto design_row = [&](std::size_t k, int K, double w) {
-    Eigen::RowVectorXd row(1 + 2 * K);
-    row(0) = w;
+  // Row r of M: w (1, cos 2 pi h phase_k, sin 2 pi h phase_k, h = 1..K).
+  auto design_row = [&](Eigen::MatrixXd& M, Eigen::Index r, std::size_t k, int K, double w) {
+    M(r, 0) = w;
     for (int h = 1; h <= K; ++h) {
       const double a = 2.0 * std::numbers::pi * h * s.phase[k];
-      row(2 * h - 1) = w * std::cos(a);
-      row(2 * h) = w * std::sin(a);
+      M(r, 2 * h - 1) = w * std::cos(a);
+      M(r, 2 * h) = w * std::sin(a);
     }
-    return row;
   };
   for (std::size_t b = 0; b < nb_; ++b) {
     std::vector<std::size_t> rows;
@@ -173,7 +172,7 @@ BinMeanBootstrap::BinMeanBootstrap(const PairSeries& s, Grouping g) : g_(g), nb_
       const auto ii = static_cast<Eigen::Index>(i);
       sw(ii) = std::sqrt(s.n_vectors[k * nb_ + b]);
       y(ii) = sw(ii) * s.v_abs[k * nb_ + b];
-      A.row(ii) = design_row(k, K, sw(ii));
+      design_row(A, ii, k, K, sw(ii));
     }
     const Eigen::MatrixXd U = orthonormal_basis(A);
     const Eigen::VectorXd yhat = U * (U.transpose() * y);
@@ -198,7 +197,7 @@ BinMeanBootstrap::BinMeanBootstrap(const PairSeries& s, Grouping g) : g_(g), nb_
   }
   Eigen::MatrixXd A(static_cast<Eigen::Index>(np), 1 + 2 * K_full);
   for (std::size_t k = 0; k < np; ++k) {
-    A.row(static_cast<Eigen::Index>(k)) = design_row(k, K_full, 1.0);
+    design_row(A, static_cast<Eigen::Index>(k), k, K_full, 1.0);
   }
   const Eigen::MatrixXd U = orthonormal_basis(A);
   auto expected = [&](double rho, double& lag0, double& lag1) {
