@@ -38,11 +38,20 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
   // Stdout: a one-line summary; the full report (parameters, intervals, diagnostics
   // per group) with -v. Every number of it is in the CSVs.
   if (ctx.level == core::LogLevel::kVerbose) std::fputs(sum.report.c_str(), stdout);
-  if (ctx.level != core::LogLevel::kQuiet)
-    std::printf("fit: %zu of %zu group%s usable -> %s, %s, %s%s\n", sum.usable, sum.groups.size(),
-                sum.groups.size() == 1 ? "" : "s", sum.long_csv.string().c_str(),
+  if (ctx.level != core::LogLevel::kQuiet) {
+    // One group: its parameters belong on the summary line (value +/- standard error).
+    std::string params;
+    if (sum.groups.size() == 1 && sum.groups[0].fit.status == fit::FitStatus::kOk) {
+      const auto& f = sum.groups[0].fit.result;
+      for (std::size_t i = 0; i < f.names.size() && i < f.values.size(); ++i)
+        params += fmt::format("{}{} = {:.4g} +/- {:.2g}", params.empty() ? ": " : ", ", f.names[i], f.values[i],
+                              i < f.std_errors.size() ? f.std_errors[i] : std::nan(""));
+    }
+    std::printf("fit: %zu of %zu group%s usable%s -> %s, %s, %s%s\n", sum.usable, sum.groups.size(),
+                sum.groups.size() == 1 ? "" : "s", params.c_str(), sum.long_csv.string().c_str(),
                 sum.wide_csv.string().c_str(), sum.summary_csv.string().c_str(),
                 ctx.level == core::LogLevel::kVerbose ? "" : " (-v prints the report)");
+  }
   if (sum.usable == 0) {
     std::string why;
     for (const auto& g : sum.groups)
