@@ -217,3 +217,41 @@ TEST_CASE("an oscillating shear zone gives the r_c of its exact field", "[pipeli
   CHECK(lo <= rows[0].rc_m / 1e-4);
   CHECK(hi >= rows[0].rc_m / 1e-4);
 }
+
+// A NaN displacement in a measured vector is bad input naming dataset, pair and node,
+// never a row of nan (one NaN turned its whole bin into nan).
+TEST_CASE("profile refuses non-finite measured vectors in a field file", "[pipeline][profile]") {
+  TempDir tmp("nanfield");
+  const fs::path path = tmp / "f.h5";
+  {
+    auto h5 = io::H5File::create(path);
+    const std::vector<double> x = {0, 8, 16}, y = {0, 8};
+    h5.write("/grid/x_px", {3}, x);
+    h5.write("/grid/y_px", {2}, y);
+    using T = io::H5File::Type;
+    h5.create_appendable("/pairs/u_px", {2, 3}, T::kFloat32, 1);
+    h5.create_appendable("/pairs/v_px", {2, 3}, T::kFloat32, 1);
+    h5.create_appendable("/pairs/flag", {2, 3}, T::kUInt8, 1);
+    h5.create_appendable("/pairs/t_a_s", {}, T::kFloat64);
+    h5.create_appendable("/pairs/dt_s", {}, T::kFloat64);
+    const std::vector<float> u = {0.5f, 0.5f, 0.5f, 0.5f, std::nanf(""), 0.5f}, v(6, 0.0f);
+    const std::vector<std::uint8_t> flag(6, 0);
+    const double t = 0, dt = 0.04;
+    h5.append("/pairs/u_px", u.data());
+    h5.append("/pairs/v_px", v.data());
+    h5.append("/pairs/flag", flag.data());
+    h5.append("/pairs/t_a_s", &t);
+    h5.append("/pairs/dt_s", &dt);
+  }
+  pipeline::ProfileJobOptions o;
+  o.input = path;
+  o.output = tmp / "p.csv";
+  o.centre_x_px = o.centre_y_px = 0;
+  o.vane_radius_px = 0;
+  o.cup_radius_px = 20;
+  o.m_per_px = 1e-4;
+  o.bin_px = 10;
+  CHECK_THROWS_WITH(pipeline::run_profile_job(o, {}),
+                    Contains("f.h5: /pairs/u_px[0][1][1] = nan: expected a finite displacement"));
+  CHECK_FALSE(fs::exists(o.output));
+}

@@ -148,7 +148,8 @@ void PivJobOptions::validate() const {
   const bool need_centre = annulus_outer_px > 0 || vane.geometry.blades > 0;
   if (need_centre && (std::isnan(centre_x_px) || std::isnan(centre_y_px)))
     throw ConfigError("the annulus and vane masks need the cup centre (--centre X,Y in px)");
-  if (annulus_outer_px > 0 && !(annulus_outer_px > annulus_inner_px && annulus_inner_px >= 0))
+  if ((annulus_outer_px != 0 || annulus_inner_px != 0) &&
+      !(std::isfinite(annulus_outer_px) && annulus_outer_px > annulus_inner_px && annulus_inner_px >= 0))
     throw ConfigError(fmt::format("annulus radii {}..{} px: need 0 <= inner < outer",
                                   num(annulus_inner_px), num(annulus_outer_px)));
   if (vane.geometry.blades < 0 || vane.geometry.blades > 64)

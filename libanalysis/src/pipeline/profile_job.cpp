@@ -77,6 +77,15 @@ class H5Source final : public FieldSource {
         throw InputError(fmt::format("{}: /pairs/flag[{}] = {}: expected 0..3", path_.string(), k,
                                      static_cast<int>(flags_[i])));
       f.flag[i] = static_cast<core::VectorFlag>(flags_[i]);
+      // A measured vector must be a number: NaN would turn its whole bin into NaN.
+      const bool measured = f.flag[i] == core::VectorFlag::kValid || f.flag[i] == core::VectorFlag::kReplaced;
+      if (measured && !(std::isfinite(f.u_px[i]) && std::isfinite(f.v_px[i])))
+        throw InputError(fmt::format("{}: /pairs/{}[{}][{}][{}] = {}: expected a finite displacement "
+                                     "(flag {})",
+                                     path_.string(), std::isfinite(f.u_px[i]) ? "v_px" : "u_px", k,
+                                     i / f.nx(), i % f.nx(),
+                                     std::isfinite(f.u_px[i]) ? f.v_px[i] : f.u_px[i],
+                                     core::flag_name(f.flag[i])));
     }
     t_a = t_a_[k];
     dt = dt_[k];

@@ -2,9 +2,11 @@
 #include "shearzone/pipeline/sim_job.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -440,6 +442,51 @@ Built build_world(const Scene& s, bool check_only, SimJobSummary& sum) {
   return out;
 }
 
+/// A fresh scene must not start with overlapping beads: the solver would push them
+/// apart in one step (a bead leaving at metres per second) and report nothing.
+/// Pairs of fixed beads (walls) may touch. Throws InputError naming the first bead
+/// (in body order) that overlaps another by more than sim.max_overlap x d.
+void refuse_initial_overlaps(const sim::World& w, const std::filesystem::path& scene) {
+  const int n = w.body_count();
+  if (n < 2) return;
+  double dmax = 0;
+  for (int k = 0; k < n; ++k) dmax = std::max(dmax, w.diameter(k));
+  const double cell = dmax;
+  auto key = [&](const sim::Vec3& x, int dx, int dy, int dz) {
+    const auto c = [&](double v, int d) { return static_cast<std::int64_t>(std::floor(v / cell)) + d; };
+    return std::array<std::int64_t, 3>{c(x.x(), dx), c(x.y(), dy), c(x.z(), dz)};
+  };
+  std::map<std::array<std::int64_t, 3>, std::vector<int>> grid;
+  for (int k = 0; k < n; ++k) grid[key(w.position(k), 0, 0, 0)].push_back(k);
+  const double limit = w.options().max_overlap;
+  for (int k = 0; k < n; ++k) {
+    int worst = -1;
+    double worst_rel = limit;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find(key(w.position(k), dx, dy, dz));
+          if (it == grid.end()) continue;
+          for (int j : it->second) {
+            if (j <= k || (w.kind(k) == sim::BodyKind::fixed && w.kind(j) == sim::BodyKind::fixed)) continue;
+            const double overlap = 0.5 * (w.diameter(k) + w.diameter(j)) - (w.position(k) - w.position(j)).norm();
+            const double rel = overlap / std::min(w.diameter(k), w.diameter(j));
+            if (rel > worst_rel) {
+              worst_rel = rel;
+              worst = j;
+            }
+          }
+        }
+    if (worst >= 0)
+      throw InputError(fmt::format(
+          "{}: beads {} and {} overlap by {:.4g} d at the start (centres {:.6g} m apart, diameters {} "
+          "and {} m); expected at most sim.max_overlap = {} d: move them apart",
+          scene.string(), k, worst, worst_rel, (w.position(k) - w.position(worst)).norm(),
+          io::CsvWriter::format_number(w.diameter(k)), io::CsvWriter::format_number(w.diameter(worst)),
+          io::CsvWriter::format_number(limit)));
+  }
+}
+
 }  // namespace
 
 SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
@@ -451,6 +498,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   std::optional<sim::World> built;
   if (o.restart.empty()) {
     Built b = build_world(scene, false, sum);
+    refuse_initial_overlaps(*b.world, o.scene);
     built.emplace(std::move(*b.world));
     chain_ids = std::move(b.chain_ids);
   } else {
@@ -471,7 +519,15 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   sum.angles = w.angle_count();
   sum.threads = w.options().threads;
   const double h = w.options().time_step;
-  const auto end_step = static_cast<std::int64_t>(std::llround(cad.duration_s / h));
+  // The number of steps must be a count this run can reach (and llround can hold).
+  constexpr double kMaxSteps = 1e9;
+  const double steps = cad.duration_s / h;
+  if (!(steps <= kMaxSteps))
+    throw ConfigError(fmt::format("{}: sim.duration_s = {} s over sim.time_step_s = {} s is {:.3g} steps; "
+                                  "expected at most {:.0e} (a longer time step or a shorter run)",
+                                  o.scene.string(), io::CsvWriter::format_number(cad.duration_s),
+                                  io::CsvWriter::format_number(h), steps, kMaxSteps));
+  const auto end_step = static_cast<std::int64_t>(std::llround(steps));
   const std::int64_t todo = std::max<std::int64_t>(0, end_step - w.steps_done());
 
   core::Metadata meta = header;
