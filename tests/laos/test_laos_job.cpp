@@ -99,3 +99,23 @@ TEST_CASE("laos job: a bad log leaves no output folder", "[laos]") {
   CHECK_THROWS_WITH(pipeline::run_laos_job(o, {}), Catch::Contains("flat.csv: lines 2-6: drive amplitude is zero"));
   CHECK_FALSE(std::filesystem::exists(dir / "out"));
 }
+
+// An amplitude far below any instrument's resolution would give non-finite energy
+// ratios (x0^2 underflows): refused, never written as inf or nan.
+TEST_CASE("laos job: a vanishing drive amplitude is refused, not analysed", "[laos]") {
+  TempDir dir("laos-job-tiny");
+  std::ostringstream s;
+  s.precision(12);
+  s << "time_s,angle_rad,torque_N_m\n";
+  for (int k = 0; k <= 400; ++k) {
+    const double th = 2 * std::numbers::pi * k / 200.0;
+    s << k / 100.0 << "," << 1e-300 * std::sin(th) << "," << 1e-3 * std::sin(th + 0.3) << "\n";
+  }
+  testing::write_file(dir / "tiny.csv", s.str());
+  pipeline::LaosJobOptions o;
+  o.inputs = {dir / "tiny.csv"};
+  o.output = dir / "out";
+  CHECK_THROWS_WITH(pipeline::run_laos_job(o, {}), Catch::Contains("tiny.csv: lines 2-402: drive amplitude") &&
+                                                       Catch::Contains("expected more than 1e-12"));
+  CHECK_FALSE(std::filesystem::exists(dir / "out"));
+}

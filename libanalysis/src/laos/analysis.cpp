@@ -280,6 +280,13 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
     A.x_offset = 0.5 * (*mx + *mn);
     theta = phase_from_drive(x, A.x_offset, A.x0);
   }
+  // Energies and ratios divide by x0^2: an amplitude far below any instrument's
+  // resolution (~1e-7 rad) would give non-finite numbers, never a measurement.
+  constexpr double kMinDriveAmplitude = 1e-12;
+  if (!(A.x0 > kMinDriveAmplitude) || !std::isfinite(A.x0))
+    throw InputError(fmt::format("{}: drive amplitude {:.3g} (SI units): expected more than {:.0e}, far "
+                                 "above which rheometers resolve",
+                                 where, A.x0, kMinDriveAmplitude));
   if (o.inertia > 0) {
     if (std::isnan(A.omega))
       throw ConfigError(fmt::format("{}: inertia subtraction needs ω; give --f-hz or a log with "
