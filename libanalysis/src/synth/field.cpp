@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -41,6 +43,17 @@ void FieldOptions::validate() const {
   finite("v_px", v_px);
   finite("omega_rad", omega_rad);
   finite("U0_px", U0_px);
+  // A displacement beyond a few images per frame is no PIV test; bounding it keeps
+  // the tracer domain (which grows with it) small.
+  constexpr double kMaxShiftPx = 4096;
+  for (auto [what, v] : {std::pair{"u_px (--u)", u_px}, std::pair{"v_px (--v)", v_px}, std::pair{"U0_px (--U0)", U0_px}})
+    if (std::abs(v) > kMaxShiftPx)
+      throw ConfigError(fmt::format("FieldOptions::{} = {}: expected |value| <= {} px per frame", what, v,
+                                    kMaxShiftPx));
+  if (std::abs(omega_rad) > std::numbers::pi)
+    throw ConfigError(fmt::format("FieldOptions::omega_rad (--omega) = {}: expected |omega| <= pi rad per "
+                                  "frame (a larger turn aliases)",
+                                  omega_rad));
   if (!(r0_px > 0) || !std::isfinite(r0_px))
     throw ConfigError(fmt::format("FieldOptions::r0_px = {}: must be > 0", r0_px));
   if (!(w_px > 0) || !std::isfinite(w_px))

@@ -81,10 +81,10 @@ const char* texture_kind_name(TextureKind kind) {
 
 void SynthOptions::validate() const {
   field.validate();
-  require(image.width_px >= 8 && image.width_px <= 16384, "ImageOptions::width_px",
-          image.width_px, "must satisfy 8 <= width_px <= 16384");
-  require(image.height_px >= 8 && image.height_px <= 16384, "ImageOptions::height_px",
-          image.height_px, "must satisfy 8 <= height_px <= 16384");
+  require(image.width_px >= 8 && image.width_px <= 8192, "ImageOptions::width_px",
+          image.width_px, "must satisfy 8 <= width_px <= 8192 (time and memory stay under 10 s and 1 GB a pair)");
+  require(image.height_px >= 8 && image.height_px <= 8192, "ImageOptions::height_px",
+          image.height_px, "must satisfy 8 <= height_px <= 8192 (time and memory stay under 10 s and 1 GB a pair)");
   require(image.noise >= 0 && image.noise <= 0.5, "ImageOptions::noise", image.noise,
           "must satisfy 0 <= noise <= 0.5 (fraction of full scale)");
   require(image.background >= 0 && image.background <= 1, "ImageOptions::background",
@@ -233,6 +233,16 @@ void FrameGenerator::place_tracers() {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   std::vector<double> px, py;
   const double area = (dom_x1_ - dom_x0_) * (dom_y1_ - dom_y0_);
+  // Time and memory stay bounded: the domain grows with the displacement, and every
+  // tracer costs about 40 bytes and a render per frame.
+  constexpr double kMaxTracers = 2e7;
+  const double expected = particles ? opt_.particles.density_ppp * area
+                                    : area / (0.5 * std::pow(opt_.beads.min_spacing * size, 2));
+  if (!(expected <= kMaxTracers))
+    throw ConfigError(fmt::format(
+        "synth: the field carries tracers over a {:.3g} x {:.3g} px domain ({:.3g} tracers, at most "
+        "{:.0e}): reduce the displacement per frame (--u, --v, --U0, --omega) or the image size",
+        dom_x1_ - dom_x0_, dom_y1_ - dom_y0_, expected, kMaxTracers));
   if (particles) {
     std::poisson_distribution<long long> count(opt_.particles.density_ppp * area);
     const long long n = count(rng);
