@@ -93,7 +93,8 @@ void apply_toml_config(CLI::App& sub, const std::string& path,
 void require_option(CLI::App& sub, const std::string& name) {
   const CLI::Option* opt = sub.get_option_no_throw("--" + name);
   if (opt != nullptr && opt->count() == 0)
-    throw CLI::RequiredError("--" + name + " is required (on the command line or in --config)");
+    throw CLI::RequiredError("--" + name + " is required: give it on the command line or in --config",
+                             CLI::ExitCodes::RequiredError);
 }
 
 std::vector<std::pair<std::string, std::string>> parse_key_values(const std::vector<std::string>& items,

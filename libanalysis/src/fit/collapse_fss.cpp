@@ -361,7 +361,8 @@ void FssFitOptions::validate() const {
   if (!(tolerance > 0.0)) throw ConfigError(fmt::format("collapse fss: tolerance = {} must be > 0", tolerance));
   if (max_iterations < 1) throw ConfigError("collapse fss: max_iterations must be >= 1");
   if (max_restarts < 0) throw ConfigError("collapse fss: max_restarts must be >= 0");
-  if (bootstrap < 0) throw ConfigError(fmt::format("collapse fss: bootstrap = {} must be >= 0", bootstrap));
+  if (bootstrap < 0 || bootstrap > 100000)
+    throw ConfigError(fmt::format("collapse fss: bootstrap = {}: expected 0..100000 resamples", bootstrap));
   if (!(ci_level > 0.0 && ci_level < 1.0))
     throw ConfigError(fmt::format("collapse fss: ci level = {} must be in (0, 1)", ci_level));
 }

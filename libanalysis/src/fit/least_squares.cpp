@@ -279,7 +279,8 @@ void FitOptions::validate() const {
     throw ConfigError(fmt::format("loss scale {}: must be a positive number", loss_scale));
   if (!(confidence > 0 && confidence < 1))
     throw ConfigError(fmt::format("confidence {}: must be in (0, 1)", confidence));
-  if (bootstrap < 0) throw ConfigError(fmt::format("bootstrap {}: must be >= 0", bootstrap));
+  if (bootstrap < 0 || bootstrap > 100000)
+    throw ConfigError(fmt::format("bootstrap {}: expected 0..100000 resamples", bootstrap));
   if (max_iterations < 1) throw ConfigError("max iterations: must be >= 1");
 }
 

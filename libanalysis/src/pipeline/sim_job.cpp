@@ -236,7 +236,10 @@ SceneBodies read_bodies(const Scene& s) {
   sim::ChainOptions& co = b.chains;
   co.diameter = b.diameter;
   co.density = b.density;
-  co.beads_per_chain = static_cast<int>(s.integer("chains.beads_per_chain", 1, 1, kIntMax));
+  // Scene sizes are bounded so that time and memory stay bounded (the paper's cup holds
+  // about 15 000 beads; 1e6 is the most a scene may hold).
+  constexpr std::int64_t kMaxBeads = 1000000;
+  co.beads_per_chain = static_cast<int>(s.integer("chains.beads_per_chain", 1, 1, kMaxBeads));
   co.l_max = s.non_negative("chains.l_max_m", 0.0);
   co.theta_max = deg(s.num("chains.max_angle_deg", 180.0));
   if (!(co.theta_max > 0.0) || co.theta_max > std::numbers::pi)
@@ -261,7 +264,10 @@ SceneBodies read_bodies(const Scene& s) {
     no_fill_keys();
     return b;
   }
-  co.chains = static_cast<int>(s.integer("fill.count", 1, 1, kIntMax));
+  co.chains = static_cast<int>(s.integer("fill.count", 1, 1, kMaxBeads));
+  if (static_cast<std::int64_t>(co.chains) * co.beads_per_chain > kMaxBeads)
+    s.fail("fill.count", fmt::format("{} chains of {} beads: expected at most {} beads in all", co.chains,
+                                     co.beads_per_chain, kMaxBeads));
   co.seed = static_cast<std::uint64_t>(s.integer("fill.seed", 1, 0));
   co.clearance = s.non_negative("fill.clearance", co.clearance);
   b.fill_region = read_box(s, "fill.min_m", "fill.max_m");

@@ -21,8 +21,12 @@ void PreprocessOptions::validate() const {
     throw ConfigError(fmt::format("PreprocessOptions: CLAHE tile {} px and clip {}: need tile >= "
                                   "8 px and clip > 0",
                                   clahe_tile_px, clahe_clip));
-  if (!(highpass_sigma_px >= 0))
-    throw ConfigError("PreprocessOptions::highpass_sigma_px: must be >= 0 (0: off)");
+  // A Gaussian of sigma s needs a kernel of ~6 s px; beyond 256 px the high-pass
+  // removes nothing a PIV window sees, and time and memory grow without bound.
+  if (!(highpass_sigma_px >= 0 && highpass_sigma_px <= 256))
+    throw ConfigError(fmt::format("PreprocessOptions::highpass_sigma_px (--highpass) = {}: expected 0..256 px "
+                                  "(0: off)",
+                                  highpass_sigma_px));
 }
 
 core::Metadata PreprocessOptions::to_metadata() const {
