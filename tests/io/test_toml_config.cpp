@@ -61,3 +61,18 @@ TEST_CASE("TOML loads from a file", "[io][toml]") {
   testing::write_file(dir / "c.toml", "\xEF\xBB\xBFseed = 7\r\n");
   CHECK(io::TomlConfig::load(dir / "c.toml").get_int("seed") == 7);
 }
+
+// 10 000 nested arrays or inline tables overflowed the parser's stack (SIGSEGV):
+// refused on the raw text before parsing. Brackets in strings and comments do not count.
+TEST_CASE("deeply nested TOML is refused before the parser recurses", "[io][toml]") {
+  const std::string deep_arrays = "a = " + std::string(10000, '[') + std::string(10000, ']') + "\n";
+  std::string deep_tables = "a = ";
+  for (int i = 0; i < 10000; ++i) deep_tables += "{b=";
+  deep_tables += "1" + std::string(10000, '}') + "\n";
+  for (const auto& text : {deep_arrays, deep_tables})
+    CHECK_THROWS_WITH(io::TomlConfig::parse("x = 1\n" + text, "deep.toml"),
+                      Catch::Contains("deep.toml:2: arrays or inline tables nested deeper than 64 levels"));
+  const std::string quoted = "s = \"" + std::string(200, '[') + "\"\nt = '''" + std::string(200, '{') +
+                             "'''\n# " + std::string(200, '[') + "\nu = [1, 2]\n";
+  CHECK_NOTHROW(io::TomlConfig::parse(quoted, "ok.toml"));
+}

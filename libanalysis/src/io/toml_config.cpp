@@ -46,6 +46,41 @@ std::string scalar_text(const toml::value& v, const std::string& source, const s
   }
 }
 
+/// The TOML parser recurses once per nested array or inline table: 10 000 levels
+/// overflow the stack (SIGSEGV). Nesting is checked on the raw text first, skipping
+/// strings and comments. Returns the line where it exceeds `max_depth`, or 0.
+std::size_t line_of_excess_nesting(const std::string& t, int max_depth) {
+  std::size_t line = 1;
+  int depth = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const char c = t[i];
+    if (c == '\n') {
+      ++line;
+    } else if (c == '#') {
+      while (i + 1 < t.size() && t[i + 1] != '\n') ++i;
+    } else if (c == '"' || c == '\'') {
+      const bool multi = t.compare(i, 3, std::string(3, c)) == 0;
+      i += multi ? 3 : 1;
+      for (; i < t.size(); ++i) {
+        if (t[i] == '\n') {
+          ++line;
+          if (!multi) break;  // an unterminated string: the parser reports it
+        } else if (c == '"' && t[i] == '\\') {
+          ++i;
+        } else if (t[i] == c && (!multi || t.compare(i, 3, std::string(3, c)) == 0)) {
+          if (multi) i += 2;
+          break;
+        }
+      }
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth) return line;
+    } else if (c == ']' || c == '}') {
+      depth = std::max(0, depth - 1);
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 std::size_t edit_distance(const std::string& a, const std::string& b) {
@@ -61,6 +96,11 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 TomlConfig TomlConfig::parse(const std::string& text, const std::string& source) {
+  constexpr int kMaxNesting = 64;
+  if (const std::size_t bad = line_of_excess_nesting(text, kMaxNesting))
+    throw ConfigError(fmt::format("{}:{}: arrays or inline tables nested deeper than {} levels; expected "
+                                  "a flat configuration",
+                                  source, bad, kMaxNesting));
   toml::value root;
   try {
     std::istringstream in(text);
