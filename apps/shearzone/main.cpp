@@ -1,4 +1,6 @@
 // shearzone: one binary, one subcommand per pipeline stage (`shearzone <subcommand>`).
+#include <cstdlib>
+
 #include <CLI/CLI.hpp>
 
 #include "common/run_app.hpp"
@@ -7,6 +9,11 @@
 
 int main(int argc, char** argv) {
   using namespace shearzone::apps;
+  // Third-party libraries print their own lines on stderr (FFmpeg "moov atom not
+  // found", OpenCV warnings); our one error line says what matters. A user who sets
+  // these variables keeps them (for debugging a codec).
+  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+  ::setenv("OPENCV_LOG_LEVEL", "SILENT", 0);
   CLI::App app{"shearzone: experimental rheology of granular chains (PIV, profiles, fits, LAOS, "
                "contact dynamics)"};
   app.name("shearzone");

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <mutex>
 #include <random>
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <fmt/format.h>
+#include <glog/logging.h>
 #include <gsl/gsl_cdf.h>
 
 #include "shearzone/core/error.hpp"
@@ -177,6 +179,14 @@ RunResult run_ceres(const Internal& in, const std::vector<double>& q0, const Fit
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
+  // Ceres reports through glog on stderr ("Logging before InitGoogleLogging()",
+  // "Terminating: ..."): the outcome is in the summary, so its log stays silent.
+  static std::once_flag quiet_glog;
+  std::call_once(quiet_glog, [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    FLAGS_stderrthreshold = google::GLOG_FATAL;
+    if (!google::IsGoogleLoggingInitialized()) google::InitGoogleLogging("shearzone");
+  });
   ceres::Solver::Summary sum;
   ceres::Solve(so, &problem, &sum);
   rr.termination = ceres::TerminationTypeToString(sum.termination_type);

@@ -1,8 +1,12 @@
 #include "shearzone/io/image.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -50,6 +54,33 @@ Format sniff(std::string_view b) {
 
 constexpr const char* kDecodedFormats =
     "PNG, JPEG, TIFF, BMP, PGM/PPM/PBM, WebP, JPEG 2000";
+
+/// Redirects file descriptor 2 to /dev/null for its lifetime (decoders that print).
+/// Decoding happens on one thread at a time in the frame readers.
+class StderrSilencer {
+ public:
+  StderrSilencer() {
+    std::fflush(stderr);
+    saved_ = ::dup(2);
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+    if (null >= 0) ::close(null);
+  }
+  ~StderrSilencer() {
+    std::fflush(stderr);
+    if (saved_ >= 0) {
+      ::dup2(saved_, 2);
+      ::close(saved_);
+    }
+  }
+  StderrSilencer(const StderrSilencer&) = delete;
+  StderrSilencer& operator=(const StderrSilencer&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
+std::string first_line_of(const std::string& s) { return s.substr(0, std::min(s.find('\n'), std::size_t{300})); }
 
 /// Checks the end marker of formats whose decoders may accept truncated data.
 void check_complete(const std::string& b, Format f, const std::string& source) {
@@ -167,9 +198,12 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
   cv::Mat raw;
   try {
     std::vector<uchar> buf(bytes.begin(), bytes.end());
+    // libpng and libtiff print their own complaints ("libpng error: IHDR: CRC error") on
+    // stderr; the error thrown below names the file instead.
+    const StderrSilencer quiet;
     raw = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("{}: cannot decode image: {}", source, e.what()));
+    throw InputError(fmt::format("{}: cannot decode image: {}", source, first_line_of(e.what())));
   }
   if (raw.empty())
     throw InputError(fmt::format("{}: cannot decode image (corrupt or truncated)", source));
