@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <unordered_set>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -168,14 +169,14 @@ CsvTable parse_csv(std::string_view text, const std::string& source) {
   t.decimal_comma = t.separator != ',';
   t.header_line = line;
   t.columns = parse_record(text, pos, line, t.separator, source);
+  std::unordered_set<std::string_view> seen;  // linear: a header may hold 1e6 names
   for (std::size_t i = 0; i < t.columns.size(); ++i) {
     if (t.columns[i].empty())
       throw InputError(fmt::format("{}:{}: column {} of the header row has no name", source,
                                    t.header_line, i + 1));
-    for (std::size_t j = 0; j < i; ++j)
-      if (t.columns[j] == t.columns[i])
-        throw InputError(fmt::format("{}:{}: column name \"{}\" appears twice in the header row",
-                                     source, t.header_line, t.columns[i]));
+    if (!seen.insert(t.columns[i]).second)
+      throw InputError(fmt::format("{}:{}: column name \"{}\" appears twice in the header row",
+                                   source, t.header_line, excerpt(t.columns[i], 60)));
   }
 
   while (pos < text.size()) {
@@ -213,7 +214,7 @@ std::size_t CsvTable::column_index(std::string_view name) const {
     std::string have;
     for (const auto& c : columns) have += (have.empty() ? "" : ", ") + c;
     throw InputError(fmt::format("{}:{}: missing column \"{}\"; the header has: {}", source,
-                                 header_line, name, have));
+                                 header_line, excerpt(name), excerpt(have, 300)));
   }
   return static_cast<std::size_t>(it - columns.begin());
 }
@@ -224,14 +225,19 @@ double CsvTable::number(std::size_t row, std::size_t col, bool require_finite) c
   if (!parse_number(cell, decimal_comma, v)) {
     if (trim(cell).empty())
       throw InputError(fmt::format("{}:{}: column \"{}\": empty cell; expected a number",
-                                   source, row_lines[row], columns[col]));
+                                   source, row_lines[row], excerpt(columns[col], 60)));
     throw InputError(fmt::format("{}:{}: column \"{}\": \"{}\" is not a number", source,
-                                 row_lines[row], columns[col], cell));
+                                 row_lines[row], excerpt(columns[col], 60), excerpt(cell)));
   }
   if (require_finite && !std::isfinite(v))
     throw InputError(fmt::format("{}:{}: column \"{}\": \"{}\" is not a finite number", source,
-                                 row_lines[row], columns[col], cell));
+                                 row_lines[row], excerpt(columns[col], 60), excerpt(cell)));
   return v;
+}
+
+std::string excerpt(std::string_view text, std::size_t max_chars) {
+  if (text.size() <= max_chars) return std::string(text);
+  return fmt::format("{}... ({} more characters)", text.substr(0, max_chars), text.size() - max_chars);
 }
 
 bool CsvTable::cell_empty(std::size_t row, std::size_t col) const { return trim(rows.at(row).at(col)).empty(); }

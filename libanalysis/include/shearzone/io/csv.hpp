@@ -64,6 +64,10 @@ CsvTable parse_csv(std::string_view text, const std::string& source);
 /// Reads a CSV file; a missing or unreadable file is an InputError naming the path.
 CsvTable read_csv(const std::filesystem::path& path);
 
+/// At most `max_chars` of an input's text for a message, with the count of the rest:
+/// an error line never echoes a whole (possibly megabytes long) header or cell.
+std::string excerpt(std::string_view text, std::size_t max_chars = 120);
+
 /// Reads a number the way CsvTable::number does (trimmed; optional decimal comma).
 /// Returns false if `text` is not entirely a number.
 bool parse_number(std::string_view text, bool decimal_comma, double& value);
