@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
   // these variables keeps them (for debugging a codec).
   ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
   ::setenv("OPENCV_LOG_LEVEL", "SILENT", 0);
+  // OpenCV's own decoder limit as a backstop for formats whose header is not read
+  // first (TIFF, WebP, JPEG 2000): the same 1e8 pixels as io::kMaxImagePixels.
+  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", "100000000", 0);
   CLI::App app{"shearzone: experimental rheology of granular chains (PIV, profiles, fits, LAOS, "
                "contact dynamics)"};
   app.name("shearzone");

@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <utility>
+#include <cstdlib>
+#include <climits>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -82,6 +85,60 @@ class StderrSilencer {
 
 std::string first_line_of(const std::string& s) { return s.substr(0, std::min(s.find('\n'), std::size_t{300})); }
 
+/// Width and height from the header of PNG, BMP, Netpbm and JPEG files (0, 0 when
+/// not found: the decoder's own limit, set in the CLI, stays the backstop).
+std::pair<long long, long long> header_size(const std::string& b, Format f) {
+  auto u = [&](std::size_t i) -> long long { return i < b.size() ? static_cast<unsigned char>(b[i]) : 0; };
+  switch (f) {
+    case Format::kPng:  // IHDR: width, height big-endian at bytes 16 and 20
+      if (b.size() >= 24)
+        return {(u(16) << 24) | (u(17) << 16) | (u(18) << 8) | u(19), (u(20) << 24) | (u(21) << 16) | (u(22) << 8) | u(23)};
+      break;
+    case Format::kBmp:  // BITMAPINFOHEADER: int32 width, height little-endian at 18, 22
+      if (b.size() >= 26) {
+        const auto w = static_cast<std::int32_t>(u(18) | (u(19) << 8) | (u(20) << 16) | (u(21) << 24));
+        const auto h = static_cast<std::int32_t>(u(22) | (u(23) << 8) | (u(24) << 16) | (u(25) << 24));
+        return {std::llabs(w), std::llabs(h)};
+      }
+      break;
+    case Format::kPnm: {  // "P5 <w> <h> ..." with comments
+      std::size_t i = 2;
+      long long v[2] = {0, 0};
+      for (int k = 0; k < 2; ++k) {
+        while (i < b.size() && (std::isspace(static_cast<unsigned char>(b[i])) || b[i] == '#')) {
+          if (b[i] == '#')
+            while (i < b.size() && b[i] != '\n') ++i;
+          else
+            ++i;
+        }
+        while (i < b.size() && std::isdigit(static_cast<unsigned char>(b[i])) && v[k] < (1LL << 40))
+          v[k] = v[k] * 10 + (b[i++] - '0');
+      }
+      return {v[0], v[1]};
+    }
+    case Format::kJpeg: {  // the first SOFn marker: height, width big-endian
+      std::size_t i = 2;
+      while (i + 9 < b.size()) {
+        if (u(i) != 0xFF) {
+          ++i;
+          continue;
+        }
+        const long long m = u(i + 1);
+        if (m == 0xD8 || m == 0x01 || (m >= 0xD0 && m <= 0xD7) || m == 0xFF) {
+          ++i;
+          continue;
+        }
+        if (m >= 0xC0 && m <= 0xCF && m != 0xC4 && m != 0xC8 && m != 0xCC)
+          return {(u(i + 7) << 8) | u(i + 8), (u(i + 5) << 8) | u(i + 6)};
+        i += 2 + static_cast<std::size_t>((u(i + 2) << 8) | u(i + 3));
+      }
+      break;
+    }
+    default: break;
+  }
+  return {0, 0};
+}
+
 /// Checks the end marker of formats whose decoders may accept truncated data.
 void check_complete(const std::string& b, Format f, const std::string& source) {
   auto u = [&](std::size_t i) { return static_cast<unsigned char>(b[i]); };
@@ -116,6 +173,14 @@ void check_complete(const std::string& b, Format f, const std::string& source) {
 }
 
 }  // namespace
+
+void check_image_size(int width, int height, const std::string& source) {
+  if (width > kMaxImageSide || height > kMaxImageSide ||
+      static_cast<double>(width) * static_cast<double>(height) > kMaxImagePixels)
+    throw InputError(fmt::format("{}: {} x {} px: expected at most {} px a side and {:.0e} pixels "
+                                 "(checked before decoding)",
+                                 source, width, height, kMaxImageSide, kMaxImagePixels));
+}
 
 bool is_image_extension(const std::filesystem::path& path) {
   const std::string e = lower_ext(path);
@@ -195,6 +260,12 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
     throw InputError(fmt::format("{}: a floating-point {} image; expected 8- or 16-bit samples ({})",
                                  source, f == Format::kHdr ? "Radiance HDR" : "OpenEXR", kDecodedFormats));
   check_complete(bytes, f, source);
+  {
+    const auto [w, h] = header_size(bytes, f);
+    if (w > 0 && h > 0)
+      check_image_size(static_cast<int>(std::min<long long>(w, INT32_MAX)),
+                       static_cast<int>(std::min<long long>(h, INT32_MAX)), source);
+  }
   cv::Mat raw;
   try {
     std::vector<uchar> buf(bytes.begin(), bytes.end());

@@ -68,6 +68,7 @@ VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string(
                                  path_, info_.fps));
   if (info_.width <= 0 || info_.height <= 0)
     throw InputError(fmt::format("{}: video has no frames of a known size", path_));
+  check_image_size(info_.width, info_.height, path_);
 }
 
 VideoReader::~VideoReader() = default;

@@ -45,6 +45,14 @@ std::string encode_image(const cv::Mat& image, const std::filesystem::path& path
 /// existing file unless `force`.
 void write_image(const std::filesystem::path& path, const cv::Mat& image, bool force);
 
+/// Largest frame accepted, checked from the file's header before any pixel is decoded
+/// (a 1 MB PNG can declare 30000 x 30000 px): at most kMaxImageSide px a side and
+/// kMaxImagePixels pixels. Images and video frames beyond are InputError.
+inline constexpr int kMaxImageSide = 32768;
+inline constexpr double kMaxImagePixels = 1e8;
+/// Throws InputError naming `source` if width x height is beyond the limits above.
+void check_image_size(int width, int height, const std::string& source);
+
 /// True if the extension is one of the still-image formats above (writable).
 bool is_image_extension(const std::filesystem::path& path);
 
