@@ -3,6 +3,10 @@
 
 #include <hdf5.h>
 
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -206,6 +210,42 @@ void H5File::append(const std::string& d, const std::int64_t* r) {
 }
 void H5File::append(const std::string& d, const std::uint8_t* r) {
   append_raw(d, H5T_NATIVE_UINT8, r);
+}
+
+std::size_t memory_budget_bytes() {
+  if (const char* env = std::getenv("SHEARZONE_MEMORY_MB")) {
+    char* end = nullptr;
+    const double mb = std::strtod(env, &end);
+    if (end != env && *end == '\0' && mb > 0 && std::isfinite(mb))
+      return static_cast<std::size_t>(mb * 1024.0 * 1024.0);
+    throw ConfigError(fmt::format("SHEARZONE_MEMORY_MB = \"{}\": expected a positive number of MiB", env));
+  }
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages > 0 && page > 0) return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) / 4;
+  return std::size_t{1} << 30;
+}
+
+void H5File::check_declared(const std::string& dataset) const {
+  if (!exists(dataset)) fail(path_, fmt::format("dataset \"{}\": not found", dataset));
+  Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
+  if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot open (is it a group?)", dataset));
+  Handle space(H5Dget_space(dset.get()));
+  const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+  Handle type(H5Dget_type(dset.get()));
+  const std::size_t elem = type.ok() ? H5Tget_size(type.get()) : 8;
+  if (n < 0) fail(path_, fmt::format("dataset \"{}\": unreadable dataspace", dataset));
+  const double declared = static_cast<double>(n) * static_cast<double>(std::max<std::size_t>(elem, 1));
+  const double budget = static_cast<double>(memory_budget_bytes());
+  if (declared > budget)
+    fail(path_, fmt::format("dataset \"{}\" declares {} values ({:.3g} MiB), above the memory budget of "
+                            "{:.3g} MiB (SHEARZONE_MEMORY_MB)",
+                            dataset, n, declared / 1048576.0, budget / 1048576.0));
+  constexpr double kMaxCompression = 4000.0;  // deflate cannot exceed ~1032:1, even on zeros
+  const double stored = static_cast<double>(H5Dget_storage_size(dset.get()));
+  if (declared > 16.0 * 1048576.0 && stored * kMaxCompression < declared)
+    fail(path_, fmt::format("dataset \"{}\" declares {} values ({:.3g} MiB) but the file stores {:.0f} bytes "
+                            "of it: a damaged or unfinished file",
+                            dataset, n, declared / 1048576.0, stored));
 }
 
 std::vector<std::size_t> H5File::dims(const std::string& dataset) const {

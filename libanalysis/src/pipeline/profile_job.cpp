@@ -50,6 +50,8 @@ class H5Source final : public FieldSource {
       if (!h5_.exists(d))
         throw InputError(fmt::format("{}: dataset \"{}\" missing: not a field file of `shearzone piv`",
                                      path.string(), d));
+    // Declared sizes against the file and the memory budget before anything is read.
+    for (const char* d : {"/pairs/u_px", "/pairs/v_px", "/pairs/flag"}) h5_.check_declared(d);
     x_ = h5_.read<double>("/grid/x_px").data;
     y_ = h5_.read<double>("/grid/y_px").data;
     t_a_ = h5_.read<double>("/pairs/t_a_s").data;

@@ -30,6 +30,10 @@ struct H5Array {
   std::vector<T> data;            ///< product(dims) elements
 };
 
+/// Memory a reader may allocate for one input: SHEARZONE_MEMORY_MB (MiB) when set,
+/// else a quarter of the physical memory.
+std::size_t memory_budget_bytes();
+
 class H5File {
  public:
   /// Opens an existing file read-only.
@@ -84,9 +88,17 @@ class H5File {
   /// of record_dims elements): the streaming counterpart of append().
   void read_record(const std::string& dataset, std::size_t index, float* out) const;
   void read_record(const std::string& dataset, std::size_t index, std::uint8_t* out) const;
+  /// Checks what a dataset declares before anything is allocated for it: its size
+  /// must fit the memory budget (memory_budget_bytes()), and a dataset of more than
+  /// 16 MiB must have at least 1/4000 of its declared bytes stored in the file
+  /// (deflate cannot compress beyond ~1032:1, even zeros; an unwritten or forged
+  /// extent is refused). Throws InputError naming the file, the dataset and both sizes.
+  void check_declared(const std::string& dataset) const;
+
   template <class T>
   H5Array<T> read(const std::string& dataset) const {
     H5Array<T> a;
+    check_declared(dataset);
     a.dims = dims(dataset);
     std::size_t n = 1;
     for (auto d : a.dims) n *= d;
