@@ -14,6 +14,8 @@ PACKAGES=(
   libtbb-dev libfftw3-dev libfmt-dev
   # header-only libraries
   catch2 libcli11-dev libtoml11-dev
+  # fuzzing (scripts/fuzz.sh: libFuzzer targets built with clang, ASan + UBSan)
+  clang-14 libfuzzer-14-dev
   # figure scripts (h5py: PIV fields in HDF5; opencv: video frames under the vectors)
   python3 python3-matplotlib python3-numpy python3-h5py python3-opencv
 )

@@ -4,19 +4,16 @@
 #include <CLI/CLI.hpp>
 
 #include "common/run_app.hpp"
+#include "shearzone/io/image.hpp"
 #include "shearzone/core/version.hpp"
 #include "subcommands.hpp"
 
 int main(int argc, char** argv) {
   using namespace shearzone::apps;
   // Third-party libraries print their own lines on stderr (FFmpeg "moov atom not
-  // found", OpenCV warnings); our one error line says what matters. A user who sets
-  // these variables keeps them (for debugging a codec).
-  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
-  ::setenv("OPENCV_LOG_LEVEL", "SILENT", 0);
-  // OpenCV's own decoder limit as a backstop for formats whose header is not read
-  // first (TIFF, WebP, JPEG 2000): the same 1e8 pixels as io::kMaxImagePixels.
-  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", "100000000", 0);
+  // found", OpenCV warnings) and decode images of any declared size: silenced and
+  // limited before anything is opened (a user who sets these variables keeps them).
+  shearzone::io::configure_decoders();
   CLI::App app{"shearzone: experimental rheology of granular chains (PIV, profiles, fits, LAOS, "
                "contact dynamics)"};
   app.name("shearzone");

@@ -174,6 +174,12 @@ void check_complete(const std::string& b, Format f, const std::string& source) {
 
 }  // namespace
 
+void configure_decoders() {
+  ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+  ::setenv("OPENCV_LOG_LEVEL", "SILENT", 0);
+  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", fmt::format("{:.0f}", kMaxImagePixels).c_str(), 0);
+}
+
 void check_image_size(int width, int height, const std::string& source) {
   if (width > kMaxImageSide || height > kMaxImageSide ||
       static_cast<double>(width) * static_cast<double>(height) > kMaxImagePixels)

@@ -321,7 +321,8 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
   for (int c = 0; c < ncyc; ++c) {
     auto& wc = cyc_w[static_cast<std::size_t>(c)];
     wc.assign(n, 0.0);
-    const auto [a, b] = bounds(kmin + c);
+    const auto ab = bounds(kmin + c);  // (not a structured binding: lambdas below capture it)
+    const double a = ab.first, b = ab.second;
     add_trapezoid_weights(theta, a, b, wc);
     // Samples per cycle: those with θ in [a, b) (a closing sample at b is the next
     // cycle's first).

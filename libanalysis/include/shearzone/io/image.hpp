@@ -53,6 +53,12 @@ inline constexpr double kMaxImagePixels = 1e8;
 /// Throws InputError naming `source` if width x height is beyond the limits above.
 void check_image_size(int width, int height, const std::string& source);
 
+/// Sets the process environment the decoders read (only variables the user has not
+/// set): FFmpeg and OpenCV log levels silent (our one error line says what matters)
+/// and OpenCV's decoder limit to kMaxImagePixels, the backstop for formats whose
+/// header is not read first. Call once, before any image or video is opened.
+void configure_decoders();
+
 /// True if the extension is one of the still-image formats above (writable).
 bool is_image_extension(const std::filesystem::path& path);
 
