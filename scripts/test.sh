@@ -4,6 +4,7 @@
 #
 #   scripts/test.sh            # default run
 #   scripts/test.sh --all      # include the slow physics validations
+#   scripts/test.sh --sanitize # the default tests built with ASan + UBSan (build/asan)
 #   BUILD_DIR=... JOBS=... scripts/test.sh
 #
 # Exits with ctest's status.
@@ -12,15 +13,22 @@ cd "$(dirname "$0")/.."
 
 "scripts/setup.sh"
 
-BUILD_DIR="${BUILD_DIR:-build/ci}"
 JOBS="${JOBS:-$(nproc)}"
 LABEL_ARGS=(-LE slow)
-if [ "${1:-}" = "--all" ]; then LABEL_ARGS=(); fi
+SANITIZE=OFF
+case "${1:-}" in
+  --all) LABEL_ARGS=() ;;
+  --sanitize) SANITIZE=ON ;;
+esac
+if [ "$SANITIZE" = ON ]; then BUILD_DIR="${BUILD_DIR:-build/asan}"; else BUILD_DIR="${BUILD_DIR:-build/ci}"; fi
+# Leaks inside third-party libraries on error paths are not ours (tests/fuzz/lsan.supp).
+export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSHEARZONE_ASSERTS=ON \
   -DSHEARZONE_WARNINGS_AS_ERRORS=ON \
+  -DSHEARZONE_SANITIZE="$SANITIZE" \
   -DSHEARZONE_BUILD_TESTS=ON
 cmake --build "$BUILD_DIR" --parallel "$JOBS"
 

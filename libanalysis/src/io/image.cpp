@@ -101,11 +101,13 @@ std::pair<long long, long long> header_size(const std::string& b, Format f) {
         return {std::llabs(w), std::llabs(h)};
       }
       break;
-    case Format::kPnm: {  // "P5 <w> <h> ..." with comments
+    case Format::kPnm: {  // "P5 <w> <h> ..." with comments; like OpenCV's reader, any
+      // other non-digit separates numbers (found by fuzzing: "P2 699999+999=..." decoded
+      // as 699999 x 999 px)
       std::size_t i = 2;
       long long v[2] = {0, 0};
       for (int k = 0; k < 2; ++k) {
-        while (i < b.size() && (std::isspace(static_cast<unsigned char>(b[i])) || b[i] == '#')) {
+        while (i < b.size() && !std::isdigit(static_cast<unsigned char>(b[i]))) {
           if (b[i] == '#')
             while (i < b.size() && b[i] != '\n') ++i;
           else
