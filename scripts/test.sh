@@ -20,14 +20,16 @@ case "${1:-}" in
   --all) LABEL_ARGS=() ;;
   --sanitize) SANITIZE=ON ;;
 esac
-if [ "$SANITIZE" = ON ]; then BUILD_DIR="${BUILD_DIR:-build/asan}"; else BUILD_DIR="${BUILD_DIR:-build/ci}"; fi
+# The sanitizer build keeps warnings as warnings: GCC 12 reports false
+# -Wmaybe-uninitialized inside <regex> and <functional> under -fsanitize.
+if [ "$SANITIZE" = ON ]; then BUILD_DIR="${BUILD_DIR:-build/asan}"; WERROR=OFF; else BUILD_DIR="${BUILD_DIR:-build/ci}"; WERROR=ON; fi
 # Leaks inside third-party libraries on error paths are not ours (tests/fuzz/lsan.supp).
 export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp"
 
 cmake -S . -B "$BUILD_DIR" -G Ninja \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DSHEARZONE_ASSERTS=ON \
-  -DSHEARZONE_WARNINGS_AS_ERRORS=ON \
+  -DSHEARZONE_WARNINGS_AS_ERRORS="$WERROR" \
   -DSHEARZONE_SANITIZE="$SANITIZE" \
   -DSHEARZONE_BUILD_TESTS=ON
 cmake --build "$BUILD_DIR" --parallel "$JOBS"
