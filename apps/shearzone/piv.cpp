@@ -59,8 +59,17 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   progress.finish();
   if (ctx.level != core::LogLevel::kQuiet) {
     const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);
-    std::printf("piv: %zu pair%s (%zu frames read, %zu duplicates skipped) -> %s\n", sum.pairs,
+    std::string damaged;
+    for (std::size_t i = 0; i < sum.damaged.size() && i < 20; ++i)
+      damaged += (i ? "," : "") + std::to_string(sum.damaged[i]);
+    if (sum.damaged.size() > 20) damaged += ",...";
+    std::printf("piv: %zu pair%s (%zu frames read, %zu duplicates skipped%s) -> %s\n", sum.pairs,
                 sum.pairs == 1 ? "" : "s", sum.frames_read, sum.duplicates,
+                sum.damaged.empty()
+                    ? ""
+                    : fmt::format(", {} damaged frame{} skipped: {}", sum.damaged.size(),
+                                  sum.damaged.size() == 1 ? "" : "s", damaged)
+                          .c_str(),
                 j.output.string().c_str());
     std::printf("piv: %zu vectors per pair: %.1f%% valid, %.1f%% replaced, %.1f%% masked, %.1f%% "
                 "invalid; %.2f s (%.2f pairs/s)\n",

@@ -24,6 +24,7 @@ class VideoSource : public FrameSource {
     if (!reader_.read(f.gray, f.t_s)) return false;
     f.index = k;
     f.label = fmt::format("{}#{}", path_, k);
+    f.damaged = reader_.last_frame_damaged();
     return true;
   }
   double fps() const override { return reader_.info().fps; }

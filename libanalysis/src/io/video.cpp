@@ -3,12 +3,18 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <atomic>
+#include <cstdarg>
 #include <fstream>
 #include <string_view>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+
+extern "C" {
+#include <libavutil/log.h>
+}
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/image.hpp"
@@ -34,6 +40,19 @@ bool is_video_extension(const std::filesystem::path& path) {
   return e == ".mp4" || e == ".avi" || e == ".mov" || e == ".mkv";
 }
 
+namespace {
+
+// FFmpeg reports decode errors only through its log. Every message at AV_LOG_ERROR or
+// worse is counted (and none is printed): a read() during which the count grows
+// returned a frame FFmpeg had to conceal, i.e. a damaged frame.
+std::atomic<std::int64_t> g_ffmpeg_errors{0};
+
+void count_ffmpeg_log(void*, int level, const char*, va_list) {
+  if (level <= AV_LOG_ERROR) g_ffmpeg_errors.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
 bool looks_like_video(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   char h[12] = {};
@@ -49,6 +68,7 @@ VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string(
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw InputError(fmt::format("{}: no such file", path_));
   cap_ = std::make_unique<cv::VideoCapture>();
+  av_log_set_callback(count_ffmpeg_log);  // no FFmpeg line on stderr, errors counted
   try {
     cap_->open(path_, cv::CAP_FFMPEG);
   } catch (const cv::Exception& e) {
@@ -76,6 +96,8 @@ VideoReader::~VideoReader() = default;
 bool VideoReader::read(cv::Mat& gray, double& t_s) {
   cv::Mat frame;
   bool ok = false;
+  av_log_set_callback(count_ffmpeg_log);  // OpenCV may have installed its own at open
+  const std::int64_t errors_before = g_ffmpeg_errors.load();
   try {
     ok = cap_->read(frame);
   } catch (const cv::Exception& e) {
@@ -99,6 +121,8 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
   if (gray.empty())
     throw InputError(fmt::format("{}: frame {}: unsupported sample depth; expected 8-bit video",
                                  path_, next_));
+  last_damaged_ = g_ffmpeg_errors.load() != errors_before;
+  damaged_ += last_damaged_;
   ++next_;
   return true;
 }

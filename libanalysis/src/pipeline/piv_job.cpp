@@ -268,6 +268,12 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     ++sum.frames_read;
     if (frame.index < o.first_frame) continue;
     if (o.last_frame >= 0 && frame.index > o.last_frame) break;
+    // A frame FFmpeg had to conceal holds invented pixels: never measured. The pair
+    // then spans the gap (its dt from the timestamps), as for repeated frames.
+    if (frame.damaged) {
+      sum.damaged.push_back(frame.index);
+      continue;
+    }
     if (!window.empty() && frames_equal(window.back().frame.gray, frame.gray, o.duplicate_tolerance)) {
       ++sum.duplicates;
       continue;
@@ -371,6 +377,14 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     h5->set_attribute("/", "conventions", conv);
     h5->set_attribute("/", "shearzone_version", kVersion);
     h5->set_attribute("/", "duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
+    h5->set_attribute("/", "damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
+    {
+      std::string list;
+      for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i)
+        list += (i ? "," : "") + std::to_string(sum.damaged[i]);
+      if (sum.damaged.size() > 1000) list += ",...";
+      h5->set_attribute("/", "damaged_frames", list.empty() ? std::string("none") : list);
+    }
     if (!std::isnan(o.centre_x_px)) {
       h5->set_attribute("/", "centre_x_px", o.centre_x_px);
       h5->set_attribute("/", "centre_y_px", o.centre_y_px);

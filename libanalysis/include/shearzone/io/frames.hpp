@@ -22,6 +22,7 @@ struct Frame {
   std::int64_t index = 0;   ///< position in the source, from 0
   double t_s = 0.0;         ///< time, s
   std::string label;        ///< "clip.mp4#12" or the image's path, for messages
+  bool damaged = false;     ///< the decoder reported an error for this frame (video)
 };
 
 class FrameSource {

@@ -53,6 +53,10 @@ class VideoReader {
   void set_grey_mode(GreyMode mode) { grey_mode_ = mode; }
   /// Index of the frame the next read() returns.
   std::int64_t next_index() const { return next_; }
+  /// True if FFmpeg reported a decode error while the last read() decoded its frame
+  /// (the frame holds concealed, invented pixels); and how many such frames so far.
+  bool last_frame_damaged() const { return last_damaged_; }
+  std::int64_t damaged_frames() const { return damaged_; }
 
  private:
   std::string path_;
@@ -60,6 +64,8 @@ class VideoReader {
   VideoInfo info_;
   std::int64_t next_ = 0;
   GreyMode grey_mode_ = GreyMode::kLuma;
+  bool last_damaged_ = false;
+  std::int64_t damaged_ = 0;
 };
 
 class VideoWriter {

@@ -85,6 +85,7 @@ struct PivJobOptions {
 struct PivJobSummary {
   std::size_t frames_read = 0;
   std::size_t duplicates = 0;   ///< repeated frames skipped
+  std::vector<std::int64_t> damaged;  ///< frames the decoder reported damaged: skipped
   std::size_t pairs = 0;
   std::size_t vectors_per_pair = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
