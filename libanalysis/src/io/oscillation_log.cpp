@@ -280,8 +280,8 @@ void finish(OscillationLog& log) {
 std::string list_names(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& n : names)
-    if (!n.empty()) out += (out.empty() ? "\"" : ", \"") + n + "\"";
-  return out;
+    if (!n.empty()) out += (out.empty() ? "\"" : ", \"") + excerpt(n, 60) + "\"";
+  return excerpt(out, 300);  // a message quotes a bounded part of the input
 }
 
 // ---- Localised column names (Anton Paar, TRIOS) -----------------------------------
@@ -331,11 +331,23 @@ const std::vector<std::string>& stress_names() {
 /// candidates; `alternatives[i]` holds the names under which header i may be found.
 std::optional<std::size_t> find_localised(const std::vector<std::vector<std::string>>& alts,
                                           const std::vector<std::string>& candidates) {
-  for (const auto& cand : candidates)
-    for (std::size_t i = 0; i < alts.size(); ++i)
-      for (const auto& a : alts[i])
-        if (fold(a) == cand) return i;
-  return std::nullopt;
+  // Each name is folded once and looked up (linear in the header's size: a fuzzed
+  // header of thousands of cells and lines took > 10 s when every candidate refolded
+  // every name).
+  std::size_t best_rank = candidates.size();
+  std::optional<std::size_t> best;
+  for (std::size_t i = 0; i < alts.size(); ++i)
+    for (const auto& a : alts[i]) {
+      if (a.size() > 256) continue;  // no column name is that long
+      const std::string f = fold(a);
+      const auto it = std::find(candidates.begin(), candidates.end(), f);
+      const auto rank = static_cast<std::size_t>(it - candidates.begin());
+      if (rank < best_rank) {  // candidate order first, then the first header
+        best_rank = rank;
+        best = i;
+      }
+    }
+  return best;
 }
 
 /// Which column of a vendor table holds a quantity: the user's name if it differs
