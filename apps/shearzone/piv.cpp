@@ -60,8 +60,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (ctx.level != core::LogLevel::kQuiet) {
     const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);
     std::string damaged;
-    for (std::size_t i = 0; i < sum.damaged.size() && i < 20; ++i)
-      damaged += (i ? "," : "") + std::to_string(sum.damaged[i]);
+    for (std::size_t i = 0; i < sum.damaged.size() && i < 20; ++i) {
+      if (i) damaged += ',';
+      damaged += std::to_string(sum.damaged[i]);
+    }
     if (sum.damaged.size() > 20) damaged += ",...";
     std::printf("piv: %zu pair%s (%zu frames read, %zu duplicates skipped%s) -> %s\n", sum.pairs,
                 sum.pairs == 1 ? "" : "s", sum.frames_read, sum.duplicates,

@@ -380,8 +380,10 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     h5->set_attribute("/", "damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
     {
       std::string list;
-      for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i)
-        list += (i ? "," : "") + std::to_string(sum.damaged[i]);
+      for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i) {
+        if (i) list += ',';  // (not "," + to_string: GCC 12 -Wrestrict false positive)
+        list += std::to_string(sum.damaged[i]);
+      }
       if (sum.damaged.size() > 1000) list += ",...";
       h5->set_attribute("/", "damaged_frames", list.empty() ? std::string("none") : list);
     }
