@@ -85,8 +85,8 @@ class StderrSilencer {
 
 std::string first_line_of(const std::string& s) { return s.substr(0, std::min(s.find('\n'), std::size_t{300})); }
 
-/// Width and height from the header of PNG, BMP, Netpbm and JPEG files (0, 0 when
-/// not found: the decoder's own limit, set in the CLI, stays the backstop).
+/// Width and height from the header of PNG, BMP, Netpbm, JPEG, TIFF and WebP files
+/// (0, 0 when not found; JPEG 2000 is left to OpenCV's own limit of 2^30 pixels).
 std::pair<long long, long long> header_size(const std::string& b, Format f) {
   auto u = [&](std::size_t i) -> long long { return i < b.size() ? static_cast<unsigned char>(b[i]) : 0; };
   switch (f) {
@@ -136,6 +136,36 @@ std::pair<long long, long long> header_size(const std::string& b, Format f) {
       }
       break;
     }
+    case Format::kTiff: {  // IFD 0: tags 256 (width) and 257 (height), SHORT or LONG
+      const bool le = b[0] == 'I';
+      auto rd = [&](std::size_t at, int n) -> long long {
+        long long v = 0;
+        for (int k = 0; k < n; ++k) v |= u(at + static_cast<std::size_t>(le ? k : n - 1 - k)) << (8 * k);
+        return v;
+      };
+      const auto ifd = static_cast<std::size_t>(rd(4, 4));
+      if (ifd + 2 > b.size()) break;
+      const auto entries = static_cast<std::size_t>(rd(ifd, 2));
+      long long w = 0, h = 0;
+      for (std::size_t e = 0; e < entries && ifd + 2 + 12 * (e + 1) <= b.size(); ++e) {
+        const std::size_t at = ifd + 2 + 12 * e;
+        const long long tag = rd(at, 2), type = rd(at + 2, 2);
+        const long long v = type == 3 ? rd(at + 8, 2) : rd(at + 8, 4);
+        if (tag == 256) w = v;
+        if (tag == 257) h = v;
+      }
+      return {w, h};
+    }
+    case Format::kWebp:  // the first chunk: VP8X canvas, VP8 frame or VP8L header
+      if (b.size() >= 30 && b.compare(12, 4, "VP8X") == 0)
+        return {1 + (u(24) | (u(25) << 8) | (u(26) << 16)), 1 + (u(27) | (u(28) << 8) | (u(29) << 16))};
+      if (b.size() >= 30 && b.compare(12, 4, "VP8 ") == 0)
+        return {(u(26) | (u(27) << 8)) & 0x3FFF, (u(28) | (u(29) << 8)) & 0x3FFF};
+      if (b.size() >= 25 && b.compare(12, 4, "VP8L") == 0) {
+        const long long bits = u(21) | (u(22) << 8) | (u(23) << 16) | (u(24) << 24);
+        return {1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)};
+      }
+      break;
     default: break;
   }
   return {0, 0};
@@ -179,7 +209,6 @@ void check_complete(const std::string& b, Format f, const std::string& source) {
 void configure_decoders() {
   ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
   ::setenv("OPENCV_LOG_LEVEL", "SILENT", 0);
-  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", fmt::format("{:.0f}", kMaxImagePixels).c_str(), 0);
 }
 
 void check_image_size(int width, int height, const std::string& source) {

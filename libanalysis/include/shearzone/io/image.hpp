@@ -54,9 +54,10 @@ inline constexpr double kMaxImagePixels = 1e8;
 void check_image_size(int width, int height, const std::string& source);
 
 /// Sets the process environment the decoders read (only variables the user has not
-/// set): FFmpeg and OpenCV log levels silent (our one error line says what matters)
-/// and OpenCV's decoder limit to kMaxImagePixels, the backstop for formats whose
-/// header is not read first. Call once, before any image or video is opened.
+/// set): FFmpeg and OpenCV log levels silent (our one error line says what matters).
+/// (OpenCV's own pixel limit, OPENCV_IO_MAX_IMAGE_PIXELS, is read when the library
+/// loads, so it cannot be set here; check_image_size reads the headers instead.)
+/// Call once, before any image or video is opened.
 void configure_decoders();
 
 /// True if the extension is one of the still-image formats above (writable).
