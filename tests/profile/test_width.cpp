@@ -133,6 +133,12 @@ double coverage_of(const OscillatingCase& c, Grouping expected, int repetitions)
 constexpr int kCoverageRepetitions = 400;
 constexpr double kCoverageLow = 0.915, kCoverageHigh = 0.985;
 
+static void check_coverage(double coverage) {
+  INFO("coverage " << coverage);
+  CHECK(coverage >= kCoverageLow);
+  CHECK(coverage <= kCoverageHigh);
+}
+
 // Many cycles: whole cycles are resampled. 24 cycles whose bin means scatter by 25 %
 // (log-normal, independent between cycles, as the cycle-to-cycle variation of the
 // paper's profiles); the truth is r_c of the noise-free binned profile.
@@ -179,10 +185,7 @@ TEST_CASE("bootstrap CIs of r_c over 24 cycles cover the truth 91.5-98.5 % of th
     const auto res = shear_zone_width(in, o);
     covered += res.ci_low_m <= truth && truth <= res.ci_high_m;
   }
-  const double coverage = static_cast<double>(covered) / kCoverageRepetitions;
-  INFO("coverage " << coverage);
-  CHECK(coverage >= kCoverageLow);
-  CHECK(coverage <= kCoverageHigh);
+  check_coverage(static_cast<double>(covered) / kCoverageRepetitions);
 }
 
 // One cycle filmed (the README tour's clip: 49 pairs at 0.5 Hz): the phase
@@ -193,10 +196,7 @@ TEST_CASE("bootstrap CIs of r_c over 24 cycles cover the truth 91.5-98.5 % of th
 TEST_CASE("bootstrap CIs of r_c of a single oscillation cycle cover the truth 91.5-98.5 %",
           "[profile][width]") {
   OscillatingCase c;
-  const double coverage = coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions);
-  INFO("coverage " << coverage);
-  CHECK(coverage >= kCoverageLow);
-  CHECK(coverage <= kCoverageHigh);
+  check_coverage(coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions));
 }
 
 TEST_CASE("bootstrap CIs of r_c of three oscillation cycles cover the truth 91.5-98.5 %",
@@ -205,10 +205,7 @@ TEST_CASE("bootstrap CIs of r_c of three oscillation cycles cover the truth 91.5
   c.f_Hz = 1.0;
   c.pairs = 75;
   c.noise = 0.3;
-  const double coverage = coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions);
-  INFO("coverage " << coverage);
-  CHECK(coverage >= kCoverageLow);
-  CHECK(coverage <= kCoverageHigh);
+  check_coverage(coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions));
 }
 
 TEST_CASE("bootstrap CIs of r_c of ten cycles with cycle-to-cycle scatter cover the truth",
@@ -217,10 +214,7 @@ TEST_CASE("bootstrap CIs of r_c of ten cycles with cycle-to-cycle scatter cover 
   c.f_Hz = 1.0;
   c.pairs = 250;
   c.cycle_scatter = 0.1;
-  const double coverage = coverage_of(c, Grouping::kCycles, kCoverageRepetitions);
-  INFO("coverage " << coverage);
-  CHECK(coverage >= kCoverageLow);
-  CHECK(coverage <= kCoverageHigh);
+  check_coverage(coverage_of(c, Grouping::kCycles, kCoverageRepetitions));
 }
 
 TEST_CASE("a single pair gives no interval, never a narrow one", "[profile][width]") {

@@ -20,6 +20,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
 #include "shearzone/io/file.hpp"
 
 namespace shearzone::io {
@@ -82,8 +83,6 @@ class StderrSilencer {
  private:
   int saved_ = -1;
 };
-
-std::string first_line_of(const std::string& s) { return s.substr(0, std::min(s.find('\n'), std::size_t{300})); }
 
 /// Width and height from the header of PNG, BMP, Netpbm, JPEG, TIFF and WebP files
 /// (0, 0 when not found; JPEG 2000 is left to OpenCV's own limit of 2^30 pixels).
@@ -311,7 +310,7 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
     const StderrSilencer quiet;
     raw = cv::imdecode(buf, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("{}: cannot decode image: {}", source, first_line_of(e.what())));
+    throw InputError(fmt::format("{}: cannot decode image: {}", source, excerpt(std::string_view(e.what()).substr(0, std::string_view(e.what()).find('\n')), 300)));
   }
   if (raw.empty())
     throw InputError(fmt::format("{}: cannot decode image (corrupt or truncated)", source));

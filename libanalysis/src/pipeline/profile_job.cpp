@@ -600,10 +600,10 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
           in.pairs.add_pair(known ? static_cast<int>(g.number(k, cc)) : profile::PairSeries::kNoCycle,
                             known ? g.number(k, cph) / 360.0 : kUnset);
         }
-        // Bin index from the radius (same bins as the profile).
-        const auto it = std::min_element(in.r_m.begin(), in.r_m.end(), [&](double a, double b) {
-          return std::abs(a - r[k]) < std::abs(b - r[k]);
-        });
+        // Bin index from the radius (same bins as the profile, ascending): the nearest
+        // of the two bracketing centres, found by bisection (rows x log bins).
+        auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), r[k]);
+        if (it == in.r_m.end() || (it != in.r_m.begin() && r[k] - *(it - 1) < *it - r[k])) --it;
         if (std::abs(*it - r[k]) > 1e-9 * std::max(1.0, std::abs(r[k])) + 1e-12)
           throw InputError(fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.row_lines[k],
                                        num(r[k]), path.string()));
