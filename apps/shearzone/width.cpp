@@ -30,8 +30,10 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   for (const auto& r : rows) {
     usable += r.status == "ok";
     if (ctx.level != core::LogLevel::kQuiet) {
+      // never_below and below_at_vane give bounds, not values.
+      const char* rel = r.status == "never_below" ? ">=" : r.status == "below_at_vane" ? "<=" : "=";
       if (std::isfinite(r.rc_m))
-        std::printf("width: %s: r_c = %.5g m (%s)\n", r.label.c_str(), r.rc_m, r.status.c_str());
+        std::printf("width: %s: r_c %s %.5g m (%s)\n", r.label.c_str(), rel, r.rc_m, r.status.c_str());
       else
         std::printf("width: %s: no r_c (%s)\n", r.label.c_str(), r.status.c_str());
     }
