@@ -18,33 +18,41 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   p->add_option("-o,--output", *out, "Output folder for the CSV files")->required();
   p->add_flag("--force", o->force, "Replace existing files");
   p->add_flag("--quick", o->quick, "Small grid on 960x540 (a smoke run)");
-  p->add_option("--repeats", o->timing_repeats, "Timed runs per setting (median)")
+  p->add_option("--repeats", o->timing_repeats, "Timed runs per setting (median); range: 1..1000")
       ->capture_default_str();
-  p->add_option("--width", o->width_px, "Pair width, px")->capture_default_str();
-  p->add_option("--height", o->height_px, "Pair height, px")->capture_default_str();
+  p->add_option("--width", o->width_px, "Pair width, px; range: 8..8192")->capture_default_str();
+  p->add_option("--height", o->height_px, "Pair height, px; range: 8..8192")->capture_default_str();
   auto so = std::make_shared<pipeline::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
   CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap");
   s->add_option("-o,--output", *sout, "Output folder for the CSV files")->required();
   s->add_flag("--force", so->force, "Replace existing files");
   s->add_flag("--quick", so->quick, "Small packings and few steps (a smoke run)");
-  s->add_option("--beads", so->beads, "Bead counts of the speed table")
+  s->add_option("--beads", so->beads,
+                "Bead counts of the speed table; range: 1 to 32 counts, each 1..1000000")
       ->delimiter(',')
       ->capture_default_str();
-  s->add_option("--threads", so->threads, "Engine thread counts of the speed table (slab-parallel sweep)")
+  s->add_option("--threads", so->threads,
+                "Engine thread counts of the speed table (slab-parallel sweep); "
+                "range: 1 to 32 counts, each 1..256")
       ->delimiter(',')
       ->capture_default_str();
-  s->add_option("--time-step", so->time_step_s, "h of the speed table and the relaxation, s")
+  s->add_option("--time-step", so->time_step_s,
+                "h of the speed table and the relaxation, s; range: 0 < h <= 0.1")
       ->capture_default_str();
-  s->add_option("--tolerance", so->tolerance, "NLGS residual tolerance")->capture_default_str();
-  s->add_option("--max-iterations", so->max_iterations, "NLGS sweep cap of the speed table")
+  s->add_option("--tolerance", so->tolerance, "NLGS residual tolerance; range: > 0")->capture_default_str();
+  s->add_option("--max-iterations", so->max_iterations,
+                "NLGS sweep cap of the speed table; range: 1..100000")
       ->capture_default_str();
-  s->add_option("--freeze-sweeps", so->freeze_sweeps, "Sweeps a quiet row stays frozen (0: off)")
+  s->add_option("--freeze-sweeps", so->freeze_sweeps,
+                "Sweeps a quiet row stays frozen (0: off); range: 0..1000000")
       ->capture_default_str();
-  s->add_option("--relax-steps", so->relax_max_steps, "Most relaxation steps before timing")
+  s->add_option("--relax-steps", so->relax_max_steps,
+                "Most relaxation steps before timing; range: 0..1000000")
       ->capture_default_str();
-  s->add_option("--steps", so->steps, "Timed steps per bead count")->capture_default_str();
-  s->add_option("--accuracy-beads", so->accuracy_beads, "Bead count of the accuracy packing")
+  s->add_option("--steps", so->steps, "Timed steps per bead count; range: 1..100000")->capture_default_str();
+  s->add_option("--accuracy-beads", so->accuracy_beads,
+                "Bead count of the accuracy packing; range: 1..1000000")
       ->capture_default_str();
   return {{p, [p, o, out, &ctx] {
              o->out_dir = *out;

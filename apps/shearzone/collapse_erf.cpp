@@ -55,13 +55,17 @@ std::vector<Subcommand> add_collapse_erf(CLI::App& parent, Context& ctx) {
   c->add_option("--y", j.y_column, "Column of r_c");
   c->add_option("--sigma", j.sigma_column, "Column of the uncertainty of r_c (default: unit weights)");
   c->add_option("--group", j.group_column, "Column of the chain length N");
-  c->add_option("--group-rtol", j.group_rtol, "N values equal within this relative tolerance are one group")
+  c->add_option("--group-rtol", j.group_rtol,
+                "N values equal within this relative tolerance are one group; range: >= 0")
       ->capture_default_str();
   c->add_flag("--absolute-sigma", j.fit.absolute_sigma, "Sigma are absolute: no reduced-chi-square scaling");
   c->add_option("--loss", s->loss, "Robust loss: none, huber or cauchy")->capture_default_str();
-  c->add_option("--loss-scale", j.fit.loss_scale, "Robust loss scale")->capture_default_str();
-  c->add_option("--bootstrap", j.fit.bootstrap, "Residual bootstrap resamples (0: none)")->capture_default_str();
-  c->add_option("--seed", j.fit.seed, "Bootstrap seed")->capture_default_str();
+  c->add_option("--loss-scale", j.fit.loss_scale, "Robust loss scale; range: > 0, finite")
+      ->capture_default_str();
+  c->add_option("--bootstrap", j.fit.bootstrap, "Residual bootstrap resamples (0: none); range: 0..100000")
+      ->capture_default_str();
+  c->add_option("--seed", j.fit.seed, "Bootstrap seed; range: 0..18446744073709551615")
+      ->capture_default_str();
   return {{c, [c, s, &ctx] { return run_collapse_erf(*c, *s, ctx); }}};
 }
 

@@ -113,30 +113,37 @@ std::vector<Subcommand> add_collapse_fss(CLI::App& parent, Context& ctx) {
   c->add_option("--dy", j.dy_column,
                 "Column of the error of y (none: dy = 1, rescaled so that S_min = 1)");
   c->add_option("--L", j.L_column, "Column of the system size L (e.g. chain length N)");
-  c->add_option("--sizes", j.sizes, "Use only these L values (comma-separated)")->delimiter(',');
-  c->add_option("--x-window", s->window, "Terms of S only for scaled x in [LO, HI]")
+  c->add_option("--sizes", j.sizes,
+                "Use only these L values (comma-separated); range: each > 0, finite")
+      ->delimiter(',');
+  c->add_option("--x-window", s->window, "Terms of S only for scaled x in [LO, HI]; range: LO < HI")
       ->expected(2)
       ->delimiter(',');
-  c->add_option("--start", s->start, "Start point X_C A B of the simplex")
+  c->add_option("--start", s->start, "Start point X_C A B of the simplex; range: each finite")
       ->expected(3)
       ->delimiter(',');
   c->add_option("--step", s->step,
-                "Initial simplex steps DXC DA DB (default: 1% of the x range, 0.01, 0.01)")
+                "Initial simplex steps DXC DA DB (default: 1% of the x range, 0.01, 0.01); "
+                "range: each > 0, finite")
       ->expected(3)
       ->delimiter(',');
   c->add_option("--fix", s->fix, "Fix a parameter: NAME or NAME=VALUE, NAME in x_c, a, b (repeatable)");
-  c->add_option("--tolerance", f.tolerance, "Stop when the simplex size < this, in steps")
+  c->add_option("--tolerance", f.tolerance, "Stop when the simplex size < this, in steps; range: > 0")
       ->capture_default_str();
-  c->add_option("--max-iterations", f.max_iterations, "Iterations per simplex run")->capture_default_str();
-  c->add_option("--restarts", f.max_restarts, "Most restarts from the optimum while S improves")
+  c->add_option("--max-iterations", f.max_iterations, "Iterations per simplex run; range: 1..1000000")
+      ->capture_default_str();
+  c->add_option("--restarts", f.max_restarts,
+                "Most restarts from the optimum while S improves; range: 0..1000")
       ->capture_default_str();
   c->add_flag("--rescale-errors", f.rescale_errors, "Scale all dy by sqrt(S_min) so that S_min = 1");
   c->add_flag("--no-s-plus-one", s->no_s_plus_one, "Skip the S+1 errors");
-  c->add_option("--bootstrap", f.bootstrap, "Bootstrap replicates (0: none)")->capture_default_str();
+  c->add_option("--bootstrap", f.bootstrap, "Bootstrap replicates (0: none); range: 0..100000")
+      ->capture_default_str();
   c->add_option("--bootstrap-mode", s->mode, "Resample points (within each size) or curves")
       ->capture_default_str();
-  c->add_option("--seed", f.seed, "Bootstrap seed")->capture_default_str();
-  c->add_option("--ci", f.ci_level, "Bootstrap central interval level")->capture_default_str();
+  c->add_option("--seed", f.seed, "Bootstrap seed; range: 0..18446744073709551615")->capture_default_str();
+  c->add_option("--ci", f.ci_level, "Bootstrap central interval level; range: 0 < x < 1")
+      ->capture_default_str();
   return {{c, [c, s, &ctx] { return run_collapse_fss(*c, *s, ctx); }}};
 }
 

@@ -74,17 +74,20 @@ void add_common(CLI::App* c, FitCli& s) {
   c->add_option("--sigma", j.sigma_column, "Column of the uncertainty of y (default: unit weights)");
   c->add_option("--group", j.group_column, "Column whose values split the table into fits");
   c->add_option("--group-rtol", j.group_rtol,
-                "Numeric group values equal within this relative tolerance are one group")
+                "Numeric group values equal within this relative tolerance are one group; "
+                "range: >= 0, finite")
       ->capture_default_str();
   c->add_flag("--absolute-sigma", j.fit.absolute_sigma,
               "Sigma are absolute: no reduced-chi-square scaling, normal quantile");
   c->add_option("--loss", s.loss, "Robust loss: none, huber or cauchy")->capture_default_str();
-  c->add_option("--loss-scale", j.fit.loss_scale, "Robust loss scale, in weighted-residual units")
+  c->add_option("--loss-scale", j.fit.loss_scale,
+                "Robust loss scale, in weighted-residual units; range: > 0, finite")
       ->capture_default_str();
-  c->add_option("--bootstrap", j.fit.bootstrap, "Residual bootstrap resamples (0: none)")
+  c->add_option("--bootstrap", j.fit.bootstrap, "Residual bootstrap resamples (0: none); range: 0..100000")
       ->capture_default_str();
-  c->add_option("--seed", j.fit.seed, "Bootstrap seed")->capture_default_str();
-  c->add_option("--confidence", j.fit.confidence, "Confidence level of the intervals")
+  c->add_option("--seed", j.fit.seed, "Bootstrap seed; range: 0..18446744073709551615")
+      ->capture_default_str();
+  c->add_option("--confidence", j.fit.confidence, "Confidence level of the intervals; range: 0 < x < 1")
       ->capture_default_str();
 }
 
@@ -108,7 +111,8 @@ std::vector<Subcommand> add_fit(CLI::App& root, Context& ctx) {
   p->add_option("--space", sp->space, "linear (weighted NLS) or log (straight line in log-log)")
       ->capture_default_str();
   p->add_option("--subtract-at", sp->subtract_at,
-                "Fit y - y(x = X); the point at X is removed and its sigma propagated");
+                "Fit y - y(x = X); the point at X is removed and its sigma propagated; "
+                "range: any finite number");
 
   return {{e, [e, se, &ctx] { return run_fit(*e, *se, ctx); }},
           {p, [p, sp, &ctx] { return run_fit(*p, *sp, ctx); }}};

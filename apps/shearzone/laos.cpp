@@ -108,23 +108,31 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
   c->add_option("--strain", s->strain_col, "Strain column: strain/stress mode (moduli in Pa)");
   c->add_option("--stress", s->stress_col, "Stress column (Pa) for strain/stress mode");
   // Analysis
-  c->add_option("-M,--harmonics", j.analysis.max_harmonic, "Highest harmonic M (capped by the sampling)")
+  c->add_option("-M,--harmonics", j.analysis.max_harmonic,
+                "Highest harmonic M (capped by the sampling); range: 1..200")
       ->capture_default_str();
-  c->add_option("--cycles", s->cycles, "Cycles to analyse, 1-based, e.g. 3,4,5, or all (default: steady)")
+  c->add_option("--cycles", s->cycles,
+                "Cycles to analyse, 1-based, e.g. 3,4,5, or all (default: steady); "
+                "range: integers 1..complete cycles of the amplitude, or all")
       ->delimiter(',');
   c->add_option("--steady-tol", j.analysis.steady_tolerance,
-                "Steady state: relative cycle-to-cycle change of K'1 and K''1 below this")
+                "Steady state: relative cycle-to-cycle change of K'1 and K''1 below this; range: > 0")
       ->capture_default_str();
   c->add_option("--amplitude-change", j.analysis.amplitude_change,
-                "New amplitude when a cycle's phi0 changes by more than this fraction")
+                "New amplitude when a cycle's phi0 changes by more than this fraction; range: 0 < x < 1")
       ->capture_default_str();
   c->add_flag("--no-split", s->no_split, "Treat each segment as one amplitude");
   c->add_flag("--no-drift", s->no_drift, "No linear-drift column in the harmonic fit");
-  c->add_option("--f-hz", j.f_Hz, "Drive frequency, Hz (default: the log's; fitted when time is logged)");
-  c->add_option("--inertia-kg-m2", j.inertia_kg_m2, "Instrument inertia I: analyse tau - I phi''");
+  c->add_option("--f-hz", j.f_Hz,
+                "Drive frequency, Hz (default: the log's; fitted when time is logged); "
+                "range: > 0, finite");
+  c->add_option("--inertia-kg-m2", j.inertia_kg_m2,
+                "Instrument inertia I: analyse tau - I phi''; range: >= 0, finite");
   c->add_option("--stress-constant", j.stress_constant_Pa_per_N_m,
-                "Vane stress constant, Pa/(N m): outputs in stress/strain");
-  c->add_option("--strain-constant", j.strain_constant_per_rad, "Vane strain constant, 1/rad");
+                "Vane stress constant, Pa/(N m): outputs in stress/strain; "
+                "range: > 0 (with --strain-constant)");
+  c->add_option("--strain-constant", j.strain_constant_per_rad,
+                "Vane strain constant, 1/rad; range: > 0 (with --stress-constant)");
   c->add_flag("--log-constants", j.log_constants, "Stress/strain constants from the log (TRIOS)");
   return {{c, [c, s, &ctx] { return run_laos(*c, *s, ctx); }}};
 }

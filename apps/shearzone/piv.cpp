@@ -48,6 +48,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
       throw ConfigError(fmt::format("--vane: blade count {} must be a positive integer", s.vane[0]));
     j.vane.geometry = {static_cast<int>(s.vane[0]), s.vane[1], s.vane[2]};
   }
+  if (!std::isnan(s.m_per_px) && !(s.m_per_px > 0 && std::isfinite(s.m_per_px)))
+    throw ConfigError(fmt::format("--m-per-px {}: expected a finite scale > 0 m per px", s.m_per_px));
+  if (!std::isnan(s.n_chain) && !(s.n_chain >= 1 && s.n_chain <= 1e9 && s.n_chain == std::floor(s.n_chain)))
+    throw ConfigError(fmt::format("--N {}: expected a whole chain length from 1 to 1e9", s.n_chain));
   if (!std::isnan(s.m_per_px)) j.attributes.emplace_back("m_per_px", fmt::format("{}", s.m_per_px));
   if (!std::isnan(s.n_chain)) j.attributes.emplace_back("N", fmt::format("{}", s.n_chain));
   if (c.count("--f-hz")) j.attributes.emplace_back("f_Hz", fmt::format("{}", j.vane.f_Hz));
@@ -98,11 +102,15 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   // Correlation
-  c->add_option("--windows", p.windows_px, "Window size per pass, px, coarse to fine")
+  c->add_option("--windows", p.windows_px,
+                "Window size per pass, px, coarse to fine; range: each a power of two in "
+                "8..256, non-increasing, 1 to 8 passes")
       ->delimiter(',')
       ->capture_default_str();
-  c->add_option("--overlap", p.overlap, "Window overlap, fraction")->capture_default_str();
-  c->add_option("--repeats", p.final_pass_repeats, "Extra iterations of the final pass")
+  c->add_option("--overlap", p.overlap, "Window overlap, fraction; range: 0..0.875")
+      ->capture_default_str();
+  c->add_option("--repeats", p.final_pass_repeats,
+                "Extra iterations of the final pass; range: 0..10")
       ->capture_default_str();
   c->add_option("--interpolation", s->interpolation,
                 "Image deformation: bilinear, bicubic, bspline, bspline5")
@@ -110,90 +118,114 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_flag("--no-deform", s->no_deform, "Shift windows by whole pixels instead of deforming");
   c->add_option("--subpixel", s->subpixel, "Peak fit: gauss3 or gauss2d")->capture_default_str();
   c->add_option("--search", p.restricted_search,
-                "Peak search radius after the first pass, fraction of the window")
+                "Peak search radius after the first pass, fraction of the window; range: 0.05..0.5")
       ->capture_default_str();
   c->add_option("--smoothing", p.predictor_smoothing,
-                "Predictor smoothing between passes, grid steps (0: off)")
+                "Predictor smoothing between passes, grid steps (0: off); range: 0..5")
       ->capture_default_str();
   // Validation
-  c->add_option("--median-threshold", p.median_threshold, "Normalised median test threshold (0: off)")
+  c->add_option("--median-threshold", p.median_threshold,
+                "Normalised median test threshold (0: off); range: -1e9..1e9")
       ->capture_default_str();
-  c->add_option("--median-epsilon", p.median_epsilon_px, "Normalised median test noise level, px")
+  c->add_option("--median-epsilon", p.median_epsilon_px,
+                "Normalised median test noise level, px; range: 0..10")
       ->capture_default_str();
-  c->add_option("--median-radius", p.median_radius, "Median neighbourhood radius in vectors")
+  c->add_option("--median-radius", p.median_radius,
+                "Median neighbourhood radius in vectors; range: 1..3")
       ->capture_default_str();
-  c->add_option("--std-threshold", p.std_threshold, "Global std filter k (0: off)")
+  c->add_option("--std-threshold", p.std_threshold,
+                "Global std filter k (0: off); range: -1e9..1e9")
       ->capture_default_str();
-  c->add_option("--max-displacement", p.max_displacement_px, "Global limit on |d|, px")
+  c->add_option("--max-displacement", p.max_displacement_px, "Global limit on |d|, px; range: > 0")
       ->capture_default_str();
   c->add_option("--min-peak", p.min_peak,
                 "Peak-height threshold: a vector peaking below min(this, --min-peak-relative x the "
-                "pair's median peak) is invalid")
+                "pair's median peak) is invalid; range: 0..1")
       ->capture_default_str();
   c->add_option("--min-peak-relative", p.min_peak_relative,
-                "Fraction of the pass's median correlation peak (0: --min-peak alone)")
+                "Fraction of the pass's median correlation peak (0: --min-peak alone); range: 0..1")
       ->capture_default_str();
-  c->add_option("--min-peak-ratio", p.min_peak_ratio, "Smallest first/second peak ratio")
+  c->add_option("--min-peak-ratio", p.min_peak_ratio,
+                "Smallest first/second peak ratio; range: 1..100")
       ->capture_default_str();
   c->add_option("--min-window-std", p.min_window_std,
-                "Smallest window intensity std, fraction of full scale")
+                "Smallest window intensity std, fraction of full scale; range: 0..0.5")
       ->capture_default_str();
   // Preprocessing
   c->add_flag("--background", j.preprocess.background,
               "Subtract the temporal median of the clip (static background)");
   c->add_option("--background-frames", j.preprocess.background_frames,
-                "Frames sampled for the background median")
+                "Frames sampled for the background median; range: 3..500")
       ->capture_default_str();
   c->add_option("--intensity-cap", j.preprocess.intensity_cap,
-                "Cap intensities at median + k std (0: off)")
+                "Cap intensities at median + k std (0: off); range: >= 0")
       ->capture_default_str();
   c->add_flag("--clahe", j.preprocess.clahe, "Contrast-limited adaptive histogram equalisation");
-  c->add_option("--clahe-tile", j.preprocess.clahe_tile_px, "CLAHE tile size, px")
+  c->add_option("--clahe-tile", j.preprocess.clahe_tile_px, "CLAHE tile size, px; range: 8..4096")
       ->capture_default_str();
-  c->add_option("--clahe-clip", j.preprocess.clahe_clip, "CLAHE clip limit")->capture_default_str();
+  c->add_option("--clahe-clip", j.preprocess.clahe_clip, "CLAHE clip limit; range: > 0, finite")
+      ->capture_default_str();
   c->add_option("--highpass", j.preprocess.highpass_sigma_px,
-                "High-pass: subtract a Gaussian blur of this sigma, px (0: off)")
+                "High-pass: subtract a Gaussian blur of this sigma, px (0: off); range: 0..256")
       ->capture_default_str();
   // Frames
-  c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz")->capture_default_str();
+  c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz; range: > 0, finite")
+      ->capture_default_str();
   c->add_option("--grey", s->grey, "Colour to grey: luma, mean, red, green or blue")
       ->capture_default_str();
-  c->add_option("--first", j.first_frame, "First frame used")->capture_default_str();
-  c->add_option("--last", j.last_frame, "Last frame used (-1: to the end)")->capture_default_str();
-  c->add_option("--spacing", j.pair_spacing, "Pair spacing k: pairs (i, i+k)")->capture_default_str();
-  c->add_option("--stride", j.stride, "Step between pair starts")->capture_default_str();
+  c->add_option("--first", j.first_frame, "First frame used; range: >= 0")->capture_default_str();
+  c->add_option("--last", j.last_frame,
+                "Last frame used (-1: to the end); range: < 0 (to the end) or >= FIRST + SPACING")
+      ->capture_default_str();
+  c->add_option("--spacing", j.pair_spacing, "Pair spacing k: pairs (i, i+k); range: 1..1000")
+      ->capture_default_str();
+  c->add_option("--stride", j.stride, "Step between pair starts; range: >= 1")
+      ->capture_default_str();
   c->add_option("--duplicate-tolerance", j.duplicate_tolerance,
-                "Frames differing by at most this (grey levels) are repeats")
+                "Frames differing by at most this (grey levels) are repeats; range: >= 0")
       ->capture_default_str();
   // Masks
-  c->add_option("--centre", s->centre, "Cup centre X,Y in px")->expected(2)->delimiter(',');
-  c->add_option("--annulus", s->annulus, "Measure only R_INNER <= r <= R_OUTER (px)")
+  c->add_option("--centre", s->centre, "Cup centre X,Y in px; range: any finite numbers")
+      ->expected(2)
+      ->delimiter(',');
+  c->add_option("--annulus", s->annulus,
+                "Measure only R_INNER <= r <= R_OUTER (px); range: 0 <= R_INNER < R_OUTER, "
+                "finite, or 0,0 (off)")
       ->expected(2)
       ->delimiter(',');
   c->add_option("--mask-image", j.mask_image, "Static mask image (non-zero = masked)");
   c->add_option("--mask-fraction", p.mask_fraction,
-                "Window masked above this fraction of masked pixels")
+                "Window masked above this fraction of masked pixels; range: 0..1")
       ->capture_default_str();
-  c->add_option("--vane", s->vane, "Rotating vane mask: BLADES,HALF_WIDTH_PX,RADIUS_PX")
+  c->add_option("--vane", s->vane,
+                "Rotating vane mask: BLADES,HALF_WIDTH_PX,RADIUS_PX; range: BLADES a whole "
+                "number in 1..64, 0 < HALF_WIDTH_PX < RADIUS_PX")
       ->expected(3)
       ->delimiter(',');
   c->add_option("--vane-angle0-deg", j.vane.angle0_deg,
-                "Blade 0 direction at phi = 0, deg CCW from +x")
+                "Blade 0 direction at phi = 0, deg CCW from +x; range: any finite number")
       ->capture_default_str();
-  c->add_option("--vane-margin-px", j.vane.margin_px, "Grow the vane mask by this, px")
+  c->add_option("--vane-margin-px", j.vane.margin_px, "Grow the vane mask by this, px; range: >= 0")
       ->capture_default_str();
-  c->add_option("--phi0-rad", j.vane.phi0_rad, "Vane amplitude: phi = phi0 sin(2 pi f t + phase)")
+  c->add_option("--phi0-rad", j.vane.phi0_rad,
+                "Vane amplitude: phi = phi0 sin(2 pi f t + phase); range: -1000..1000")
       ->capture_default_str();
-  c->add_option("--f-hz", j.vane.f_Hz, "Vane frequency f, Hz")->capture_default_str();
-  c->add_option("--phase-rad", j.vane.phase_rad, "Vane phase, rad")->capture_default_str();
+  c->add_option("--f-hz", j.vane.f_Hz,
+                "Vane frequency f, Hz; range: 0..1e6")
+      ->capture_default_str();
+  c->add_option("--phase-rad", j.vane.phase_rad, "Vane phase, rad; range: any finite number")
+      ->capture_default_str();
   c->add_option("--angle-log", j.vane.log_path, "Vane angle log CSV with columns time_s,angle_rad");
-  c->add_option("--log-offset-s", j.vane.log_offset_s, "Log time = frame time + offset, s")
+  c->add_option("--log-offset-s", j.vane.log_offset_s,
+                "Log time = frame time + offset, s; range: any finite number")
       ->capture_default_str();
   c->add_flag("--log-offset-auto", j.vane.log_offset_auto,
               "Find the log offset by matching the vane angle seen in the frames");
   // Attributes
-  c->add_option("--m-per-px", s->m_per_px, "Calibration stored in the output, m per px");
-  c->add_option("--N", s->n_chain, "Chain length N stored in the output");
+  c->add_option("--m-per-px", s->m_per_px,
+                "Calibration stored in the output, m per px; range: > 0, finite");
+  c->add_option("--N", s->n_chain,
+                "Chain length N stored in the output; range: a whole number in 1..1e9");
   c->add_option("--attr", s->attrs, "Extra KEY=VALUE attribute (repeatable)");
   return {{c, [c, s, &ctx] { return run_piv(*c, *s, ctx); }}};
 }

@@ -79,47 +79,57 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace existing outputs");
   // Geometry and calibration
-  c->add_option("--centre", s->centre, "Cup centre X,Y in px (default: the file's attributes)")
+  c->add_option("--centre", s->centre,
+                "Cup centre X,Y in px (default: the file's attributes); range: any finite numbers")
       ->expected(2)
       ->delimiter(',');
-  c->add_option("--radii-px", s->radii, "Vane radius R_v and cup radius R, px")
+  c->add_option("--radii-px", s->radii, "Vane radius R_v and cup radius R, px; range: 0 <= R_v < R, finite")
       ->expected(2)
       ->delimiter(',');
   c->add_option("--detect-cup", j.detect_cup_frame,
                 "Find centre and R from the cup rim in this image or video (first frame)");
-  c->add_option("--detect-radius-px", s->detect_range, "Rim radius search range MIN,MAX, px")
+  c->add_option("--detect-radius-px", s->detect_range,
+                "Rim radius search range MIN,MAX, px; range: 0 < MIN < MAX <= 32768")
       ->expected(2)
       ->delimiter(',');
-  c->add_option("--m-per-px", j.m_per_px, "Scale, m per px (default: the file's m_per_px)");
-  c->add_option("--cup-radius-m", j.cup_radius_m, "Cup inner radius R in m: scale = R_m / R_px");
+  c->add_option("--m-per-px", j.m_per_px,
+                "Scale, m per px (default: the file's m_per_px); range: > 0, finite");
+  c->add_option("--cup-radius-m", j.cup_radius_m,
+                "Cup inner radius R in m: scale = R_m / R_px; range: > 0, finite");
   c->add_option("--scale-from", j.scale_from,
                 "Which scale to use when sources disagree by > 1 %: m-per-px, cup-radius, file");
   // Bins
-  c->add_option("--bin-m", j.bin_m, "Bin width, m");
-  c->add_option("--bin-px", j.bin_px, "Bin width, px");
-  c->add_option("--bead-diameter-m", j.bead_diameter_m, "Bead diameter; default bin = d/2, m")
+  c->add_option("--bin-m", j.bin_m, "Bin width, m; range: > 0 (at most 1e5 bins)");
+  c->add_option("--bin-px", j.bin_px, "Bin width, px; range: > 0 (at most 1e5 bins)");
+  c->add_option("--bead-diameter-m", j.bead_diameter_m, "Bead diameter; default bin = d/2, m; range: > 0")
       ->capture_default_str();
   c->add_flag("--exclude-replaced", j.exclude_replaced, "Drop `replaced` vectors too");
   // Selection
-  c->add_option("--f-hz", j.f_Hz, "Oscillation frequency, Hz (default: the file's f_Hz)");
-  c->add_option("--t0-s", j.t0_s, "Time of an upward zero crossing of phi(t), s")
+  c->add_option("--f-hz", j.f_Hz,
+                "Oscillation frequency, Hz (default: the file's f_Hz); range: 0 < f <= 1e6");
+  c->add_option("--t0-s", j.t0_s, "Time of an upward zero crossing of phi(t), s; range: any finite number")
       ->capture_default_str();
-  c->add_option("--cycles", j.cycles, "Cycles to average, e.g. 5,7,9 (default: all)")->delimiter(',');
-  c->add_option("--phase-range-deg", s->phase_range, "Phase window MIN,MAX in deg (0..360)")
+  c->add_option("--cycles", j.cycles,
+                "Cycles to average, e.g. 5,7,9 (default: all); "
+                "range: any integers (cycle = floor(f (t - t0)))")
+      ->delimiter(',');
+  c->add_option("--phase-range-deg", s->phase_range,
+                "Phase window MIN,MAX in deg; range: 0 <= MIN < MAX <= 360")
       ->expected(2)
       ->delimiter(',');
   c->add_option("--phase-bins", j.phase_bins,
-                "Phase-resolved: K profiles <stem>_phaseKK.csv over equal phase bins")
+                "Phase-resolved: K profiles <stem>_phaseKK.csv over equal phase bins; range: 0..360")
       ->capture_default_str();
   c->add_option("--groups", j.groups,
                 "What standard errors and the r_c bootstrap resample: auto (cycles when >= 8, "
                 "else pairs), cycles, pairs")
       ->capture_default_str();
-  c->add_option("--dt-s", j.dt_s, "Time step of a CSV pair, s");
+  c->add_option("--dt-s", j.dt_s, "Time step of a CSV pair, s; range: > 0, finite");
   // Noise
   c->add_option("--noise-ref", s->noise_ref, "Static reference fields (.h5 or .csv) for the noise floor");
   c->add_option("--noise-region-m", s->noise_region,
-                "Radii MIN,MAX (m) of a region that does not move (default: outer 15 %)")
+                "Radii MIN,MAX (m) of a region that does not move (default: outer 15 %); "
+                "range: MIN < MAX")
       ->expected(2)
       ->delimiter(',');
   return {{c, [c, s, &ctx] { return run_profile(*c, *s, ctx); }}};

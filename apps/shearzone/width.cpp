@@ -70,12 +70,15 @@ std::vector<Subcommand> add_width(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   c->add_option("--tag", s->tags, "N=VALUE or phi0_rad=VALUE for every row (default: from the profile)");
-  c->add_option("--vc", j.v_c_m_per_s, "Threshold velocity v_c, m/s")->capture_default_str();
-  c->add_option("--noise-factor", j.noise_factor, "noise_limited when v_c < this x noise floor")
+  c->add_option("--vc", j.v_c_m_per_s, "Threshold velocity v_c, m/s; range: > 0, finite")
       ->capture_default_str();
-  c->add_option("--bootstrap", j.bootstrap, "Bootstrap resamples (0: no interval)")->capture_default_str();
-  c->add_option("--confidence", j.confidence, "Two-sided confidence level")->capture_default_str();
-  c->add_option("--seed", j.seed, "Bootstrap seed")->capture_default_str();
+  c->add_option("--noise-factor", j.noise_factor, "noise_limited when v_c < this x noise floor; range: >= 0")
+      ->capture_default_str();
+  c->add_option("--bootstrap", j.bootstrap, "Bootstrap resamples (0: no interval); range: 0..1000000")
+      ->capture_default_str();
+  c->add_option("--confidence", j.confidence, "Two-sided confidence level; range: 0 < x < 1")
+      ->capture_default_str();
+  c->add_option("--seed", j.seed, "Bootstrap seed; range: 0..18446744073709551615")->capture_default_str();
   return {{c, [c, s, &ctx] { return run_width(*c, *s, ctx); }}};
 }
 

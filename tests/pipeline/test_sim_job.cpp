@@ -185,7 +185,7 @@ TEST_CASE("sim job: bad scene values are one ConfigError naming file:line and ke
   CHECK_THAT(scene_error(fill + "settle = true\ninsert_fraction = 0.5\n"),
              Contains("s.toml:13: key \"fill.insert_fraction\": 0.5 (expected in (0, 0.35])"));
   CHECK_THAT(scene_error(fill + "settle = true\nsettle_max_iterations = 0\n"),
-             Contains("s.toml:13: key \"fill.settle_max_iterations\": 0 (expected in [1, 2147483647])"));
+             Contains("s.toml:13: key \"fill.settle_max_iterations\": 0 (expected in [1, 100000])"));
   CHECK_THAT(scene_error(fill + "settle = 1\n"), Contains("s.toml:12: key \"fill.settle\": integer value is not allowed"));
   const std::string with_mobile =
       with(fill + "settle = true\n", "diameter_m = 0.01\n", "diameter_m = 0.01\npositions_m = [0, 0, 0.005]\n");
@@ -203,5 +203,9 @@ TEST_CASE("sim job: bad scene values are one ConfigError naming file:line and ke
   CHECK_THAT(scene_error(with(fill + "settle = true\n", "duration_s = 0.01\n", "duration_s = 0.01\ngravity_m_per_s2 = [0, 0, 0]\n")),
              Contains("s.toml:13: key \"fill.settle\": needs gravity with a downward"));
   CHECK_THAT(scene_error(head + "friction = -0.1\n"), Contains("s.toml:3: key \"sim.friction\": -0.1 (expected >= 0)"));
-  CHECK_THAT(scene_error(head + "time_step_s = 0\n"), Contains("s.toml:3: key \"sim.time_step_s\": 0 (expected > 0)"));
+  CHECK_THAT(scene_error(head + "time_step_s = 0\n"), Contains("s.toml:3: key \"sim.time_step_s\": 0 (expected in (0, 1])"));
+  // Bounds that keep a hostile scene from running for hours or allocating without limit.
+  CHECK_THAT(scene_error(head + "time_step_s = 2\n"), Contains("s.toml:3: key \"sim.time_step_s\": 2 (expected in (0, 1])"));
+  CHECK_THAT(scene_error(head + "max_iterations = 1000000\n"),
+             Contains("s.toml:3: key \"sim.max_iterations\": 1000000 (expected in [1, 100000])"));
 }

@@ -249,3 +249,22 @@ TEST_CASE("Orientations follow the angular velocity", "[sim]") {
   CHECK(w.orientation(k).angularDistance(expect) < 1e-10);
   CHECK(std::abs(w.orientation(k).norm() - 1.0) < 1e-14);
 }
+
+TEST_CASE("Too large a time step: a body crossing several diameters per step is refused before contact search",
+          "[sim]") {
+  // The contact search radius grows with speed x step; past 8 diameters every pair within
+  // reach becomes a contact row (time and memory ~ n^2), and the step means nothing.
+  Options o;
+  o.time_step = 1e-3;
+  o.gravity = Vec3::Zero();
+  World w(o);
+  w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), 0.3});
+  const int slow = w.add_sphere(Vec3(0.0, 0.0, 2.0 * kD), kD, kRho);
+  w.set_velocity(slow, Vec3(1.0 * kD / o.time_step, 0.0, 0.0));  // one diameter per step: fine
+  CHECK_NOTHROW(w.step());
+  const int fast = w.add_sphere(Vec3(0.0, 0.0, 10.0 * kD), kD, kRho);
+  w.set_velocity(fast, Vec3(0.0, 0.0, -20.0 * kD / o.time_step));  // twenty diameters per step
+  CHECK_THROWS_AS(w.step(), NoResultError);
+  CHECK_THROWS_WITH(w.step(), Contains("time step too large") && Contains("body 1") &&
+                                  Contains("lower sim.time_step_s"));
+}

@@ -359,8 +359,12 @@ void FssFitOptions::validate() const {
   if (std::isnan(window.lo) || std::isnan(window.hi) || !(window.lo < window.hi))
     throw ConfigError(fmt::format("collapse fss: x window [{}, {}]: need lo < hi", window.lo, window.hi));
   if (!(tolerance > 0.0)) throw ConfigError(fmt::format("collapse fss: tolerance = {} must be > 0", tolerance));
-  if (max_iterations < 1) throw ConfigError("collapse fss: max_iterations must be >= 1");
-  if (max_restarts < 0) throw ConfigError("collapse fss: max_restarts must be >= 0");
+  // Each iteration evaluates S over every pair of curves: the caps bound the run time.
+  if (max_iterations < 1 || max_iterations > 1000000)
+    throw ConfigError(fmt::format("collapse fss: max_iterations (--max-iterations) = {}: expected 1..1000000",
+                                  max_iterations));
+  if (max_restarts < 0 || max_restarts > 1000)
+    throw ConfigError(fmt::format("collapse fss: max_restarts (--restarts) = {}: expected 0..1000", max_restarts));
   if (bootstrap < 0 || bootstrap > 100000)
     throw ConfigError(fmt::format("collapse fss: bootstrap = {}: expected 0..100000 resamples", bootstrap));
   if (!(ci_level > 0.0 && ci_level < 1.0))

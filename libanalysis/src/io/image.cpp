@@ -22,6 +22,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/file.hpp"
+#include "stderr_silencer.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -59,30 +60,7 @@ Format sniff(std::string_view b) {
 constexpr const char* kDecodedFormats =
     "PNG, JPEG, TIFF, BMP, PGM/PPM/PBM, WebP, JPEG 2000";
 
-/// Redirects file descriptor 2 to /dev/null for its lifetime (decoders that print).
-/// Decoding happens on one thread at a time in the frame readers.
-class StderrSilencer {
- public:
-  StderrSilencer() {
-    std::fflush(stderr);
-    saved_ = ::dup(2);
-    const int null = ::open("/dev/null", O_WRONLY);
-    if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
-    if (null >= 0) ::close(null);
-  }
-  ~StderrSilencer() {
-    std::fflush(stderr);
-    if (saved_ >= 0) {
-      ::dup2(saved_, 2);
-      ::close(saved_);
-    }
-  }
-  StderrSilencer(const StderrSilencer&) = delete;
-  StderrSilencer& operator=(const StderrSilencer&) = delete;
-
- private:
-  int saved_ = -1;
-};
+using detail::StderrSilencer;
 
 /// Width and height from the header of PNG, BMP, Netpbm, JPEG, TIFF and WebP files
 /// (0, 0 when not found; JPEG 2000 is left to OpenCV's own limit of 2^30 pixels).

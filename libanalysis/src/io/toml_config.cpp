@@ -1,6 +1,8 @@
 #include "shearzone/io/toml_config.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -158,6 +160,12 @@ TomlConfig TomlConfig::parse(const std::string& text, const std::string& source)
 }
 
 TomlConfig TomlConfig::load(const std::filesystem::path& path) {
+  // The parser keeps about 100 bytes per value: 64 MiB of text (2e6 beads' positions
+  // and more) stays well inside a gigabyte.
+  constexpr std::uintmax_t kMaxBytes = 64u << 20;
+  std::error_code ec;
+  if (const auto size = std::filesystem::file_size(path, ec); !ec && size > kMaxBytes)
+    throw InputError(fmt::format("{}: config file of {} bytes: expected at most 64 MiB", path.string(), size));
   return parse(read_file_bytes(path, "config file"), path.string());
 }
 

@@ -18,6 +18,7 @@ extern "C" {
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/image.hpp"
+#include "stderr_silencer.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -139,6 +140,8 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size
   const int fourcc = cv::VideoWriter::fourcc(codec[0], codec[1], codec[2], codec[3]);
   bool ok = false;
   try {
+    // OpenCV prints "FFMPEG: tag ... is not found" straight to stderr: our line says it.
+    const detail::StderrSilencer quiet;
     ok = writer_->open(path_, cv::CAP_FFMPEG, fourcc, fps, size, false);
   } catch (const cv::Exception& e) {
     ok = false;

@@ -75,7 +75,8 @@ std::string fixed(double v, int digits) { return fmt::format("{:.{}f}", v, digit
 
 BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& header,
                               const core::ProgressCallback& progress) {
-  if (o.timing_repeats < 1) throw ConfigError("bench: timing repeats must be >= 1");
+  if (o.timing_repeats < 1 || o.timing_repeats > 1000)
+    throw ConfigError(fmt::format("bench piv: --repeats {}: expected 1..1000", o.timing_repeats));
   io::AtomicOutputSet out(o.out_dir, o.force);
   out.check("piv_speed_accuracy.csv");
   out.check("piv_failure_map.csv");

@@ -178,15 +178,20 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
-  if (!(o.time_step_s > 0.0) || !(o.tolerance > 0.0) || o.max_iterations < 1 || o.freeze_sweeps < 0 ||
-      o.relax_max_steps < 0 || o.relax_min_steps < 0)
-    throw ConfigError("bench sim: --time-step, --tolerance > 0, --max-iterations >= 1, --freeze-sweeps >= 0, "
-                      "relax steps >= 0");
+  if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||
+      o.max_iterations > 100000 || o.freeze_sweeps < 0 || o.relax_max_steps < 0 || o.relax_max_steps > 1000000 ||
+      o.relax_min_steps < 0)
+    throw ConfigError("bench sim: expected 0 < --time-step <= 0.1 s, --tolerance > 0, --max-iterations 1..100000, "
+                      "--freeze-sweeps >= 0, --relax-steps 0..1000000");
   if (o.beads.empty()) throw ConfigError("bench sim: --beads needs at least one bead count");
   for (int b : o.beads)
     if (b < 1 || b > 1000000) throw ConfigError(fmt::format("bench sim: --beads {}: out of [1, 1e6]", b));
-  if (o.steps < 1 || o.warmup_steps < 0) throw ConfigError("bench sim: steps must be >= 1");
-  if (o.accuracy_beads < 1) throw ConfigError("bench sim: accuracy beads must be >= 1");
+  if (o.beads.size() > 32) throw ConfigError(fmt::format("bench sim: --beads lists {} counts: expected at most 32", o.beads.size()));
+  if (o.threads.size() > 32) throw ConfigError(fmt::format("bench sim: --threads lists {} counts: expected at most 32", o.threads.size()));
+  if (o.steps < 1 || o.steps > 100000 || o.warmup_steps < 0 || o.warmup_steps > 100000)
+    throw ConfigError(fmt::format("bench sim: --steps {}: expected 1..100000", o.steps));
+  if (o.accuracy_beads < 1 || o.accuracy_beads > 1000000)
+    throw ConfigError(fmt::format("bench sim: --accuracy-beads {}: expected 1..1000000", o.accuracy_beads));
   if (!(o.accuracy_duration_s > 0.0)) throw ConfigError("bench sim: accuracy duration must be > 0");
   io::AtomicOutputSet out(o.out_dir, o.force);
   out.check("sim_speed.csv");

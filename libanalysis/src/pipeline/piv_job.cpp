@@ -5,6 +5,7 @@
 #include <cmath>
 #include <deque>
 #include <numbers>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -136,8 +137,9 @@ void PivJobOptions::validate() const {
                                      in, io::decoded_image_formats()));
     }
   }
-  if (pair_spacing < 1)
-    throw ConfigError(fmt::format("pair spacing {}: must be >= 1", pair_spacing));
+  // A pair of spacing s holds s + 1 frames in memory while the clip streams.
+  if (pair_spacing < 1 || pair_spacing > 1000)
+    throw ConfigError(fmt::format("pair spacing (--spacing) {}: expected 1 to 1000", pair_spacing));
   if (stride < 1) throw ConfigError(fmt::format("stride {}: must be >= 1", stride));
   if (first_frame < 0) throw ConfigError(fmt::format("first frame {}: must be >= 0", first_frame));
   if (last_frame >= 0 && last_frame < first_frame + pair_spacing)
@@ -145,6 +147,16 @@ void PivJobOptions::validate() const {
                                   last_frame, pair_spacing));
   if (!(duplicate_tolerance >= 0))
     throw ConfigError(fmt::format("duplicate tolerance {}: must be >= 0", num(duplicate_tolerance)));
+  if (std::isinf(centre_x_px) || std::isinf(centre_y_px))
+    throw ConfigError(fmt::format("centre {},{} px: expected finite pixel coordinates", num(centre_x_px),
+                                  num(centre_y_px)));
+  for (const auto& [name, v] : {std::pair{"--vane-angle0-deg", vane.angle0_deg}, {"--phi0-rad", vane.phi0_rad},
+                                {"--phase-rad", vane.phase_rad}, {"--log-offset-s", vane.log_offset_s}})
+    if (!std::isfinite(v)) throw ConfigError(fmt::format("{} {}: expected a finite number", name, num(v)));
+  if (!(std::abs(vane.phi0_rad) <= 1000.0))
+    throw ConfigError(fmt::format("--phi0-rad {}: expected |phi0| <= 1000 rad", num(vane.phi0_rad)));
+  if (!(vane.f_Hz >= 0 && vane.f_Hz <= 1e6))
+    throw ConfigError(fmt::format("vane frequency {} Hz: expected 0 to 1e6 Hz", num(vane.f_Hz)));
   const bool need_centre = annulus_outer_px > 0 || vane.geometry.blades > 0;
   if (need_centre && (std::isnan(centre_x_px) || std::isnan(centre_y_px)))
     throw ConfigError("the annulus and vane masks need the cup centre (--centre X,Y in px)");

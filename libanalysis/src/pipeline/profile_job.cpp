@@ -221,6 +221,13 @@ void ProfileJobOptions::validate() const {
     throw ConfigError(fmt::format("--scale-from {}: expected m-per-px, cup-radius or file", scale_from));
   if (groups != "auto" && groups != "cycles" && groups != "pairs")
     throw ConfigError(fmt::format("--groups {}: expected auto, cycles or pairs", groups));
+  if (set(f_Hz) && !(f_Hz > 0 && f_Hz <= 1e6))
+    throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1e6 Hz", f_Hz));
+  if (!std::isfinite(t0_s)) throw ConfigError(fmt::format("--t0-s {}: expected a finite time, s", t0_s));
+  if (set(detect_min_radius_px) &&
+      !(detect_min_radius_px > 0 && detect_max_radius_px > detect_min_radius_px && detect_max_radius_px <= 32768))
+    throw ConfigError(fmt::format("--detect-radius-px {},{}: expected 0 < min < max <= 32768 px",
+                                  detect_min_radius_px, detect_max_radius_px));
   if (phase_bins < 0 || phase_bins > 360)
     throw ConfigError(fmt::format("--phase-bins {}: expected 0..360", phase_bins));
 }
@@ -334,6 +341,8 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   const double f = set(o.f_Hz) ? o.f_Hz : src->attribute("f_Hz");
   const bool selecting =
       !o.cycles.empty() || o.phase_min_deg > 0 || o.phase_max_deg < 360 || o.phase_bins > 0;
+  if (set(f) && !(f > 0 && f <= 1e6))
+    throw InputError(fmt::format("{}: attribute f_Hz = {}: expected 0 < f <= 1e6 Hz", o.input.string(), f));
   if (selecting && !(f > 0))
     throw ConfigError("--cycles / --phase-range-deg / --phase-bins need the oscillation frequency: "
                       "give --f-hz (the field file has no f_Hz attribute)");

@@ -55,7 +55,9 @@ const std::vector<std::string> kSettleKeys = {
     "fill.settle_max_steps", "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
     "fill.relax_max_steps"};
 
-constexpr long long kIntMax = std::numeric_limits<int>::max();
+constexpr long long kMaxSweeps = 100000;      // NLGS sweeps per step (sim.max_iterations)
+constexpr long long kMaxFillSteps = 10000000;  // fill.settle_max_steps, fill.relax_max_steps
+constexpr double kMaxWallBeads = 1e6;          // cylinder wall and floor beads, as for mobile beads
 
 double deg(double a) { return a * std::numbers::pi / 180.0; }
 
@@ -79,6 +81,13 @@ class Scene {
   double positive(const std::string& k, double fallback) const {
     const double v = num(k, fallback);
     if (!(v > 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected > 0)", v));
+    return v;
+  }
+  /// lo <= v <= hi (lo < v when open_lo), finite.
+  double within(const std::string& k, double fallback, double lo, double hi, bool open_lo = false) const {
+    const double v = num(k, fallback);
+    if (!(open_lo ? v > lo : v >= lo) || !(v <= hi))
+      fail(k, fmt::format("{} (expected in {}{}, {}])", v, open_lo ? "(" : "[", lo, hi));
     return v;
   }
   double non_negative(const std::string& k, double fallback) const {
@@ -111,6 +120,7 @@ class Scene {
   std::vector<Vec3> points(const std::string& k) const {
     const auto v = numbers(k);
     if (v.size() % 3 != 0) fail(k, "the count must be a multiple of 3");
+    if (v.size() > 3000000) fail(k, fmt::format("{} beads (expected at most 1e6)", v.size() / 3));
     std::vector<Vec3> out;
     for (std::size_t i = 0; i < v.size(); i += 3) out.emplace_back(v[i], v[i + 1], v[i + 2]);
     return out;
@@ -146,12 +156,18 @@ Cadence read_cadence(const Scene& s) {
 sim::Options read_options(const Scene& s) {
   sim::Options o;
   // The ranges of World's constructor, checked here so that the message names the line.
-  o.time_step = s.positive("sim.time_step_s", o.time_step);
-  if (s.has("sim.gravity_m_per_s2")) o.gravity = s.vec3("sim.gravity_m_per_s2");
+  // Upper bounds keep a run's cost bounded (World::step also refuses a step whose
+  // contact search would reach beyond 8 diameters: every pair would become a contact).
+  o.time_step = s.within("sim.time_step_s", o.time_step, 0.0, 1.0, true);
+  if (s.has("sim.gravity_m_per_s2")) {
+    o.gravity = s.vec3("sim.gravity_m_per_s2");
+    if (!(o.gravity.norm() <= 1000.0))
+      s.fail("sim.gravity_m_per_s2", fmt::format("|g| = {} m/s^2 (expected at most 1000)", o.gravity.norm()));
+  }
   o.friction = s.non_negative("sim.friction", o.friction);
   o.tolerance = s.positive("sim.tolerance", o.tolerance);
-  o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1, kIntMax));
-  o.alert_margin = s.non_negative("sim.alert_margin", o.alert_margin);
+  o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1, kMaxSweeps));
+  o.alert_margin = s.within("sim.alert_margin", o.alert_margin, 0.0, 1.0);
   o.max_overlap = s.positive("sim.max_overlap", o.max_overlap);
   o.max_rope_excess = s.positive("sim.max_rope_excess", o.max_rope_excess);
   if (s.has("sim.max_angle_excess_deg")) o.max_angle_excess = deg(s.positive("sim.max_angle_excess_deg", 2.0));
@@ -205,6 +221,14 @@ SceneBodies read_bodies(const Scene& s) {
     b.cyl_radius = s.positive("cylinder.radius_m", 1.0);
     b.cyl_height = s.positive("cylinder.height_m", 1.0);
     b.cyl_bead = s.positive("cylinder.bead_diameter_m", 1.0);
+    {  // the wall beads add_container() places: rings of ceil(2 pi (R + d/2) / d) beads
+      const double per_ring = std::ceil(2.0 * std::numbers::pi * (b.cyl_radius + 0.5 * b.cyl_bead) / b.cyl_bead);
+      const double layers = std::max(0.0, std::floor(b.cyl_height / b.cyl_bead - 0.5) + 1.0);
+      if (!(per_ring * layers <= kMaxWallBeads))
+        s.fail("cylinder.bead_diameter_m",
+               fmt::format("{} m makes {:.3g} wall beads for radius_m = {} and height_m = {} (expected at most 1e6)",
+                           b.cyl_bead, per_ring * layers, b.cyl_radius, b.cyl_height));
+    }
     if (s.has("cylinder.centre_m")) {
       const auto c = s.fixed_size("cylinder.centre_m", 2);
       b.cyl_cx = c[0];
@@ -331,11 +355,11 @@ SceneBodies read_bodies(const Scene& s) {
   fo.wall_friction = b.box_friction;  // unused: the container callback adds the walls
   fo.settle_tolerance = s.positive("fill.settle_tolerance", fo.settle_tolerance);
   fo.settle_max_iterations =
-      static_cast<int>(s.integer("fill.settle_max_iterations", fo.settle_max_iterations, 1, kIntMax));
-  fo.settle_max_steps = s.integer("fill.settle_max_steps", fo.settle_max_steps, 1);
+      static_cast<int>(s.integer("fill.settle_max_iterations", fo.settle_max_iterations, 1, kMaxSweeps));
+  fo.settle_max_steps = s.integer("fill.settle_max_steps", fo.settle_max_steps, 1, kMaxFillSteps);
   fo.settle_kinetic_energy = s.positive("fill.settle_kinetic_energy", fo.settle_kinetic_energy);
   fo.relax_kinetic_energy = s.positive("fill.relax_kinetic_energy", fo.relax_kinetic_energy);
-  fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0);
+  fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0, kMaxFillSteps);
   // Under a lid the drop column must fit, or beads would start above the lid.
   if (b.lid && placed.hi.z() > b.box->hi.z())
     s.fail("fill.settle", fmt::format("the drop column reaches z = {:.6g} m, above the lid at {:.6g} m (raise "

@@ -29,6 +29,9 @@ void SynthJobOptions::validate() const {
     throw ConfigError(fmt::format("format {} holds 8-bit frames only; got bit_depth = {} (use "
                                   "png or tiff for 16-bit)",
                                   format, synth.image.bit_depth));
+  if (format == "mp4" && video_codec != "mp4v" && video_codec != "avc1")
+    throw ConfigError(fmt::format("--codec \"{}\": expected mp4v or avc1 for mp4 (avi uses MJPG)",
+                                  video_codec));
   if (!(truth_spacing_px >= 1))
     throw ConfigError(
         fmt::format("truth_spacing_px = {}: must be >= 1", io::CsvWriter::format_number(truth_spacing_px)));
@@ -67,9 +70,17 @@ SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metada
   if (video) {
     auto& f = out.add(frame_names[0]);
     const std::string codec = options.format == "avi" ? "MJPG" : options.video_codec;
-    writer = std::make_unique<io::VideoWriter>(f.temp_path(), so.sequence.fps,
-                                               cv::Size(so.image.width_px, so.image.height_px),
-                                               codec);
+    try {
+      writer = std::make_unique<io::VideoWriter>(f.temp_path(), so.sequence.fps,
+                                                 cv::Size(so.image.width_px, so.image.height_px),
+                                                 codec);
+    } catch (const ConfigError& e) {  // name the output the user asked for, not the temporary
+      std::string m = e.what();
+      const std::string tmp = f.temp_path().string();
+      if (const auto at = m.find(tmp); at != std::string::npos)
+        m.replace(at, tmp.size(), f.final_path().string());
+      throw ConfigError(m);
+    }
   }
   while (!gen.done()) {
     const int k = gen.next_index();

@@ -46,6 +46,11 @@ int PivOptions::step_px(std::size_t pass) const {
 
 void PivOptions::validate() const {
   if (windows_px.empty()) throw ConfigError("PivOptions::windows_px: at least one pass is needed");
+  // Each pass costs a full correlation of the pair: more than 8 passes refine nothing
+  // (use --repeats for extra final passes) and only add time.
+  if (windows_px.size() > 8)
+    throw ConfigError(fmt::format("PivOptions::windows_px (--windows) has {} passes: expected 1 to 8",
+                                  windows_px.size()));
   for (std::size_t p = 0; p < windows_px.size(); ++p) {
     const int w = windows_px[p];
     if (w < 8 || w > 256 || (w & (w - 1)) != 0)

@@ -1,6 +1,7 @@
 #include "shearzone/piv/preprocess.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -12,14 +13,16 @@
 namespace shearzone::piv {
 
 void PreprocessOptions::validate() const {
-  if (background && background_frames < 3)
-    throw ConfigError(fmt::format("PreprocessOptions::background_frames = {}: must be >= 3",
+  // The median holds every sampled frame in memory (1 byte per pixel each).
+  if (background && (background_frames < 3 || background_frames > 500))
+    throw ConfigError(fmt::format("PreprocessOptions::background_frames (--background-frames) = {}: "
+                                  "expected 3 to 500",
                                   background_frames));
   if (!(intensity_cap >= 0))
     throw ConfigError("PreprocessOptions::intensity_cap: must be >= 0 (0: off)");
-  if (clahe && (clahe_tile_px < 8 || !(clahe_clip > 0)))
-    throw ConfigError(fmt::format("PreprocessOptions: CLAHE tile {} px and clip {}: need tile >= "
-                                  "8 px and clip > 0",
+  if (clahe && (clahe_tile_px < 8 || clahe_tile_px > 4096 || !(clahe_clip > 0) || !std::isfinite(clahe_clip)))
+    throw ConfigError(fmt::format("PreprocessOptions: CLAHE tile {} px and clip {}: need 8 <= tile <= "
+                                  "4096 px and a finite clip > 0",
                                   clahe_tile_px, clahe_clip));
   // A Gaussian of sigma s needs a kernel of ~6 s px; beyond 256 px the high-pass
   // removes nothing a PIV window sees, and time and memory grow without bound.

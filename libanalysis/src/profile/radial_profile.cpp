@@ -145,7 +145,7 @@ RadialProfile ProfileAccumulator::finish_with_region_noise(double lo_m, double h
   }
   if (t.n < 2)
     throw NoResultError(fmt::format(
-        "profile: no usable vector in the noise region {} <= r <= {} m (bin centres); give "
+        "profile: no usable vector in the noise region {:.6g} <= r <= {:.6g} m (bin centres); give "
         "--noise-region-m inside the measured annulus or a static --noise-ref",
         lo_m, hi_m));
   const double n = static_cast<double>(t.n);
@@ -185,6 +185,9 @@ RadialProfile ProfileAccumulator::finish_with_reference_noise(const ProfileAccum
 
 CyclePhase cycle_phase(double t_s, double f_Hz, double t0_s) {
   const double c = (t_s - t0_s) * f_Hz;
+  if (!(std::abs(c) < 1e9))
+    throw InputError(fmt::format("time {} s is {} cycles of {} Hz from t0 = {} s: expected fewer than 1e9",
+                                 t_s, c, f_Hz, t0_s));
   const double fl = std::floor(c);
   return {static_cast<int>(fl), 360.0 * (c - fl)};
 }

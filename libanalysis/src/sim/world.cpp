@@ -72,6 +72,9 @@ std::pair<double, const Row*> largest_excess(const std::vector<Row>& rows, Exces
 
 }  // namespace
 
+/// Largest contact-search distance per step, in smallest bead diameters.
+constexpr double kMaxAlertDiameters = 8.0;
+
 World::World(const Options& options) : opt_(options) {
   auto bad = [](const char* name, double value, const char* expected) {
     throw ConfigError(fmt::format("sim option {}: {} (expected {})", name, value, expected));
@@ -706,6 +709,13 @@ StepDiagnostics World::step() {
     throw NoResultError(fmt::format(
         "sim diverged at step {}: non-finite alert distance from body {} (speed {} m/s)", this_step,
         fastest, vmax));
+  // A body that moves several diameters in one step makes every pair within reach a
+  // contact row (memory and time grow as n^2) and the step is meaningless anyway.
+  if (n && alert > kMaxAlertDiameters * dmin)
+    throw NoResultError(fmt::format(
+        "sim: time step too large at step {}: the contact search reaches {:.3g} d (body {} at {:.3g} m/s, "
+        "|g| h = {:.3g} m/s); expected at most {} d: lower sim.time_step_s",
+        this_step, alert / dmin, fastest, vmax, opt_.gravity.norm() * h, kMaxAlertDiameters));
 
   find_contacts(alert);
   for (std::size_t b = 0; b < n; ++b)

@@ -1,0 +1,273 @@
+#!/usr/bin/python3
+"""scripts/hostile.py: replay hostile and broken inputs through the CLI and check the
+promises of README "Exit codes" and "Limits on inputs" for each: the expected exit code,
+exactly one stderr line (none for the accepted damaged video), no output left after a
+failure, and bounded cost (wall time <= --max-seconds, peak resident memory <= --max-mb
+per run, measured with wait4).
+
+    scripts/hostile.py [BIN] [--max-seconds 10] [--max-mb 1024] [--csv out.csv]
+
+BIN defaults to build/ci/apps/shearzone. Prints one row per case (code, lines, s, MB)
+and exits 1 when any case breaks a promise. Inputs are made in a temporary folder;
+tests/data/regressions holds the files that cannot be made on the fly.
+"""
+import argparse
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REG = os.path.join(ROOT, "tests", "data", "regressions")
+
+
+def run(cmd, cwd, timeout):
+    """Runs cmd; returns (exit code, stdout, stderr, seconds, peak RSS in MiB)."""
+    out_path = os.path.join(cwd, ".stdout")
+    err_path = os.path.join(cwd, ".stderr")
+    with open(out_path, "wb") as out, open(err_path, "wb") as err:
+        t0 = time.monotonic()
+        p = subprocess.Popen(cmd, cwd=cwd, stdout=out, stderr=err, stdin=subprocess.DEVNULL)
+        deadline = t0 + timeout
+        while True:
+            pid, status, ru = os.wait4(p.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.monotonic() > deadline:
+                p.kill()
+                pid, status, ru = os.wait4(p.pid, 0)
+                break
+            time.sleep(0.005)
+        secs = time.monotonic() - t0
+    code = os.waitstatus_to_exitcode(status)
+    if code < 0:
+        code = 128 - code
+    with open(out_path, "rb") as f:
+        stdout = f.read().decode("utf-8", "replace")
+    with open(err_path, "rb") as f:
+        stderr = f.read().decode("utf-8", "replace")
+    os.remove(out_path)
+    os.remove(err_path)
+    return code, stdout, stderr, secs, ru.ru_maxrss / 1024.0
+
+
+def nested_toml(kind, depth=10000):
+    if kind == "array":
+        return "a = " + "[" * depth + "]" * depth + "\n"
+    return "a = " + "{b=" * depth + "1" + "}" * depth + "\n"
+
+
+SIM_BOX = "[box]\nmin_m = [-0.02, -0.02, 0]\nmax_m = [0.02, 0.02, 0.1]\n"
+
+
+def sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-3\n", beads="diameter_m = 0.01\n"
+              "positions_m = [0, 0, 0.005]\n", extra=""):
+    return "[sim]\n" + sim + SIM_BOX + "[beads]\n" + beads + extra
+
+
+def cases(work):
+    """(name, argv after BIN, expected code, outputs that must be absent, regex on stderr)."""
+    pair = ["in/A.png", "in/B.png"]
+    fit_table = "fit.csv"
+    c = []
+    # --- TOML nested 10 000 deep: sim and every --config reader.
+    for kind in ("array", "table"):
+        toml = f"nested_{kind}.toml"
+        c.append((f"sim_toml_nested_{kind}", ["sim", toml, "-o", "run"], 2, ["run"], "nested deeper"))
+        c.append((f"synth_config_nested_{kind}", ["synth", "particles", "--config", toml, "-o", "o"],
+                  2, ["o"], "nested deeper"))
+        c.append((f"piv_config_nested_{kind}", ["piv", *pair, "--config", toml, "-o", "v.csv"],
+                  2, ["v.csv"], "nested deeper"))
+        c.append((f"fit_config_nested_{kind}", ["fit", "erf", fit_table, "--x", "phi0_rad", "--y", "rc_m",
+                  "--config", toml, "-o", "fits.csv"], 2, ["fits.csv"], "nested deeper"))
+        c.append((f"laos_config_nested_{kind}", ["laos", "laos.csv", "--config", toml, "-o", "lo"],
+                  2, ["lo"], "nested deeper"))
+        c.append((f"profile_config_nested_{kind}", ["profile", "fields.h5", "--config", toml, "-o", "p.csv"],
+                  2, ["p.csv"], "nested deeper"))
+        c.append((f"width_config_nested_{kind}", ["width", "profile.csv", "--config", toml, "-o", "w.csv"],
+                  2, ["w.csv"], "nested deeper"))
+        c.append((f"collapse_config_nested_{kind}", ["collapse", "fss", "fss.csv", "--x", "x", "--y", "y",
+                  "--dy", "dy", "--L", "L", "--start", "0.5", "1", "0", "--config", toml, "-o", "co"],
+                  2, ["co"], "nested deeper"))
+    # --- Values that were internal errors (exit 4).
+    c += [
+        ("synth_u_1e300", ["synth", "particles", "--u", "1e300", "-o", "o"], 2, ["o"], "--u"),
+        ("synth_beads_v_-1e12", ["synth", "beads", "--v", "-1e12", "-o", "o"], 2, ["o"], "--v"),
+        ("synth_u_1e5", ["synth", "particles", "--u", "1e5", "-o", "o"], 2, ["o"], "--u"),
+        ("synth_config_u_2147483648", ["synth", "particles", "--config", "u_big.toml", "-o", "o"],
+         2, ["o"], "u"),
+        ("sim_fill_count_1e9", ["sim", "fill_1e9.toml", "-o", "run"], 2, ["run"], "fill.count"),
+        ("sim_beads_per_chain_1e8", ["sim", "chain_1e8.toml", "-o", "run"], 2, ["run"], "beads_per_chain"),
+        ("collapse_fss_bootstrap_2e9", ["collapse", "fss", "fss.csv", "--x", "x", "--y", "y", "--dy", "dy",
+         "--L", "L", "--start", "0.5", "1", "0", "--bootstrap", "2000000000", "-o", "co"],
+         2, ["co"], "bootstrap"),
+    ]
+    # --- Unbounded time or memory.
+    c += [
+        ("synth_v_1e18", ["synth", "particles", "--v", "1e18", "-o", "o"], 2, ["o"], "--v"),
+        ("synth_u_30000_64px", ["synth", "particles", "--u", "30000", "--width", "64", "--height", "64",
+         "-o", "o"], 2, ["o"], "--u"),
+        ("synth_16384px", ["synth", "particles", "--width", "16384", "--height", "16384", "-o", "o"],
+         2, ["o"], "width"),
+        ("piv_highpass_1e6", ["piv", *pair, "--highpass", "1e6", "-o", "v.csv"], 2, ["v.csv"], "highpass"),
+        ("piv_highpass_1e5", ["piv", *pair, "--highpass", "1e5", "-o", "v.csv"], 2, ["v.csv"], "highpass"),
+        ("piv_highpass_1e4", ["piv", *pair, "--highpass", "1e4", "-o", "v.csv"], 2, ["v.csv"], "highpass"),
+        ("fit_erf_bootstrap_2e9", ["fit", "erf", fit_table, "--x", "phi0_rad", "--y", "rc_m",
+         "--bootstrap", "2000000000", "-o", "fits.csv"], 2, ["fits.csv"], "bootstrap"),
+        ("profile_h5_grid_2e9", ["profile", f"{REG}/h5_grid_declares_2e9_points.h5", "--radii-px", "0,30",
+         "-o", "p.csv"], 2, ["p.csv"], "declares"),
+        ("profile_h5_pairs_1e7", ["profile", f"{REG}/h5_declares_1e7_pairs_unwritten.h5", "--radii-px", "0,30",
+         "-o", "p.csv"], 2, ["p.csv"], "declares"),
+        ("piv_png_bomb_30000", ["piv", f"{REG}/png_declares_30000x30000.png",
+         f"{REG}/png_declares_30000x30000.png", "-o", "v.csv"], 2, ["v.csv"], "30000 x 30000"),
+        ("piv_tiff_bomb_20000", ["piv", f"{REG}/tiff_declares_20000x20000.tif",
+         f"{REG}/tiff_declares_20000x20000.tif", "-o", "v.csv"], 2, ["v.csv"], "20000 x 20000"),
+        ("piv_pgm_huge_header", ["piv", f"{REG}/pgm_declares_huge_size.pgm",
+         f"{REG}/pgm_declares_huge_size.pgm", "-o", "v.csv"], 2, ["v.csv"], "px"),
+        ("profile_h5_superblock", ["profile", f"{REG}/h5_superblock_driver_address_inside.h5",
+         "--radii-px", "0,30", "-o", "p.csv"], 2, ["p.csv"], "HDF5"),
+        ("laos_slow_header", ["laos", f"{REG}/log_header_slow_to_match.csv", "-o", "lo"], 2, ["lo"], "csv"),
+    ]
+    # --- Third-party lines on stderr; echoed inputs.
+    c += [
+        ("piv_mp4_no_moov", ["piv", f"{REG}/truncated_no_moov.mp4", "-o", "f.h5"], 2, ["f.h5"], "video"),
+        ("piv_png_bad_ihdr", ["piv", f"{REG}/png_bad_ihdr_crc.png", f"{REG}/png_bad_ihdr_crc.png",
+         "-o", "v.csv"], 2, ["v.csv"], "decode"),
+        ("synth_codec_XXXX", ["synth", "particles", "--width", "64", "--height", "64", "--format", "mp4",
+         "--codec", "XXXX", "-o", "o"], 2, ["o"], "XXXX"),
+        ("fit_erf_flat_no_glog", ["fit", "erf", "flat.csv", "--x", "phi0_rad", "--y", "rc_m", "-o", "ff.csv"],
+         3, None, "flat"),
+        ("laos_10MB_header", ["laos", "wide.csv", "-o", "lo"], 2, ["lo"], "."),
+        ("fit_10MB_header", ["fit", "erf", "wide.csv", "--x", "phi0_rad", "--y", "rc_m", "-o", "fits.csv"],
+         2, ["fits.csv"], "."),
+        ("missing_output", ["synth", "particles"], 1, [], "^shearzone: error: --output is required"),
+    ]
+    # --- Silent wrong results.
+    c += [
+        ("profile_nan_vector", ["profile", "fields_nan.h5", "--radii-px", "0,40", "--m-per-px", "1e-4", "--noise-region-m", "0.0005,0.002", "-o", "p.csv"], 2,
+         ["p.csv"], "not finite|non-finite|NaN|nan"),
+        ("sim_duration_1e300", ["sim", "dur.toml", "-o", "run"], 2, ["run"], "duration_s"),
+        ("sim_time_step_1e-300", ["sim", "dt.toml", "-o", "run"], 2, ["run"], "time_step_s"),
+        ("sim_coincident_beads", ["sim", "coincident.toml", "-o", "run"], 2, ["run"], "overlap"),
+        ("sim_overlap_half_d", ["sim", "half.toml", "-o", "run"], 2, ["run"], "overlap"),
+        ("piv_mp4_bytes_flipped", ["piv", f"{REG}/mp4_bytes_flipped.mp4", "--windows", "32,16", "-o", "f.h5"],
+         0, None, "damaged"),
+        ("piv_annulus_negative", ["piv", *pair, "--centre", "64,48", "--annulus", "-100,-10", "-o", "v.csv"],
+         2, ["v.csv"], "annulus"),
+        ("profile_centre_nan", ["profile", "fields.h5", "--centre", "nan,nan", "--radii-px", "0,40", "--m-per-px", "1e-4", "--noise-region-m", "0.0005,0.002",
+         "-o", "p.csv"], 2, ["p.csv"], "centre|nan"),
+        ("laos_amplitude_1e-300", ["laos", "tiny.csv", "-o", "lo"], 2, ["lo"], "amplitude"),
+    ]
+    return c
+
+
+def make_inputs(bin_, work):
+    def w(name, text):
+        with open(os.path.join(work, name), "w") as f:
+            f.write(text)
+
+    for kind in ("array", "table"):
+        w(f"nested_{kind}.toml", nested_toml(kind))
+    subprocess.run([bin_, "synth", "particles", "--width", "128", "--height", "96", "--u", "1.5",
+                    "--v", "-0.5", "-q", "-o", "in"], cwd=work, check=True)
+    subprocess.run([bin_, "synth", "particles", "--width", "128", "--height", "96", "--field", "rotation",
+                    "--omega", "0.02", "--frames", "4", "-q", "-o", "clip"], cwd=work, check=True)
+    subprocess.run([bin_, "piv", "clip/frame_*.png", "--windows", "32,16", "--centre", "64,48", "-q", "-o", "fields.h5"], cwd=work, check=True)
+    subprocess.run([bin_, "profile", "fields.h5", "--radii-px", "0,40", "--m-per-px", "1e-4", "--noise-region-m", "0.0005,0.002", "-q", "-o", "profile.csv"],
+                   cwd=work, check=True)
+    shutil.copy(os.path.join(work, "fields.h5"), os.path.join(work, "fields_nan.h5"))
+    import h5py  # python3-h5py (scripts/setup.sh)
+    with h5py.File(os.path.join(work, "fields_nan.h5"), "r+") as f:
+        u = f["/pairs/u_px"]
+        flat = u[...].reshape(-1)
+        flat[len(flat) // 2] = float("nan")
+        u[...] = flat.reshape(u.shape)
+    w("fit.csv", "phi0_rad,rc_m\n" + "".join(f"{0.1 * i:.1f},{0.01 + 0.01 * (i > 6):.3f}\n"
+                                             for i in range(1, 14)))
+    w("flat.csv", "phi0_rad,rc_m\n" + "".join(f"{0.1 * i:.1f},0.01\n" for i in range(1, 14)))
+    w("fss.csv", "L,x,y,dy\n" + "".join(f"{L},{0.4 + 0.02 * i:.2f},{0.1 * i / L ** 0.1:.4f},0.01\n"
+                                        for L in (8, 16, 32) for i in range(10)))
+    w("laos.csv", "time_s,angle_rad,torque_N_m\n" + "".join(
+        f"{0.01 * i:.2f},{0.3:.2f},{0.001:.3f}\n" for i in range(10)))
+    import math
+    w("tiny.csv", "time_s,angle_rad,torque_N_m\n" + "".join(
+        f"{0.01 * i:.3f},{1e-300 * math.sin(2 * math.pi * 0.01 * i):.6e},{math.sin(2 * math.pi * 0.01 * i):.6f}\n"
+        for i in range(500)))
+    with open(os.path.join(work, "wide.csv"), "w") as f:
+        f.write("phi0_rad," + ",".join(f"column_with_a_long_name_{i}" for i in range(400000)) + "\n0.1,0.2\n")
+    w("u_big.toml", "u = 2147483648\n")
+    w("fill_1e9.toml", "[sim]\nduration_s = 0.01\n" + SIM_BOX + "[beads]\ndiameter_m = 0.001\n"
+      "[fill]\ncount = 1000000000\nmin_m = [-0.01, -0.01, 0.01]\nmax_m = [0.01, 0.01, 0.05]\n")
+    w("chain_1e8.toml", "[sim]\nduration_s = 0.01\n" + SIM_BOX + "[beads]\ndiameter_m = 0.001\n"
+      "[chains]\nbeads_per_chain = 100000000\ncount = 1\n")
+    w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
+    w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
+    w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))
+    w("half.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0.005, 0, 0.005]\n"))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("bin", nargs="?", default=os.path.join(ROOT, "build", "ci", "apps", "shearzone"))
+    ap.add_argument("--max-seconds", type=float, default=10.0)
+    ap.add_argument("--max-mb", type=float, default=1024.0)
+    ap.add_argument("--csv", help="also write the table as CSV")
+    ap.add_argument("-k", help="only cases whose name contains this")
+    a = ap.parse_args()
+    bin_ = os.path.abspath(a.bin)
+    import re
+    rows, failures = [], 0
+    with tempfile.TemporaryDirectory(prefix="shearzone-hostile-") as work:
+        make_inputs(bin_, work)
+        for name, argv, want, absent, pattern in cases(work):
+            if a.k and a.k not in name:
+                continue
+            code, out, err, secs, mb = run([bin_, *argv], work, timeout=max(a.max_seconds * 3, 30))
+            lines = err.count("\n") + (1 if err and not err.endswith("\n") else 0)
+            problems = []
+            if code != want:
+                problems.append(f"exit {code}, expected {want}")
+            want_lines = 0 if want == 0 else 1
+            if lines != want_lines:
+                problems.append(f"{lines} stderr lines, expected {want_lines}")
+            text = err if want != 0 else out
+            if pattern and not re.search(pattern, text):
+                problems.append(f"message does not match /{pattern}/")
+            for p in absent or []:
+                if os.path.exists(os.path.join(work, p)):
+                    problems.append(f"{p} left behind")
+            if secs > a.max_seconds:
+                problems.append(f"{secs:.1f} s > {a.max_seconds:g} s")
+            if mb > a.max_mb:
+                problems.append(f"{mb:.0f} MB > {a.max_mb:g} MB")
+            for p in ("o", "run", "lo", "co", "f.h5", "v.csv", "p.csv", "fits.csv", "w.csv", "ff.csv"):
+                path = os.path.join(work, p)
+                if os.path.isdir(path):
+                    shutil.rmtree(path)
+                elif os.path.exists(path):
+                    os.remove(path)
+            for p in os.listdir(work):
+                if p.startswith(("p_", "fits_", "ff_")):
+                    os.remove(os.path.join(work, p))
+            failures += bool(problems)
+            msg = (err.strip().splitlines() or [out.strip()])[0][:150] if (err or out) else ""
+            rows.append((name, code, lines, f"{secs:.3f}", f"{mb:.0f}", "; ".join(problems) or "ok", msg))
+            print(f"{'FAIL' if problems else 'ok  '} {name:34s} exit {code:3d}  {lines} line(s)  "
+                  f"{secs:6.2f} s  {mb:6.0f} MB  {'; '.join(problems)}")
+            if problems:
+                print(f"     stderr: {err.strip()[:300]}")
+    if a.csv:
+        with open(a.csv, "w", newline="") as f:
+            wr = csv.writer(f)
+            wr.writerow(["case", "exit_code", "stderr_lines", "wall_s", "peak_rss_MB", "verdict", "first_line"])
+            wr.writerows(rows)
+    print(f"hostile: {len(rows) - failures} of {len(rows)} cases keep every promise "
+          f"(<= {a.max_seconds:g} s, <= {a.max_mb:g} MB)")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
