@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
-#include "shearzone/pipeline/profile_job.hpp"
+#include "shearzone/pipeline/width_job.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -28,14 +28,17 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   const auto rows = pipeline::run_width_job(j, ctx.header());
   int usable = 0;
   for (const auto& r : rows) {
-    usable += r.status == "ok";
+    usable += r.status == profile::WidthStatus::kOk;
     if (ctx.level != core::LogLevel::kQuiet) {
       // never_below and below_at_vane give bounds, not values.
-      const char* rel = r.status == "never_below" ? ">=" : r.status == "below_at_vane" ? "<=" : "=";
+      const char* rel = r.status == profile::WidthStatus::kNeverBelow    ? ">="
+                        : r.status == profile::WidthStatus::kBelowAtVane ? "<="
+                                                                          : "=";
+      const char* status = profile::width_status_name(r.status);
       if (std::isfinite(r.rc_m))
-        std::printf("width: %s: r_c %s %.5g m (%s)\n", r.label.c_str(), rel, r.rc_m, r.status.c_str());
+        std::printf("width: %s: r_c %s %.5g m (%s)\n", r.label.c_str(), rel, r.rc_m, status);
       else
-        std::printf("width: %s: no r_c (%s)\n", r.label.c_str(), r.status.c_str());
+        std::printf("width: %s: no r_c (%s)\n", r.label.c_str(), status);
     }
   }
   if (ctx.level != core::LogLevel::kQuiet)
@@ -44,7 +47,7 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   if (usable == 0) {
     // Exit 3 with one line: the statuses, and the advice of the first noise-limited row.
     std::string why;
-    for (const auto& r : rows) why += fmt::format("{}{}: {}", why.empty() ? "" : ", ", r.label, r.status);
+    for (const auto& r : rows) why += fmt::format("{}{}: {}", why.empty() ? "" : ", ", r.label, profile::width_status_name(r.status));
     for (const auto& r : rows)
       if (!r.advice.empty()) {
         why += "; " + r.advice;
@@ -70,15 +73,15 @@ std::vector<Subcommand> add_width(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   c->add_option("--tag", s->tags, "N=VALUE or phi0_rad=VALUE for every row (default: from the profile)");
-  c->add_option("--vc", j.v_c_m_per_s, "Threshold velocity v_c, m/s; range: > 0, finite")
+  c->add_option("--vc", j.width.v_c_m_per_s, "Threshold velocity v_c, m/s; range: > 0, finite")
       ->capture_default_str();
-  c->add_option("--noise-factor", j.noise_factor, "noise_limited when v_c < this x noise floor; range: >= 0")
+  c->add_option("--noise-factor", j.width.noise_factor, "noise_limited when v_c < this x noise floor; range: >= 0")
       ->capture_default_str();
-  c->add_option("--bootstrap", j.bootstrap, "Bootstrap resamples (0: no interval); range: 0..1000000")
+  c->add_option("--bootstrap", j.width.bootstrap, "Bootstrap resamples (0: no interval); range: 0..1000000")
       ->capture_default_str();
-  c->add_option("--confidence", j.confidence, "Two-sided confidence level; range: 0 < x < 1")
+  c->add_option("--confidence", j.width.confidence, "Two-sided confidence level; range: 0 < x < 1")
       ->capture_default_str();
-  c->add_option("--seed", j.seed, "Bootstrap seed; range: 0..18446744073709551615")->capture_default_str();
+  c->add_option("--seed", j.width.seed, "Bootstrap seed; range: 0..18446744073709551615")->capture_default_str();
   return {{c, [c, s, &ctx] { return run_width(*c, *s, ctx); }}};
 }
 

@@ -8,6 +8,7 @@
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
+#include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
 #include "shearzone/synth/generator.hpp"
 #include "support/temp_dir.hpp"
@@ -67,7 +68,7 @@ TEST_CASE("a static texture measured by PIV is noise_limited, never a silent r_c
   w.output = tmp / "widths.csv";
   const auto rows = pipeline::run_width_job(w, {});
   REQUIRE(rows.size() == 1);
-  CHECK(rows[0].status == "noise_limited");
+  CHECK(std::string(profile::width_status_name(rows[0].status)) == "noise_limited");
   CHECK_THAT(rows[0].advice, Contains("pair spacing"));
   const auto t = io::read_csv(w.output);
   CHECK(t.text_column("rc_status")[0] == "noise_limited");
@@ -202,10 +203,10 @@ TEST_CASE("an oscillating shear zone gives the r_c of its exact field", "[pipeli
   pipeline::WidthJobOptions w;
   w.inputs = {o.output};
   w.output = tmp / "w.csv";
-  w.v_c_m_per_s = vc_px * 1e-4 * 25;
+  w.width.v_c_m_per_s = vc_px * 1e-4 * 25;
   const auto rows = pipeline::run_width_job(w, {});
   REQUIRE(rows.size() == 1);
-  CHECK(rows[0].status == "ok");
+  CHECK(std::string(profile::width_status_name(rows[0].status)) == "ok");
   // Linear interpolation and bin averaging: w_bin^2/(6 w) = 0.1 px; PIV noise raises
   // mean |v| near the reversals (|v| of noise does not average out) by ~1 %, i.e.
   // w * 0.01 = 0.25 px of r_c: 0.5 px in all (under 1 % of r_c).

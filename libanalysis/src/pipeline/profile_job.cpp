@@ -14,12 +14,15 @@
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/profile_csv.hpp"
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
 #include "shearzone/profile/width.hpp"
 
 namespace shearzone::pipeline {
 namespace {
+
+static_assert(profile::PairSeries::kNoCycle == io::ProfileGroupRow::kNoCycle);
 
 std::string num(double v) { return io::CsvWriter::format_number(v); }
 bool set(double v) { return !std::isnan(v); }
@@ -452,7 +455,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     if (nphase > 1)
       path = o.output.parent_path() /
              fmt::format("{}_phase{:02d}{}", o.output.stem().string(), ph, o.output.extension().string());
-    const std::filesystem::path gpath = path.parent_path() / (path.stem().string() + "_groups.csv");
+    const std::filesystem::path gpath = io::profile_groups_path(path);
     const auto& acc = accs[static_cast<std::size_t>(ph)];
     const double plo = o.phase_min_deg + ph * phase_w, phi = plo + phase_w;
     if (acc.num_pairs() == 0)
@@ -483,212 +486,36 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     m.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
     outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
     {
-      io::CsvWriter w(outs.back()->stream(), m,
-                      {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s",
-                       "v_abs_sem_m_per_s", "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
-      for (const auto& b : p.bins) {
-        const bool have = b.n_vectors > 0;
-        auto cell = [&](double v) { return have && std::isfinite(v) ? num(v) : std::string(); };
-        w.row(std::vector<std::string>{num(b.r_m), cell(b.v_abs), cell(b.v_theta), cell(b.v_r),
-                                       cell(b.v_abs_rms), cell(b.v_abs_sem), num(b.v_noise),
-                                       std::to_string(b.n_vectors), std::to_string(b.n_masked),
-                                       std::to_string(b.n_invalid)});
-      }
+      std::vector<io::ProfileCsvRow> rows;
+      for (const auto& b : p.bins)
+        rows.push_back({b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise, b.n_vectors,
+                        b.n_masked, b.n_invalid});
+      io::write_profile_csv(outs.back()->stream(), m, rows);
     }
     outs.push_back(std::make_unique<io::AtomicOutput>(gpath, o.force));
     {
       core::Metadata gm = header;
       gm.emplace_back("profile", path.filename().string());
-      gm.emplace_back("pair", "index of the pair among the selected ones, in time order");
-      gm.emplace_back("cycle", "oscillation cycle floor(f (t - t0)); empty when f is unknown");
-      gm.emplace_back("phase_deg", "oscillation phase at the pair's mid-time; empty when f is unknown");
-      io::CsvWriter w(outs.back()->stream(), gm,
-                      {"pair", "cycle", "phase_deg", "r_m", "v_abs_m_per_s", "n_vectors"});
+      std::vector<io::ProfileGroupRow> rows;
       const auto& ps = p.pairs;
       for (std::size_t k = 0; k < ps.num_pairs(); ++k)
         for (std::size_t b = 0; b < ps.n_bins; ++b) {
           const double nv = ps.n_vectors[k * ps.n_bins + b];
           if (nv == 0) continue;
-          const bool known = ps.cycle[k] != profile::PairSeries::kNoCycle;
-          w.row(std::vector<std::string>{std::to_string(k), known ? std::to_string(ps.cycle[k]) : "",
-                                         known ? num(360.0 * ps.phase[k]) : "", num(p.bins[b].r_m),
-                                         num(ps.v_abs[k * ps.n_bins + b]), num(nv)});
+          io::ProfileGroupRow g;
+          g.pair = k;
+          g.cycle = ps.cycle[k];
+          g.phase_deg = 360.0 * ps.phase[k];
+          g.r_m = p.bins[b].r_m;
+          g.v_abs = ps.v_abs[k * ps.n_bins + b];
+          g.n_vectors = nv;
+          rows.push_back(g);
         }
+      io::write_profile_groups_csv(outs.back()->stream(), gm, rows);
     }
   }
   for (auto& out : outs) out->commit();
   return sum;
-}
-
-// ---- width ------------------------------------------------------------------------
-
-namespace {
-
-std::string meta_value(const io::CsvTable& t, const std::string& key) {
-  for (const auto& [k, v] : t.metadata)
-    if (k == key) return v;
-  return {};
-}
-
-double meta_number(const io::CsvTable& t, const std::string& key) {
-  double v = 0;
-  const std::string s = meta_value(t, key);
-  return !s.empty() && io::parse_number(s, false, v) ? v : kUnset;
-}
-
-}  // namespace
-
-std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metadata& header) {
-  if (o.inputs.empty()) throw ConfigError("width: no profile given");
-  profile::WidthOptions wo;
-  wo.v_c_m_per_s = o.v_c_m_per_s;
-  wo.noise_factor = o.noise_factor;
-  wo.bootstrap = o.bootstrap;
-  wo.confidence = o.confidence;
-  wo.seed = o.seed;
-  wo.validate();
-  for (const auto& [k, v] : o.tags)
-    if (k != "N" && k != "phi0_rad")
-      throw ConfigError(fmt::format("--tag {}={}: only N and phi0_rad are width columns", k, v));
-  io::check_output_allowed(o.output, o.force);
-
-  struct Row {
-    std::string label, N, phi0;
-    profile::WidthResult res;
-    std::string n_pairs;
-  };
-  std::vector<Row> rows;
-  std::vector<WidthRow> report;
-  for (const auto& path : o.inputs) {
-    const io::CsvTable t = io::read_csv(path);
-    if (t.num_rows() == 0) throw InputError(fmt::format("{}: the profile has no rows", path.string()));
-    profile::WidthInput in;
-    in.r_m = t.numeric_column("r_m");
-    in.v_noise = t.numeric_column("v_noise_m_per_s");
-    for (double x : t.numeric_column("n_vectors")) {
-      if (!(x >= 0 && x == std::floor(x)))
-        throw InputError(fmt::format("{}: column \"n_vectors\": {} is not a count", path.string(), x));
-      in.n_vectors.push_back(static_cast<std::size_t>(x));
-    }
-    // v_abs is empty in bins without vectors; a bin with vectors must carry a number.
-    const std::size_t cv = t.column_index("v_abs_m_per_s");
-    for (std::size_t r = 0; r < t.num_rows(); ++r)
-      in.v_abs.push_back(in.n_vectors[r] == 0 && t.cell_empty(r, cv) ? kUnset
-                                                                                       : t.number(r, cv));
-    in.R_m = meta_number(t, "R_m");
-    if (!set(in.R_m)) {
-      const double bin = meta_number(t, "bin_m");
-      in.R_m = in.r_m.back() + (set(bin) ? 0.5 * bin : 0.0);
-    }
-    const std::string grouping = meta_value(t, "groups");
-    if (!grouping.empty() && !profile::parse_grouping(grouping, in.grouping))
-      throw InputError(fmt::format("{}: header \"groups: {}\": expected cycles, pairs_phase_detrended, "
-                                   "pairs or none",
-                                   path.string(), grouping));
-    const std::filesystem::path gpath = path.parent_path() / (path.stem().string() + "_groups.csv");
-    if (in.grouping != profile::Grouping::kNone) {
-      if (!std::filesystem::exists(gpath))
-        throw InputError(fmt::format("{}: the per-pair means {} are missing (written beside the profile "
-                                     "by `shearzone profile`); the interval needs them",
-                                     path.string(), gpath.string()));
-      const io::CsvTable g = io::read_csv(gpath);
-      in.pairs.n_bins = in.r_m.size();
-      const std::size_t cc = g.column_index("cycle"), cph = g.column_index("phase_deg");
-      const auto pair = g.numeric_column("pair"), r = g.numeric_column("r_m"),
-                 v = g.numeric_column("v_abs_m_per_s"), nv = g.numeric_column("n_vectors");
-      for (std::size_t k = 0; k < g.num_rows(); ++k) {
-        if (!(pair[k] >= 0 && pair[k] == std::floor(pair[k]) && pair[k] < 1e8))
-          throw InputError(fmt::format("{}:{}: column \"pair\": {} is not a pair index", gpath.string(),
-                                       g.row_lines[k], num(pair[k])));
-        const auto pk = static_cast<std::size_t>(pair[k]);
-        if (pk + 1 < in.pairs.num_pairs() || pk > in.pairs.num_pairs())
-          throw InputError(fmt::format("{}:{}: pair {} out of order: rows must come pair by pair",
-                                       gpath.string(), g.row_lines[k], pk));
-        if (pk == in.pairs.num_pairs()) {
-          const bool known = !g.cell_empty(k, cc);
-          in.pairs.add_pair(known ? static_cast<int>(g.number(k, cc)) : profile::PairSeries::kNoCycle,
-                            known ? g.number(k, cph) / 360.0 : kUnset);
-        }
-        // Bin index from the radius (same bins as the profile, ascending): the nearest
-        // of the two bracketing centres, found by bisection (rows x log bins).
-        auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), r[k]);
-        if (it == in.r_m.end() || (it != in.r_m.begin() && r[k] - *(it - 1) < *it - r[k])) --it;
-        if (std::abs(*it - r[k]) > 1e-9 * std::max(1.0, std::abs(r[k])) + 1e-12)
-          throw InputError(fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.row_lines[k],
-                                       num(r[k]), path.string()));
-        const std::size_t idx = pk * in.pairs.n_bins + static_cast<std::size_t>(it - in.r_m.begin());
-        in.pairs.v_abs[idx] = v[k];
-        in.pairs.n_vectors[idx] = nv[k];
-      }
-    }
-    Row row;
-    row.label = path.stem().string();
-    row.res = profile::shear_zone_width(in, wo);
-    row.N = meta_value(t, "N");
-    row.phi0 = meta_value(t, "phi0_rad");
-    for (const auto& [k, v] : o.tags) {
-      if (k == "N") row.N = v;
-      else if (k == "phi0_rad") row.phi0 = v;
-    }
-    row.n_pairs = meta_value(t, "n_pairs");
-    WidthRow wr;
-    wr.label = row.label;
-    wr.status = profile::width_status_name(row.res.status);
-    wr.rc_m = row.res.rc_m;
-    if (row.res.status == profile::WidthStatus::kNoiseLimited) {
-      // An r_c that cannot be trusted is not reported.
-      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = kUnset;
-      // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
-      const double sigma = meta_number(t, "noise_sigma_m_per_s");
-      const double dt = meta_number(t, "dt_s"), fps = meta_number(t, "fps");
-      std::string k_text = "a larger pair spacing";
-      if (set(sigma) && set(dt) && set(fps) && sigma > 0) {
-        const double k0 = std::max(1.0, std::round(dt * fps));
-        const double k = std::ceil(5.0 * sigma * dt * fps / o.v_c_m_per_s);
-        k_text = fmt::format("pair spacing k >= {} (now {})", num(std::max(k, k0 + 1)), num(k0));
-      }
-      wr.advice = fmt::format(
-          "{}: v_c = {} m/s is below {} x the noise floor {} m/s: r_c cannot be trusted; re-run "
-          "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS",
-          path.string(), num(o.v_c_m_per_s), num(o.noise_factor), num(row.res.v_noise_m_per_s), k_text);
-    }
-    report.push_back(wr);
-    rows.push_back(std::move(row));
-  }
-  core::Metadata meta = header;
-  meta.emplace_back("v_c_m_per_s", num(o.v_c_m_per_s));
-  meta.emplace_back("noise_factor", num(o.noise_factor));
-  meta.emplace_back("bootstrap", std::to_string(o.bootstrap));
-  meta.emplace_back("confidence", num(o.confidence));
-  meta.emplace_back("seed", std::to_string(o.seed));
-  meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
-                            "interpolation between bin centres; never_below: R (a lower bound); "
-                            "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
-  meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
-                             "rc_ci_method; empty when there is no replicate (one pair)");
-  meta.emplace_back("rc_ci_method",
-                    "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
-                    "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
-                    "residuals an AR(1) series of lag-1 correlation rc_ci_rho (AR-sieve bootstrap); "
-                    "pairs: the same about the mean (frequency unknown); none: no interval");
-  io::AtomicOutput out(o.output, o.force);
-  {
-    io::CsvWriter w(out.stream(), meta,
-                    {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
-                     "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
-    auto cell = [](double v) { return std::isfinite(v) ? num(v) : std::string(); };
-    for (const auto& r : rows) {
-      const bool ci = std::isfinite(r.res.ci_low_m);
-      w.row(std::vector<std::string>{
-          r.label, r.N, r.phi0, cell(r.res.rc_m), cell(r.res.ci_low_m), cell(r.res.ci_high_m),
-          profile::width_status_name(r.res.status), ci ? profile::grouping_name(r.res.grouping) : "none",
-          ci ? std::to_string(r.res.bootstrap_units) : "",
-          ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
-          num(r.res.v_noise_m_per_s), r.n_pairs});
-    }
-  }
-  out.commit();
-  return report;
 }
 
 }  // namespace shearzone::pipeline

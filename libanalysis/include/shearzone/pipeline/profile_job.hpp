@@ -1,12 +1,9 @@
-// shearzone/pipeline/profile_job.hpp: `shearzone profile` and `shearzone width`.
+// shearzone/pipeline/profile_job.hpp: `shearzone profile`.
 //
-// profile: a PIV field file (HDF5 clip in the layout of `shearzone piv`, or a
-// single-pair CSV) -> radial profile CSV (columns in README, "Profiles") plus a
-// companion `<stem>_groups.csv` with the mean |v| per group (cycle or pair) and bin,
-// which `width` resamples for its bootstrap.
-//
-// width: profile CSVs -> one row per profile: label, tags, r_c, its bootstrap
-// interval, status, noise floor and pair count.
+// A PIV field file (HDF5 clip in the layout of `shearzone piv`, or a single-pair CSV)
+// -> radial profile CSV plus a companion `<stem>_groups.csv` with the mean |v| per
+// pair and bin, which `width` (pipeline/width_job.hpp) resamples for its bootstrap;
+// both layouts in io/profile_csv.hpp.
 #pragma once
 
 #include <cstdint>
@@ -77,26 +74,5 @@ struct ProfileJobSummary {
 
 ProfileJobSummary run_profile_job(const ProfileJobOptions& options, const core::Metadata& header,
                                   const core::ProgressCallback& progress = {});
-
-struct WidthJobOptions {
-  std::vector<std::filesystem::path> inputs;  ///< profile CSVs
-  std::filesystem::path output;               ///< widths CSV
-  bool force = false;
-  std::vector<std::pair<std::string, std::string>> tags;  ///< KEY=VALUE for every row
-  double v_c_m_per_s = 4e-5;
-  double noise_factor = 3.0;
-  int bootstrap = 2000;
-  double confidence = 0.95;
-  std::uint64_t seed = 1;
-};
-
-struct WidthRow {
-  std::string label, status, advice;
-  double rc_m = 0;  ///< NaN when not reported (noise_limited)
-};
-
-/// Returns one row per input (status and, for noise_limited, the advice text).
-/// The CLI exits 3 when no row has status "ok" (the file is still written).
-std::vector<WidthRow> run_width_job(const WidthJobOptions& options, const core::Metadata& header);
 
 }  // namespace shearzone::pipeline

@@ -1,0 +1,92 @@
+// shearzone/io/profile_csv.hpp: the radial profile CSV of `shearzone profile` and its
+// per-pair companion `<stem>_groups.csv`, written and read here only.
+//
+// Profile (`profile.csv`): the header block (io/csv.hpp) carries the geometry and the
+// choices made (centre_x_px, centre_y_px, m_per_px, Rv_m, R_m, bin_m, f_Hz, t0_s, dt_s,
+// fps, groups, n_groups, n_pairs, noise_sigma_m_per_s, N, phi0_rad, ...), then one row
+// per radial bin, ascending:
+//     r_m                 bin centre (m); bin k covers [Rv + k bin, Rv + (k+1) bin)
+//     v_abs_m_per_s       mean |v| over the bin's valid vectors of all selected pairs
+//     v_theta_m_per_s     mean azimuthal component (> 0 counter-clockwise as the camera sees it)
+//     v_r_m_per_s         mean radial component (outwards > 0)
+//     v_abs_rms_m_per_s   RMS of |v|
+//     v_abs_sem_m_per_s   bootstrap standard error of the bin mean (empty with one pair)
+//     v_noise_m_per_s     noise floor of mean |v| in the bin
+//     n_vectors           valid vectors averaged
+//     n_masked, n_invalid vectors masked out, vectors rejected by validation
+// A bin without vectors (n_vectors = 0) leaves every velocity cell empty.
+//
+// Groups (`<stem>_groups.csv`): one row per (pair, bin) with vectors, pair by pair:
+//     pair                index of the pair among the selected ones, in time order
+//     cycle               oscillation cycle floor(f (t - t0)); empty when f is unknown
+//     phase_deg           oscillation phase at the pair's mid-time; empty when f is unknown
+//     r_m                 the profile bin's centre (m)
+//     v_abs_m_per_s       the pair's mean |v| in the bin
+//     n_vectors           vectors in that mean
+// `shearzone width` resamples these for its bootstrap interval.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <limits>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+
+namespace shearzone::io {
+
+/// One bin of a profile. NaN velocities are written as empty cells.
+struct ProfileCsvRow {
+  double r_m = 0;
+  double v_abs = std::numeric_limits<double>::quiet_NaN();
+  double v_theta = std::numeric_limits<double>::quiet_NaN();
+  double v_r = std::numeric_limits<double>::quiet_NaN();
+  double v_abs_rms = std::numeric_limits<double>::quiet_NaN();
+  double v_abs_sem = std::numeric_limits<double>::quiet_NaN();
+  double v_noise = 0;
+  std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
+};
+
+/// One (pair, bin) mean of the groups file.
+struct ProfileGroupRow {
+  static constexpr int kNoCycle = std::numeric_limits<int>::min();  ///< f unknown
+  std::size_t pair = 0;
+  int cycle = kNoCycle;
+  double phase_deg = std::numeric_limits<double>::quiet_NaN();  ///< NaN when f is unknown
+  double r_m = 0, v_abs = 0, n_vectors = 0;
+  std::size_t line = 0;  ///< source line (reading only)
+};
+
+/// What `width` reads back from a profile: r_m, v_abs_m_per_s, v_noise_m_per_s and
+/// n_vectors of every row (the other columns are not needed and may be absent; they are
+/// left NaN or 0), and the header block.
+struct ProfileCsv {
+  std::filesystem::path path;
+  core::Metadata metadata;
+  std::vector<ProfileCsvRow> rows;
+  /// A header value, "" when absent.
+  std::string meta(const std::string& key) const;
+  /// A header value as a number, NaN when absent or not a number.
+  double meta_number(const std::string& key) const;
+};
+
+/// `<stem>_groups.csv` beside `profile`.
+std::filesystem::path profile_groups_path(const std::filesystem::path& profile);
+
+void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const std::vector<ProfileCsvRow>& rows);
+/// Writes `metadata`, then the descriptions of pair, cycle and phase_deg, then the rows.
+void write_profile_groups_csv(std::ostream& out, const core::Metadata& metadata,
+                              const std::vector<ProfileGroupRow>& rows);
+
+/// Reads a profile; InputError (file, line, column, value) for a missing column, a bad
+/// number, a count that is not a whole number >= 0, a bin with vectors but no v_abs, or
+/// a file without rows.
+ProfileCsv read_profile_csv(const std::filesystem::path& path);
+/// Reads a groups file; InputError for a pair index that is not a whole number below 1e8
+/// or rows that do not come pair by pair (pair indices 0, 1, 2, ... without gaps). A
+/// pair's cycle and phase are read from its first row (later rows keep kNoCycle).
+std::vector<ProfileGroupRow> read_profile_groups_csv(const std::filesystem::path& path);
+
+}  // namespace shearzone::io

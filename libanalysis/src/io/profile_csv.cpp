@@ -1,0 +1,118 @@
+#include "shearzone/io/profile_csv.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+
+namespace shearzone::io {
+namespace {
+
+std::string num(double v) { return CsvWriter::format_number(v); }
+
+}  // namespace
+
+std::string ProfileCsv::meta(const std::string& key) const {
+  for (const auto& [k, v] : metadata)
+    if (k == key) return v;
+  return {};
+}
+
+double ProfileCsv::meta_number(const std::string& key) const {
+  double v = 0;
+  const std::string s = meta(key);
+  return !s.empty() && parse_number(s, false, v) ? v : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::filesystem::path profile_groups_path(const std::filesystem::path& profile) {
+  return profile.parent_path() / (profile.stem().string() + "_groups.csv");
+}
+
+void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const std::vector<ProfileCsvRow>& rows) {
+  CsvWriter w(out, metadata,
+              {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s", "v_abs_sem_m_per_s",
+               "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
+  for (const auto& b : rows) {
+    const bool have = b.n_vectors > 0;
+    auto cell = [&](double v) { return have && std::isfinite(v) ? num(v) : std::string(); };
+    w.row(std::vector<std::string>{num(b.r_m), cell(b.v_abs), cell(b.v_theta), cell(b.v_r), cell(b.v_abs_rms),
+                                   cell(b.v_abs_sem), num(b.v_noise), std::to_string(b.n_vectors),
+                                   std::to_string(b.n_masked), std::to_string(b.n_invalid)});
+  }
+}
+
+void write_profile_groups_csv(std::ostream& out, const core::Metadata& metadata,
+                              const std::vector<ProfileGroupRow>& rows) {
+  core::Metadata m = metadata;
+  m.emplace_back("pair", "index of the pair among the selected ones, in time order");
+  m.emplace_back("cycle", "oscillation cycle floor(f (t - t0)); empty when f is unknown");
+  m.emplace_back("phase_deg", "oscillation phase at the pair's mid-time; empty when f is unknown");
+  CsvWriter w(out, m, {"pair", "cycle", "phase_deg", "r_m", "v_abs_m_per_s", "n_vectors"});
+  for (const auto& g : rows) {
+    const bool known = g.cycle != ProfileGroupRow::kNoCycle;
+    w.row(std::vector<std::string>{std::to_string(g.pair), known ? std::to_string(g.cycle) : "",
+                                   known ? num(g.phase_deg) : "", num(g.r_m), num(g.v_abs), num(g.n_vectors)});
+  }
+}
+
+ProfileCsv read_profile_csv(const std::filesystem::path& path) {
+  const CsvTable t = read_csv(path);
+  if (t.num_rows() == 0) throw InputError(fmt::format("{}: the profile has no rows", path.string()));
+  ProfileCsv p;
+  p.path = path;
+  p.metadata = t.metadata;
+  p.rows.resize(t.num_rows());
+  const auto r = t.numeric_column("r_m");
+  const auto noise = t.numeric_column("v_noise_m_per_s");
+  const auto nv = t.numeric_column("n_vectors");
+  for (std::size_t k = 0; k < nv.size(); ++k) {
+    const double x = nv[k];
+    if (!(x >= 0 && x == std::floor(x)))
+      throw InputError(fmt::format("{}: column \"n_vectors\": {} is not a count", path.string(), x));
+    p.rows[k].r_m = r[k];
+    p.rows[k].v_noise = noise[k];
+    p.rows[k].n_vectors = static_cast<std::size_t>(x);
+  }
+  // v_abs is empty in bins without vectors; a bin with vectors must carry a number.
+  const std::size_t cv = t.column_index("v_abs_m_per_s");
+  for (std::size_t k = 0; k < t.num_rows(); ++k)
+    p.rows[k].v_abs = p.rows[k].n_vectors == 0 && t.cell_empty(k, cv) ? std::numeric_limits<double>::quiet_NaN()
+                                                                       : t.number(k, cv);
+  return p;
+}
+
+std::vector<ProfileGroupRow> read_profile_groups_csv(const std::filesystem::path& path) {
+  const CsvTable g = read_csv(path);
+  const std::size_t cc = g.column_index("cycle"), cph = g.column_index("phase_deg");
+  const auto pair = g.numeric_column("pair"), r = g.numeric_column("r_m"), v = g.numeric_column("v_abs_m_per_s"),
+             nv = g.numeric_column("n_vectors");
+  std::vector<ProfileGroupRow> rows(g.num_rows());
+  std::size_t pairs = 0;  // pairs seen so far
+  for (std::size_t k = 0; k < g.num_rows(); ++k) {
+    if (!(pair[k] >= 0 && pair[k] == std::floor(pair[k]) && pair[k] < 1e8))
+      throw InputError(fmt::format("{}:{}: column \"pair\": {} is not a pair index", path.string(), g.row_lines[k],
+                                   num(pair[k])));
+    const auto pk = static_cast<std::size_t>(pair[k]);
+    if (pk + 1 < pairs || pk > pairs)
+      throw InputError(fmt::format("{}:{}: pair {} out of order: rows must come pair by pair", path.string(),
+                                   g.row_lines[k], pk));
+    auto& row = rows[k];
+    row.pair = pk;
+    row.line = g.row_lines[k];
+    if (pk == pairs) {  // a pair's cycle and phase are read from its first row
+      ++pairs;
+      if (!g.cell_empty(k, cc)) {
+        row.cycle = static_cast<int>(g.number(k, cc));
+        row.phase_deg = g.number(k, cph);
+      }
+    }
+    row.r_m = r[k];
+    row.v_abs = v[k];
+    row.n_vectors = nv[k];
+  }
+  return rows;
+}
+
+}  // namespace shearzone::io

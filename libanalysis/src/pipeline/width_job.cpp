@@ -1,0 +1,159 @@
+#include "shearzone/pipeline/width_job.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/profile_csv.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+std::string num(double v) { return io::CsvWriter::format_number(v); }
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// The width input of one profile file and its groups file.
+profile::WidthInput width_input(const io::ProfileCsv& p) {
+  const std::string& path = p.path.string();
+  profile::WidthInput in;
+  for (const auto& row : p.rows) {
+    in.r_m.push_back(row.r_m);
+    in.v_noise.push_back(row.v_noise);
+    in.n_vectors.push_back(row.n_vectors);
+    in.v_abs.push_back(row.v_abs);
+  }
+  in.R_m = p.meta_number("R_m");
+  if (std::isnan(in.R_m)) {
+    const double bin = p.meta_number("bin_m");
+    in.R_m = in.r_m.back() + (std::isnan(bin) ? 0.0 : 0.5 * bin);
+  }
+  const std::string grouping = p.meta("groups");
+  if (!grouping.empty() && !profile::parse_grouping(grouping, in.grouping))
+    throw InputError(fmt::format("{}: header \"groups: {}\": expected cycles, pairs_phase_detrended, "
+                                 "pairs or none",
+                                 path, grouping));
+  if (in.grouping == profile::Grouping::kNone) return in;
+  const std::filesystem::path gpath = io::profile_groups_path(p.path);
+  if (!std::filesystem::exists(gpath))
+    throw InputError(fmt::format("{}: the per-pair means {} are missing (written beside the profile "
+                                 "by `shearzone profile`); the interval needs them",
+                                 path, gpath.string()));
+  in.pairs.n_bins = in.r_m.size();
+  for (const auto& g : io::read_profile_groups_csv(gpath)) {
+    if (g.pair == in.pairs.num_pairs())
+      in.pairs.add_pair(g.cycle, g.cycle != io::ProfileGroupRow::kNoCycle ? g.phase_deg / 360.0 : kNaN);
+    // Bin index from the radius (same bins as the profile, ascending): the nearest
+    // of the two bracketing centres, found by bisection (rows x log bins).
+    auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), g.r_m);
+    if (it == in.r_m.end() || (it != in.r_m.begin() && g.r_m - *(it - 1) < *it - g.r_m)) --it;
+    if (std::abs(*it - g.r_m) > 1e-9 * std::max(1.0, std::abs(g.r_m)) + 1e-12)
+      throw InputError(
+          fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.line, num(g.r_m), path));
+    const std::size_t idx = g.pair * in.pairs.n_bins + static_cast<std::size_t>(it - in.r_m.begin());
+    in.pairs.v_abs[idx] = g.v_abs;
+    in.pairs.n_vectors[idx] = g.n_vectors;
+  }
+  return in;
+}
+
+}  // namespace
+
+void WidthJobOptions::validate() const {
+  if (inputs.empty()) throw ConfigError("width: no profile given");
+  width.validate();
+  for (const auto& [k, v] : tags)
+    if (k != "N" && k != "phi0_rad")
+      throw ConfigError(fmt::format("--tag {}={}: only N and phi0_rad are width columns", k, v));
+}
+
+std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metadata& header) {
+  o.validate();
+  io::check_output_allowed(o.output, o.force);
+  const profile::WidthOptions& wo = o.width;
+
+  struct Row {
+    std::string label, N, phi0;
+    profile::WidthResult res;
+    std::string n_pairs;
+  };
+  std::vector<Row> rows;
+  std::vector<WidthRow> report;
+  for (const auto& path : o.inputs) {
+    const io::ProfileCsv p = io::read_profile_csv(path);
+    const profile::WidthInput in = width_input(p);
+    Row row;
+    row.label = path.stem().string();
+    row.res = profile::shear_zone_width(in, wo);
+    row.N = p.meta("N");
+    row.phi0 = p.meta("phi0_rad");
+    for (const auto& [k, v] : o.tags) {
+      if (k == "N") row.N = v;
+      else if (k == "phi0_rad") row.phi0 = v;
+    }
+    row.n_pairs = p.meta("n_pairs");
+    WidthRow wr;
+    wr.label = row.label;
+    wr.status = row.res.status;
+    wr.rc_m = row.res.rc_m;
+    if (row.res.status == profile::WidthStatus::kNoiseLimited) {
+      // An r_c that cannot be trusted is not reported.
+      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = kNaN;
+      // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
+      const double sigma = p.meta_number("noise_sigma_m_per_s");
+      const double dt = p.meta_number("dt_s"), fps = p.meta_number("fps");
+      std::string k_text = "a larger pair spacing";
+      if (!std::isnan(sigma) && !std::isnan(dt) && !std::isnan(fps) && sigma > 0) {
+        const double k0 = std::max(1.0, std::round(dt * fps));
+        const double k = std::ceil(5.0 * sigma * dt * fps / wo.v_c_m_per_s);
+        k_text = fmt::format("pair spacing k >= {} (now {})", num(std::max(k, k0 + 1)), num(k0));
+      }
+      wr.advice = fmt::format(
+          "{}: v_c = {} m/s is below {} x the noise floor {} m/s: r_c cannot be trusted; re-run "
+          "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS",
+          path.string(), num(wo.v_c_m_per_s), num(wo.noise_factor), num(row.res.v_noise_m_per_s), k_text);
+    }
+    report.push_back(wr);
+    rows.push_back(std::move(row));
+  }
+  core::Metadata meta = header;
+  meta.emplace_back("v_c_m_per_s", num(wo.v_c_m_per_s));
+  meta.emplace_back("noise_factor", num(wo.noise_factor));
+  meta.emplace_back("bootstrap", std::to_string(wo.bootstrap));
+  meta.emplace_back("confidence", num(wo.confidence));
+  meta.emplace_back("seed", std::to_string(wo.seed));
+  meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
+                            "interpolation between bin centres; never_below: R (a lower bound); "
+                            "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
+  meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
+                             "rc_ci_method; empty when there is no replicate (one pair)");
+  meta.emplace_back("rc_ci_method",
+                    "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
+                    "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
+                    "residuals an AR(1) series of lag-1 correlation rc_ci_rho (AR-sieve bootstrap); "
+                    "pairs: the same about the mean (frequency unknown); none: no interval");
+  io::AtomicOutput out(o.output, o.force);
+  {
+    io::CsvWriter w(out.stream(), meta,
+                    {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
+                     "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
+    auto cell = [](double v) { return std::isfinite(v) ? num(v) : std::string(); };
+    for (const auto& r : rows) {
+      const bool ci = std::isfinite(r.res.ci_low_m);
+      w.row(std::vector<std::string>{
+          r.label, r.N, r.phi0, cell(r.res.rc_m), cell(r.res.ci_low_m), cell(r.res.ci_high_m),
+          profile::width_status_name(r.res.status), ci ? profile::grouping_name(r.res.grouping) : "none",
+          ci ? std::to_string(r.res.bootstrap_units) : "",
+          ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
+          num(r.res.v_noise_m_per_s), r.n_pairs});
+    }
+  }
+  out.commit();
+  return report;
+}
+
+
+}  // namespace shearzone::pipeline
