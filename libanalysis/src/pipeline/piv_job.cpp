@@ -15,8 +15,8 @@
 #include "shearzone/core/version.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/field_file.hpp"
 #include "shearzone/io/frames.hpp"
-#include "shearzone/io/hdf5.hpp"
 #include "shearzone/io/image.hpp"
 #include "shearzone/io/video.hpp"
 #include "shearzone/piv/mask.hpp"
@@ -78,19 +78,6 @@ class VaneAngle {
 
 bool frames_equal(const cv::Mat& a, const cv::Mat& b, double tol) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) <= tol;
-}
-
-/// Writes one field as the pair CSV.
-void write_pair_csv(std::ostream& os, const core::Metadata& meta, const core::VectorField& f) {
-  io::CsvWriter w(os, meta, {"x_px", "y_px", "u_px", "v_px", "flag", "peak", "peak_ratio"});
-  for (std::size_t i = 0; i < f.ny(); ++i)
-    for (std::size_t j = 0; j < f.nx(); ++j) {
-      const std::size_t k = f.index(i, j);
-      const auto fl = [](float v) { return io::CsvWriter::format_float(v); };
-      w.row(std::vector<std::string>{num(f.x_px[j]), num(f.y_px[i]), fl(f.u_px[k]), fl(f.v_px[k]),
-                                     core::flag_name(f.flag[k]), fl(f.peak[k]),
-                                     fl(f.peak_ratio[k])});
-    }
 }
 
 std::string metadata_text(const core::Metadata& m) {
@@ -244,7 +231,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   std::size_t unique_count = 0;
   PivJobSummary sum;
   io::AtomicOutput out(o.output, o.force);
-  std::unique_ptr<io::H5File> h5;
+  io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
   core::Metadata meta = header;
   meta.emplace_back("source", source->description());
   meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
@@ -335,33 +322,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       m2.emplace_back("frame_b", b.frame.label);
       m2.emplace_back("t_a_s", num(a.frame.t_s));
       m2.emplace_back("dt_s", num(dt));
-      write_pair_csv(out.stream(), m2, f);
+      io::write_field_csv(out.stream(), m2, f);
     } else {
-      if (!h5) {
-        h5 = std::make_unique<io::H5File>(io::H5File::create(out.temp_path()));
-        h5->write("/grid/x_px", {f.nx()}, f.x_px);
-        h5->write("/grid/y_px", {f.ny()}, f.y_px);
-        using T = io::H5File::Type;
-        for (const char* name : {"/pairs/u_px", "/pairs/v_px", "/pairs/peak", "/pairs/peak_ratio"})
-          h5->create_appendable(name, {f.ny(), f.nx()}, T::kFloat32, 1);
-        h5->create_appendable("/pairs/flag", {f.ny(), f.nx()}, T::kUInt8, 1);
-        h5->create_appendable("/pairs/frame_a", {}, T::kInt64);
-        h5->create_appendable("/pairs/frame_b", {}, T::kInt64);
-        h5->create_appendable("/pairs/t_a_s", {}, T::kFloat64);
-        h5->create_appendable("/pairs/dt_s", {}, T::kFloat64);
-        h5->set_attribute("/pairs/flag", "mapping", core::flag_mapping());
-      }
-      h5->append("/pairs/u_px", f.u_px.data());
-      h5->append("/pairs/v_px", f.v_px.data());
-      h5->append("/pairs/peak", f.peak.data());
-      h5->append("/pairs/peak_ratio", f.peak_ratio.data());
-      std::vector<std::uint8_t> flags(f.size());
-      for (std::size_t k = 0; k < f.size(); ++k) flags[k] = static_cast<std::uint8_t>(f.flag[k]);
-      h5->append("/pairs/flag", flags.data());
-      h5->append("/pairs/frame_a", &a.frame.index);
-      h5->append("/pairs/frame_b", &b.frame.index);
-      h5->append("/pairs/t_a_s", &a.frame.t_s);
-      h5->append("/pairs/dt_s", &dt);
+      fields.append(f, a.frame.index, b.frame.index, a.frame.t_s, dt);
     }
     ++pair_index;
     ++sum.pairs;
@@ -380,16 +343,16 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                                  o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
 
   // Step 4: root attributes and commit.
-  if (h5) {
-    h5->set_attribute("/", "fps", source->fps());
-    h5->set_attribute("/", "source", source->description());
-    h5->set_attribute("/", "options", metadata_text(meta));
+  if (fields.started()) {
+    fields.set_attribute("fps", source->fps());
+    fields.set_attribute("source", source->description());
+    fields.set_attribute("options", metadata_text(meta));
     std::string conv;
     for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
-    h5->set_attribute("/", "conventions", conv);
-    h5->set_attribute("/", "shearzone_version", kVersion);
-    h5->set_attribute("/", "duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
-    h5->set_attribute("/", "damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
+    fields.set_attribute("conventions", conv);
+    fields.set_attribute("shearzone_version", kVersion);
+    fields.set_attribute("duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
+    fields.set_attribute("damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
     {
       std::string list;
       for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i) {
@@ -397,18 +360,18 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
         list += std::to_string(sum.damaged[i]);
       }
       if (sum.damaged.size() > 1000) list += ",...";
-      h5->set_attribute("/", "damaged_frames", list.empty() ? std::string("none") : list);
+      fields.set_attribute("damaged_frames", list.empty() ? std::string("none") : list);
     }
     if (!std::isnan(o.centre_x_px)) {
-      h5->set_attribute("/", "centre_x_px", o.centre_x_px);
-      h5->set_attribute("/", "centre_y_px", o.centre_y_px);
+      fields.set_attribute("centre_x_px", o.centre_x_px);
+      fields.set_attribute("centre_y_px", o.centre_y_px);
     }
     for (const auto& [k, v] : o.attributes) {
       double x = 0;
-      if (io::parse_number(v, false, x)) h5->set_attribute("/", k, x);
-      else h5->set_attribute("/", k, v);
+      if (io::parse_number(v, false, x)) fields.set_attribute(k, x);
+      else fields.set_attribute(k, v);
     }
-    h5->close();
+    fields.close();
   }
   out.commit();
   sum.log_offset_s = vane_angle.log_offset();

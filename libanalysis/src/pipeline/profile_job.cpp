@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <memory>
 #include <numbers>
 
@@ -13,7 +12,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/frames.hpp"
-#include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/field_file.hpp"
 #include "shearzone/io/profile_csv.hpp"
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
@@ -27,170 +26,13 @@ static_assert(profile::PairSeries::kNoCycle == io::ProfileGroupRow::kNoCycle);
 std::string num(double v) { return io::CsvWriter::format_number(v); }
 bool set(double v) { return !std::isnan(v); }
 
-bool is_csv(const std::filesystem::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".csv";
-}
-
-/// A source of pairs: an HDF5 clip (streamed) or one CSV pair.
-class FieldSource {
- public:
-  virtual ~FieldSource() = default;
-  virtual std::size_t size() const = 0;
-  /// Pair k: the field and its time (t_a, dt).
-  virtual void read(std::size_t k, core::VectorField& f, double& t_a, double& dt) = 0;
-  /// A numeric root attribute, NaN if absent.
-  virtual double attribute(const std::string& name) const = 0;
-  virtual std::string text_attribute(const std::string& name) const = 0;
-};
-
-class H5Source final : public FieldSource {
- public:
-  explicit H5Source(const std::filesystem::path& path) : h5_(io::H5File::open_read(path)), path_(path) {
-    for (const char* d : {"/grid/x_px", "/grid/y_px", "/pairs/u_px", "/pairs/v_px", "/pairs/flag",
-                          "/pairs/t_a_s", "/pairs/dt_s"})
-      if (!h5_.exists(d))
-        throw InputError(fmt::format("{}: dataset \"{}\" missing: not a field file of `shearzone piv`",
-                                     path.string(), d));
-    // Declared sizes against the file and the memory budget before anything is read.
-    for (const char* d : {"/pairs/u_px", "/pairs/v_px", "/pairs/flag"}) h5_.check_declared(d);
-    x_ = h5_.read<double>("/grid/x_px").data;
-    y_ = h5_.read<double>("/grid/y_px").data;
-    t_a_ = h5_.read<double>("/pairs/t_a_s").data;
-    dt_ = h5_.read<double>("/pairs/dt_s").data;
-    const auto d = h5_.dims("/pairs/u_px");
-    if (d.size() != 3 || d[1] != y_.size() || d[2] != x_.size() || t_a_.size() != d[0] ||
-        dt_.size() != d[0])
-      throw InputError(fmt::format("{}: /pairs/u_px has the wrong shape for the grid ({} x {})",
-                                   path.string(), y_.size(), x_.size()));
-    n_ = d[0];
-  }
-  std::size_t size() const override { return n_; }
-  void read(std::size_t k, core::VectorField& f, double& t_a, double& dt) override {
-    if (f.x_px.empty()) {
-      f.x_px = x_;
-      f.y_px = y_;
-      f.resize_to_grid();
-      flags_.resize(f.size());
-    }
-    h5_.read_record("/pairs/u_px", k, f.u_px.data());
-    h5_.read_record("/pairs/v_px", k, f.v_px.data());
-    h5_.read_record("/pairs/flag", k, flags_.data());
-    for (std::size_t i = 0; i < flags_.size(); ++i) {
-      if (flags_[i] > 3)
-        throw InputError(fmt::format("{}: /pairs/flag[{}] = {}: expected 0..3", path_.string(), k,
-                                     static_cast<int>(flags_[i])));
-      f.flag[i] = static_cast<core::VectorFlag>(flags_[i]);
-      // A measured vector must be a number: NaN would turn its whole bin into NaN.
-      const bool measured = f.flag[i] == core::VectorFlag::kValid || f.flag[i] == core::VectorFlag::kReplaced;
-      if (measured && !(std::isfinite(f.u_px[i]) && std::isfinite(f.v_px[i])))
-        throw InputError(fmt::format("{}: /pairs/{}[{}][{}][{}] = {}: expected a finite displacement "
-                                     "(flag {})",
-                                     path_.string(), std::isfinite(f.u_px[i]) ? "v_px" : "u_px", k,
-                                     i / f.nx(), i % f.nx(),
-                                     std::isfinite(f.u_px[i]) ? f.v_px[i] : f.u_px[i],
-                                     core::flag_name(f.flag[i])));
-    }
-    t_a = t_a_[k];
-    dt = dt_[k];
-  }
-  double attribute(const std::string& name) const override {
-    if (!h5_.has_attribute("/", name)) return kUnset;
-    try {
-      return h5_.attribute_double("/", name);
-    } catch (const InputError&) {
-      double v = 0;
-      return io::parse_number(h5_.attribute_string("/", name), false, v) ? v : kUnset;
-    }
-  }
-  std::string text_attribute(const std::string& name) const override {
-    if (!h5_.has_attribute("/", name)) return {};
-    try {
-      return h5_.attribute_string("/", name);
-    } catch (const InputError&) {
-      return num(h5_.attribute_double("/", name));
-    }
-  }
-
- private:
-  io::H5File h5_;
-  std::filesystem::path path_;
-  std::vector<double> x_, y_, t_a_, dt_;
-  std::vector<std::uint8_t> flags_;
-  std::size_t n_ = 0;
-};
-
-class CsvSource final : public FieldSource {
- public:
-  CsvSource(const std::filesystem::path& path, double dt) : dt_(dt) {
-    const io::CsvTable t = io::read_csv(path);
-    if (t.num_rows() == 0) throw InputError(fmt::format("{}: no vectors", path.string()));
-    const auto x = t.numeric_column("x_px"), y = t.numeric_column("y_px");
-    const auto u = t.numeric_column("u_px"), v = t.numeric_column("v_px");
-    const auto fl = t.text_column("flag");
-    std::vector<double> xs = x, ys = y;
-    std::sort(xs.begin(), xs.end());
-    xs.erase(std::unique(xs.begin(), xs.end()), xs.end());
-    std::sort(ys.begin(), ys.end());
-    ys.erase(std::unique(ys.begin(), ys.end()), ys.end());
-    if (xs.size() * ys.size() != t.num_rows())
-      throw InputError(fmt::format("{}: {} rows do not fill a regular grid of {} x {} points",
-                                   path.string(), t.num_rows(), xs.size(), ys.size()));
-    f_.x_px = xs;
-    f_.y_px = ys;
-    f_.resize_to_grid();
-    for (std::size_t r = 0; r < t.num_rows(); ++r) {
-      const auto j = static_cast<std::size_t>(std::lower_bound(xs.begin(), xs.end(), x[r]) - xs.begin());
-      const auto i = static_cast<std::size_t>(std::lower_bound(ys.begin(), ys.end(), y[r]) - ys.begin());
-      const std::size_t k = f_.index(i, j);
-      f_.u_px[k] = static_cast<float>(u[r]);
-      f_.v_px[k] = static_cast<float>(v[r]);
-      bool ok = false;
-      for (auto flag : {core::VectorFlag::kValid, core::VectorFlag::kReplaced, core::VectorFlag::kMasked,
-                        core::VectorFlag::kInvalid})
-        if (fl[r] == core::flag_name(flag)) {
-          f_.flag[k] = flag;
-          ok = true;
-        }
-      if (!ok)
-        throw InputError(fmt::format("{}:{}: column \"flag\": \"{}\": expected valid, replaced, "
-                                     "masked or invalid",
-                                     path.string(), t.row_lines[r], fl[r]));
-    }
-    for (const auto& kv : t.metadata) meta_[kv.first] = kv.second;
-  }
-  std::size_t size() const override { return 1; }
-  void read(std::size_t, core::VectorField& f, double& t_a, double& dt) override {
-    f = f_;
-    t_a = 0;
-    dt = dt_;
-  }
-  double attribute(const std::string& name) const override {
-    auto it = meta_.find(name);
-    double v = 0;
-    return it != meta_.end() && io::parse_number(it->second, false, v) ? v : kUnset;
-  }
-  std::string text_attribute(const std::string& name) const override {
-    auto it = meta_.find(name);
-    return it == meta_.end() ? std::string() : it->second;
-  }
-
- private:
-  core::VectorField f_;
-  double dt_;
-  std::map<std::string, std::string> meta_;
-};
-
-std::unique_ptr<FieldSource> open_fields(const std::filesystem::path& path, double dt_s) {
-  if (is_csv(path)) {
-    if (!set(dt_s))
-      throw ConfigError(fmt::format("{}: a CSV field holds one pair without its time step: give "
-                                    "--dt-s (pair spacing / fps)",
-                                    path.string()));
-    return std::make_unique<CsvSource>(path, dt_s);
-  }
-  return std::make_unique<H5Source>(path);
+/// The pairs of a field file (io/field_file.hpp); a CSV pair needs its time step.
+std::unique_ptr<io::FieldReader> open_fields(const std::filesystem::path& path, double dt_s) {
+  if (io::is_field_csv(path) && !set(dt_s))
+    throw ConfigError(fmt::format("{}: a CSV field holds one pair without its time step: give "
+                                  "--dt-s (pair spacing / fps)",
+                                  path.string()));
+  return io::open_field_file(path, dt_s);
 }
 
 cv::Mat first_frame(const std::string& path) {

@@ -6,16 +6,9 @@
 // k = pair_spacing, i = 0, stride, 2 stride, ... Time comes from the container's
 // timestamps (or index / fps for images), and dt = t_b - t_a.
 //
-// Outputs:
-//   .csv  one pair: x_px,y_px,u_px,v_px,flag,peak,peak_ratio (flag as text), with
-//         every option and convention in the `#` header;
-//   .h5   any number of pairs, in the layout the next stages read:
-//         /grid/x_px[nx], /grid/y_px[ny];
-//         /pairs/u_px, v_px, peak, peak_ratio: float32 [npairs, ny, nx];
-//         /pairs/flag: uint8 (0 valid, 1 replaced, 2 masked, 3 invalid; attribute
-//         "mapping"); /pairs/frame_a, frame_b: int64; /pairs/t_a_s, dt_s: float64;
-//         root attributes fps, source, options, conventions, shearzone_version, the
-//         optional calibration and experiment tags, and free --attr pairs.
+// Outputs (layouts in io/field_file.hpp, the one place that writes and reads them):
+//   .csv  one pair, with every option and convention in the `#` header;
+//   .h5   any number of pairs, streamed pair by pair, in the layout the next stages read.
 // Displacements are in px per pair, from frame a to frame b.
 #pragma once
 
