@@ -2,61 +2,7 @@
 // contact-dynamics scene (README, "Contact-dynamics engine") run to its duration, with
 // snapshots (HDF5 + XDMF), checkpoints and the diagnostics CSV in one output folder.
 //
-// Scene TOML (strict keys; SI units in the names):
-//     [sim]      duration_s (required), time_step_s, gravity_m_per_s2 = [x, y, z],
-//                friction, tolerance, max_iterations, alert_margin, max_overlap,
-//                max_rope_excess, max_angle_excess_deg,
-//                freeze_sweeps (integer in [0, 1e6], default 16: sweeps a quiet
-//                zero-impulse row is skipped; 0: never freeze),
-//                threads (integer in [1, 256], default 1: the engine's slab-parallel
-//                sweep; bit-identical runs for a fixed count, another count is another
-//                Gauss–Seidel order)
-//     [output]   snapshot_every, checkpoint_every (steps; 0: none / only at the end),
-//                diagnostics_every (steps)
-//     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):
-//                floor, four sides (and a lid) as half-space walls
-//     [cylinder] radius_m, height_m, bead_diameter_m, centre_m = [x, y], floor_friction:
-//                a wall of fixed beads outside radius_m (rings touching, layers from z = 0)
-//                and a floor plane at z = 0
-//     [beads]    diameter_m, density_kg_per_m3, positions_m = [x0, y0, z0, x1, ...]
-//                (mobile, explicit), fixed_positions_m = [...] (fixed beads),
-//                kinematic_positions_m = [...] (kinematic beads, prescribed motion),
-//                kinematic_velocity_m_per_s = [vx, vy, vz] and
-//                kinematic_angular_velocity_rad_per_s = [wx, wy, wz] (default 0; the
-//                same constant v and ω for every kinematic bead: the engine moves them by
-//                x += h v, they push mobile beads and never feel a force)
-//     [chains]   beads_per_chain (N: explicit positions are cut into chains of N
-//                consecutive beads), l_max_m (bond slack: bond length ≤ d + l_max),
-//                max_angle_deg (turning-angle limit; 180: none)
-//     [fill]     count (chains), min_m, max_m (box region inside the container), seed,
-//                clearance: random non-overlapping chains of [chains] (sim::place_chains).
-//                settle = false (default): placed loosely in the region and left to fall
-//                during the run.
-//                settle = true: sim::fill builds a settled packing first: the chains are
-//                placed in the region raised until they fill insert_fraction (default 0.2)
-//                of it, dropped with a cheap solver (settle_tolerance 1e-2,
-//                settle_max_iterations 30) until ½ m v² per bead < settle_kinetic_energy
-//                (1e-3) m g d or settle_max_steps (20000), then relaxed with the [sim]
-//                options until ½ m v² per bead < relax_kinetic_energy (1e-5) m g d or
-//                relax_max_steps (20000). The container ([box] walls with their lid, or the
-//                [cylinder] beads and floor, fixed and kinematic beads) is the same in the
-//                drop and relaxation worlds; kinematic beads stand still during the fill.
-//                The run then starts from the relaxed packing at step 0, t = 0 (the fill's
-//                steps are not counted; its last impulses are the warm start), and the
-//                kinematic beads start moving. Not with explicit mobile positions_m, needs
-//                a container and gravity with a downward component, and under a lid the
-//                raised drop column must fit. The settle/relax keys are refused without
-//                settle = true. Either way the region must lie inside the box or cylinder
-//                and clear of the scene's other beads (placement does not see them; with
-//                settle, the whole raised column).
-// Bodies are numbered: cylinder wall beads, fixed beads, kinematic beads, explicit mobile
-// chains, fill chains; every fixed or kinematic bead is a chain of its own (chain_id).
-// Bad values (out of range, wrong type, wrong count) are one ConfigError line naming
-// file:line and key.
-// With `restart`, the world (bodies, walls, chains, options including threads and
-// freeze_sweeps, impulses) comes from the checkpoint and the scene gives only the
-// duration (total simulated time) and the output cadence; the body and wall sections
-// are still checked but not used (no placement and no fill).
+// The scene file's keys and what they build: sim/scene.hpp.
 #pragma once
 
 #include <cstddef>

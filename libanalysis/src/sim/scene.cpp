@@ -1,0 +1,515 @@
+// The scene TOML of `shearzone sim`: see shearzone/sim/scene.hpp.
+#include "shearzone/sim/scene.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/toml_config.hpp"
+#include "shearzone/sim/builder.hpp"
+
+namespace shearzone::sim {
+namespace {
+
+
+const std::vector<std::string> kKeys = {
+    "sim.duration_s",         "sim.time_step_s",        "sim.gravity_m_per_s2",
+    "sim.friction",           "sim.tolerance",          "sim.max_iterations",
+    "sim.alert_margin",       "sim.max_overlap",        "sim.max_rope_excess",
+    "sim.max_angle_excess_deg", "sim.freeze_sweeps",    "sim.threads",
+    "output.snapshot_every",  "output.checkpoint_every", "output.diagnostics_every",
+    "box.min_m",              "box.max_m",              "box.friction",
+    "box.lid",
+    "cylinder.radius_m",      "cylinder.height_m",      "cylinder.bead_diameter_m",
+    "cylinder.centre_m",      "cylinder.floor_friction",
+    "beads.diameter_m",       "beads.density_kg_per_m3", "beads.positions_m",
+    "beads.fixed_positions_m", "beads.kinematic_positions_m",
+    "beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s",
+    "chains.beads_per_chain", "chains.l_max_m",         "chains.max_angle_deg",
+    "fill.count",             "fill.min_m",             "fill.max_m",
+    "fill.seed",              "fill.clearance",         "fill.settle",
+    "fill.insert_fraction",   "fill.settle_tolerance",  "fill.settle_max_iterations",
+    "fill.settle_max_steps",  "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
+    "fill.relax_max_steps"};
+
+// The settle/relax keys of [fill]; they only mean something with fill.settle = true.
+const std::vector<std::string> kSettleKeys = {
+    "fill.insert_fraction",  "fill.settle_tolerance",      "fill.settle_max_iterations",
+    "fill.settle_max_steps", "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
+    "fill.relax_max_steps"};
+
+constexpr long long kMaxSweeps = 100000;      // NLGS sweeps per step (sim.max_iterations)
+constexpr long long kMaxFillSteps = 10000000;  // fill.settle_max_steps, fill.relax_max_steps
+constexpr double kMaxWallBeads = 1e6;          // cylinder wall and floor beads, as for mobile beads
+
+double deg(double a) { return a * std::numbers::pi / 180.0; }
+
+class Scene {
+ public:
+  explicit Scene(const std::filesystem::path& path) : t_(io::TomlConfig::load(path)) {
+    t_.require_known(kKeys);
+  }
+  bool has(const std::string& k) const { return t_.has(k); }
+  double num(const std::string& k, double fallback) const { return t_.has(k) ? t_.get_double(k) : fallback; }
+  long long integer(const std::string& k, long long fallback, long long min,
+                    long long max = std::numeric_limits<long long>::max()) const {
+    if (!t_.has(k)) return fallback;
+    const long long v = t_.get_int(k);
+    if (v < min || v > max) {
+      if (max == std::numeric_limits<long long>::max()) fail(k, fmt::format("{} (expected >= {})", v, min));
+      fail(k, fmt::format("{} (expected in [{}, {}])", v, min, max));
+    }
+    return v;
+  }
+  double positive(const std::string& k, double fallback) const {
+    const double v = num(k, fallback);
+    if (!(v > 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected > 0)", v));
+    return v;
+  }
+  /// lo <= v <= hi (lo < v when open_lo), finite.
+  double within(const std::string& k, double fallback, double lo, double hi, bool open_lo = false) const {
+    const double v = num(k, fallback);
+    if (!(open_lo ? v > lo : v >= lo) || !(v <= hi))
+      fail(k, fmt::format("{} (expected in {}{}, {}])", v, open_lo ? "(" : "[", lo, hi));
+    return v;
+  }
+  double non_negative(const std::string& k, double fallback) const {
+    const double v = num(k, fallback);
+    if (!(v >= 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected >= 0)", v));
+    return v;
+  }
+  bool flag(const std::string& k, bool fallback) const { return t_.has(k) ? t_.get_bool(k) : fallback; }
+  std::vector<double> numbers(const std::string& k) const {
+    std::vector<double> out;
+    if (!t_.has(k)) return out;
+    for (const std::string& s : t_.texts(k)) {
+      double v = 0.0;
+      if (!io::parse_number(s, false, v) || !std::isfinite(v))
+        fail(k, fmt::format("\"{}\" is not a finite number", s));
+      out.push_back(v);
+    }
+    return out;
+  }
+  std::vector<double> fixed_size(const std::string& k, std::size_t n) const {
+    std::vector<double> v = numbers(k);
+    if (v.size() != n) fail(k, fmt::format("{} values (expected {})", v.size(), n));
+    return v;
+  }
+  Vec3 vec3(const std::string& k) const {
+    const auto v = fixed_size(k, 3);
+    return {v[0], v[1], v[2]};
+  }
+  /// Positions x0, y0, z0, x1, ... as points.
+  std::vector<Vec3> points(const std::string& k) const {
+    const auto v = numbers(k);
+    if (v.size() % 3 != 0) fail(k, "the count must be a multiple of 3");
+    if (v.size() > 3000000) fail(k, fmt::format("{} beads (expected at most 1e6)", v.size() / 3));
+    std::vector<Vec3> out;
+    for (std::size_t i = 0; i < v.size(); i += 3) out.emplace_back(v[i], v[i + 1], v[i + 2]);
+    return out;
+  }
+  [[noreturn]] void fail(const std::string& k, const std::string& what) const {
+    throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", t_.source(), t_.line(k), k, what));
+  }
+  [[noreturn]] void fail_file(const std::string& what) const {
+    throw ConfigError(fmt::format("{}: {}", t_.source(), what));
+  }
+
+ private:
+  io::TomlConfig t_;
+};
+
+SceneCadence read_cadence(const Scene& s) {
+  SceneCadence c;
+  if (!s.has("sim.duration_s")) s.fail_file("key \"sim.duration_s\" is required");
+  c.duration_s = s.num("sim.duration_s", 0.0);
+  if (!(c.duration_s >= 0.0) || !std::isfinite(c.duration_s))
+    s.fail("sim.duration_s", fmt::format("{} (expected >= 0)", c.duration_s));
+  c.snapshot_every = s.integer("output.snapshot_every", c.snapshot_every, 0);
+  c.checkpoint_every = s.integer("output.checkpoint_every", c.checkpoint_every, 0);
+  c.diagnostics_every = s.integer("output.diagnostics_every", c.diagnostics_every, 1);
+  return c;
+}
+
+Options read_options(const Scene& s) {
+  Options o;
+  // The ranges of World's constructor, checked here so that the message names the line.
+  // Upper bounds keep a run's cost bounded (World::step also refuses a step whose
+  // contact search would reach beyond 8 diameters: every pair would become a contact).
+  o.time_step = s.within("sim.time_step_s", o.time_step, 0.0, 1.0, true);
+  if (s.has("sim.gravity_m_per_s2")) {
+    o.gravity = s.vec3("sim.gravity_m_per_s2");
+    if (!(o.gravity.norm() <= 1000.0))
+      s.fail("sim.gravity_m_per_s2", fmt::format("|g| = {} m/s^2 (expected at most 1000)", o.gravity.norm()));
+  }
+  o.friction = s.non_negative("sim.friction", o.friction);
+  o.tolerance = s.positive("sim.tolerance", o.tolerance);
+  o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1, kMaxSweeps));
+  o.alert_margin = s.within("sim.alert_margin", o.alert_margin, 0.0, 1.0);
+  o.max_overlap = s.positive("sim.max_overlap", o.max_overlap);
+  o.max_rope_excess = s.positive("sim.max_rope_excess", o.max_rope_excess);
+  if (s.has("sim.max_angle_excess_deg")) o.max_angle_excess = deg(s.positive("sim.max_angle_excess_deg", 2.0));
+  o.freeze_sweeps = static_cast<int>(s.integer("sim.freeze_sweeps", o.freeze_sweeps, 0, 1000000));
+  o.threads = static_cast<int>(s.integer("sim.threads", o.threads, 1, 256));
+  return o;
+}
+
+/// Axis-aligned box from two keys, max > min in every coordinate.
+BoxRegion read_box(const Scene& s, const std::string& lo_key, const std::string& hi_key) {
+  const Vec3 lo = s.vec3(lo_key), hi = s.vec3(hi_key);
+  for (int k = 0; k < 3; ++k)
+    if (!(hi[k] > lo[k])) s.fail(hi_key, fmt::format("must exceed {} in every coordinate", lo_key));
+  return {lo, hi};
+}
+
+/// Everything a scene puts in the world, read and checked before anything is built.
+struct SceneBodies {
+  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
+  std::optional<BoxRegion> box;
+  double box_friction = 0.5;
+  bool lid = false;
+  bool cylinder = false;
+  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
+  double cyl_cx = 0.0, cyl_cy = 0.0;
+  // Beads.
+  double diameter = 0.0, density = 2500.0;
+  std::vector<Vec3> fixed, kinematic, mobile;
+  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
+  ChainOptions chains;
+  // [fill].
+  bool fill = false;
+  BoxRegion fill_region;
+  bool settle = false;
+  FillOptions settle_options;
+};
+
+SceneBodies read_bodies(const Scene& s) {
+  SceneBodies b;
+  if (s.has("box.min_m") || s.has("box.max_m")) {
+    b.box = read_box(s, "box.min_m", "box.max_m");
+    b.box_friction = s.non_negative("box.friction", 0.5);
+    b.lid = s.flag("box.lid", false);
+  } else if (s.has("box.friction") || s.has("box.lid")) {
+    s.fail_file("[box] needs min_m and max_m");
+  }
+  b.cylinder = s.has("cylinder.radius_m");
+  if (b.cylinder && b.box) s.fail_file("give either [box] or [cylinder], not both");
+  b.density = s.positive("beads.density_kg_per_m3", 2500.0);
+  if (b.cylinder) {
+    b.cyl_radius = s.positive("cylinder.radius_m", 1.0);
+    b.cyl_height = s.positive("cylinder.height_m", 1.0);
+    b.cyl_bead = s.positive("cylinder.bead_diameter_m", 1.0);
+    {  // the wall beads add_container() places: rings of ceil(2 pi (R + d/2) / d) beads
+      const double per_ring = std::ceil(2.0 * std::numbers::pi * (b.cyl_radius + 0.5 * b.cyl_bead) / b.cyl_bead);
+      const double layers = std::max(0.0, std::floor(b.cyl_height / b.cyl_bead - 0.5) + 1.0);
+      if (!(per_ring * layers <= kMaxWallBeads))
+        s.fail("cylinder.bead_diameter_m",
+               fmt::format("{} m makes {:.3g} wall beads for radius_m = {} and height_m = {} (expected at most 1e6)",
+                           b.cyl_bead, per_ring * layers, b.cyl_radius, b.cyl_height));
+    }
+    if (s.has("cylinder.centre_m")) {
+      const auto c = s.fixed_size("cylinder.centre_m", 2);
+      b.cyl_cx = c[0];
+      b.cyl_cy = c[1];
+    }
+    b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", 0.5);
+  } else if (s.has("cylinder.height_m") || s.has("cylinder.bead_diameter_m") || s.has("cylinder.centre_m") ||
+             s.has("cylinder.floor_friction")) {
+    s.fail_file("[cylinder] needs radius_m");
+  }
+
+  for (const char* k : {"beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s"})
+    if (s.has(k) && !s.has("beads.kinematic_positions_m")) s.fail(k, "needs beads.kinematic_positions_m");
+  const bool any_beads = s.has("beads.positions_m") || s.has("beads.fixed_positions_m") ||
+                         s.has("beads.kinematic_positions_m") || s.has("fill.count");
+  // Without fill.count, no other [fill] key may be set.
+  auto no_fill_keys = [&s] {
+    for (const char* k : {"fill.min_m", "fill.max_m", "fill.seed", "fill.clearance", "fill.settle"})
+      if (s.has(k)) s.fail_file("[fill] needs count");
+    for (const std::string& k : kSettleKeys)
+      if (s.has(k)) s.fail_file("[fill] needs count");
+  };
+  if (!any_beads) {
+    no_fill_keys();
+    return b;
+  }
+  if (!s.has("beads.diameter_m")) s.fail_file("key \"beads.diameter_m\" is required with beads");
+  b.diameter = s.positive("beads.diameter_m", 1.0);
+  ChainOptions& co = b.chains;
+  co.diameter = b.diameter;
+  co.density = b.density;
+  // Scene sizes are bounded so that time and memory stay bounded (the paper's cup holds
+  // about 15 000 beads; 1e6 is the most a scene may hold).
+  constexpr std::int64_t kMaxBeads = 1000000;
+  co.beads_per_chain = static_cast<int>(s.integer("chains.beads_per_chain", 1, 1, kMaxBeads));
+  co.l_max = s.non_negative("chains.l_max_m", 0.0);
+  co.theta_max = deg(s.num("chains.max_angle_deg", 180.0));
+  if (!(co.theta_max > 0.0) || co.theta_max > std::numbers::pi)
+    s.fail("chains.max_angle_deg", "expected in (0, 180]");
+
+  b.fixed = s.points("beads.fixed_positions_m");
+  b.kinematic = s.points("beads.kinematic_positions_m");
+  if (s.has("beads.kinematic_velocity_m_per_s")) b.kinematic_velocity = s.vec3("beads.kinematic_velocity_m_per_s");
+  if (s.has("beads.kinematic_angular_velocity_rad_per_s"))
+    b.kinematic_omega = s.vec3("beads.kinematic_angular_velocity_rad_per_s");
+  b.mobile = s.points("beads.positions_m");
+  if (!b.mobile.empty() && s.has("fill.count") && s.flag("fill.settle", false))
+    s.fail("beads.positions_m",
+           "explicit mobile beads cannot be combined with fill.settle = true (the fill builds the packing "
+           "in worlds of its own; give them as fixed_positions_m, or drop fill.settle)");
+  const std::size_t n = static_cast<std::size_t>(co.beads_per_chain);
+  if (b.mobile.size() % n != 0)
+    s.fail("beads.positions_m", fmt::format("{} beads are not whole chains of {}", b.mobile.size(), n));
+
+  b.fill = s.has("fill.count");
+  if (!b.fill) {
+    no_fill_keys();
+    return b;
+  }
+  co.chains = static_cast<int>(s.integer("fill.count", 1, 1, kMaxBeads));
+  if (static_cast<std::int64_t>(co.chains) * co.beads_per_chain > kMaxBeads)
+    s.fail("fill.count", fmt::format("{} chains of {} beads: expected at most {} beads in all", co.chains,
+                                     co.beads_per_chain, kMaxBeads));
+  co.seed = static_cast<std::uint64_t>(s.integer("fill.seed", 1, 0));
+  co.clearance = s.non_negative("fill.clearance", co.clearance);
+  b.fill_region = read_box(s, "fill.min_m", "fill.max_m");
+  const Vec3 &flo = b.fill_region.lo, &fhi = b.fill_region.hi;
+  // The chains must start inside the container: a bead placed through a half-space wall
+  // would start deep in overlap and stop the run at its first step.
+  if (b.box) {
+    const bool inside = flo.x() >= b.box->lo.x() && flo.y() >= b.box->lo.y() && flo.z() >= b.box->lo.z() &&
+                        fhi.x() <= b.box->hi.x() && fhi.y() <= b.box->hi.y() &&
+                        (!b.lid || fhi.z() <= b.box->hi.z());
+    if (!inside) s.fail("fill.max_m", "the fill region must lie inside the box (below its lid, if any)");
+  } else if (b.cylinder) {
+    const double rx = std::max(std::abs(flo.x() - b.cyl_cx), std::abs(fhi.x() - b.cyl_cx));
+    const double ry = std::max(std::abs(flo.y() - b.cyl_cy), std::abs(fhi.y() - b.cyl_cy));
+    if (std::hypot(rx, ry) > b.cyl_radius || flo.z() < 0.0)
+      s.fail("fill.max_m", fmt::format("the fill region must lie inside the cylinder (radius {} m, floor z = 0)",
+                                       b.cyl_radius));
+  }
+
+  b.settle = s.flag("fill.settle", false);
+  if (!b.settle) {
+    for (const std::string& k : kSettleKeys)
+      if (s.has(k)) s.fail(k, "only applies with fill.settle = true");
+  }
+  FillOptions& fo = b.settle_options;
+  fo.insert_fraction = s.num("fill.insert_fraction", fo.insert_fraction);
+  if (!(fo.insert_fraction > 0.0) || fo.insert_fraction > 0.35)
+    s.fail("fill.insert_fraction", fmt::format("{} (expected in (0, 0.35])", fo.insert_fraction));
+  // fill places the chains in the fill box raised until they fill insert_fraction of
+  // it (builder.hpp, "Fill"); without settle they go into the box itself.
+  BoxRegion placed = b.fill_region;
+  if (b.settle) {
+    const double d = b.diameter;
+    const double beads = static_cast<double>(co.chains) * co.beads_per_chain;
+    const double area = (fhi.x() - flo.x()) * (fhi.y() - flo.y());
+    placed.hi.z() =
+        std::max(fhi.z(), flo.z() + beads * std::numbers::pi * d * d * d / 6.0 / (fo.insert_fraction * area) + d);
+  }
+  // Placement sees none of the scene's other beads: one in the way would start in deep
+  // overlap with a chain bead.
+  auto check_clear = [&](const std::vector<Vec3>& beads, const char* key) {
+    for (std::size_t k = 0; k < beads.size(); ++k) {
+      const Vec3 nearest = beads[k].cwiseMax(placed.lo).cwiseMin(placed.hi);
+      if ((beads[k] - nearest).norm() < 0.5 * b.diameter)
+        s.fail(key, fmt::format("bead {} at ({}, {}, {}) reaches into the {} region (z up to {:.6g} m), where "
+                                "the chains are placed without seeing it",
+                                k, beads[k].x(), beads[k].y(), beads[k].z(), b.settle ? "drop" : "fill",
+                                placed.hi.z()));
+    }
+  };
+  check_clear(b.fixed, "beads.fixed_positions_m");
+  check_clear(b.kinematic, "beads.kinematic_positions_m");
+  if (!b.settle) {
+    check_clear(b.mobile, "beads.positions_m");
+    return b;
+  }
+  if (!b.box && !b.cylinder && b.fixed.empty() && b.kinematic.empty())
+    s.fail("fill.settle", "needs a container ([box], [cylinder] or fixed beads) to settle into");
+  fo.chains = co;
+  fo.region = b.fill_region;
+  fo.wall_friction = b.box_friction;  // unused: the container callback adds the walls
+  fo.settle_tolerance = s.positive("fill.settle_tolerance", fo.settle_tolerance);
+  fo.settle_max_iterations =
+      static_cast<int>(s.integer("fill.settle_max_iterations", fo.settle_max_iterations, 1, kMaxSweeps));
+  fo.settle_max_steps = s.integer("fill.settle_max_steps", fo.settle_max_steps, 1, kMaxFillSteps);
+  fo.settle_kinetic_energy = s.positive("fill.settle_kinetic_energy", fo.settle_kinetic_energy);
+  fo.relax_kinetic_energy = s.positive("fill.relax_kinetic_energy", fo.relax_kinetic_energy);
+  fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0, kMaxFillSteps);
+  // Under a lid the drop column must fit, or beads would start above the lid.
+  if (b.lid && placed.hi.z() > b.box->hi.z())
+    s.fail("fill.settle", fmt::format("the drop column reaches z = {:.6g} m, above the lid at {:.6g} m (raise "
+                                      "box.max_m, raise fill.insert_fraction or set box.lid = false)",
+                                      placed.hi.z(), b.box->hi.z()));
+  return b;
+}
+
+/// Adds the container (walls, cylinder beads, fixed beads, kinematic beads) to `w`; the
+/// kinematic beads get their prescribed velocities only if `moving` (fill's drop and
+/// relaxation worlds keep them still).
+void add_container(World& w, const SceneBodies& b, bool moving) {
+  if (b.box) {
+    add_box_walls(w, *b.box, b.box_friction);
+    if (b.lid) w.add_wall(Wall{Vec3(b.box->lo.x(), b.box->lo.y(), b.box->hi.z()), -Vec3::UnitZ(), b.box_friction});
+  }
+  if (b.cylinder) {
+    const double dw = b.cyl_bead;
+    w.add_wall(Wall{Vec3(b.cyl_cx, b.cyl_cy, 0.0), Vec3::UnitZ(), b.cyl_floor_friction});
+    const double rc = b.cyl_radius + 0.5 * dw;  // bead centres: the beads' inner surface at r
+    const auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
+    for (int layer = 0; (0.5 + layer) * dw <= b.cyl_height; ++layer)
+      for (int k = 0; k < per_ring; ++k) {
+        const double a = 2.0 * std::numbers::pi * (k + 0.5 * (layer % 2)) / per_ring;
+        w.add_sphere(Vec3(b.cyl_cx + rc * std::cos(a), b.cyl_cy + rc * std::sin(a), (0.5 + layer) * dw), dw,
+                     b.density, BodyKind::fixed);
+      }
+  }
+  for (const Vec3& x : b.fixed) w.add_sphere(x, b.diameter, b.density, BodyKind::fixed);
+  for (const Vec3& x : b.kinematic) {
+    const int id = w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
+    if (moving) {
+      w.set_velocity(id, b.kinematic_velocity);
+      w.set_angular_velocity(id, b.kinematic_omega);
+    }
+  }
+}
+
+/// Builds the world of a scene. `check_only` (restart): reads and checks every section
+/// but places, drops and relaxes nothing. The fill stage's report goes to the result's `fill`.
+LoadedScene build_world(const Scene& s, bool check_only) {
+  const Options opt = read_options(s);
+  const SceneBodies b = read_bodies(s);
+  // fill raises the drop column along +z: the beads must fall down it.
+  if (b.settle && !(opt.gravity.z() < 0.0))
+    s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
+  LoadedScene out;
+  World container(opt);
+  add_container(container, b, true);
+  // Every container body is a chain of its own; then the explicit chains, then the fill.
+  std::int64_t next_chain = 0;
+  for (int k = 0; k < container.body_count(); ++k) out.chain_ids.push_back(next_chain++);
+  if (b.fill) {
+    validate(Region{b.fill_region});
+    validate(b.chains);
+    if (b.settle) validate(b.settle_options);
+  }
+  if (check_only) {
+    out.world.emplace(std::move(container));
+    return out;
+  }
+
+  if (b.settle) {
+    const auto t0 = std::chrono::steady_clock::now();
+    FillResult r = fill(opt, b.settle_options, [&b](World& w) { add_container(w, b, false); });
+    out.fill.settled = true;
+    out.fill.settle_steps = r.settle_steps;
+    out.fill.relax_steps = r.relax_steps;
+    out.fill.settle_cap_hits = r.settle_cap_hits;
+    out.fill.kinetic_energy = r.kinetic_energy;
+    out.fill.relaxed = r.relaxed;
+    out.fill.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    // The run starts from the relaxed packing at step 0 and t = 0, with the relaxation's
+    // last impulses as its warm start; the kinematic beads start moving now.
+    WorldState st = r.world.state();
+    st.step = 0;
+    st.iteration_cap_hits = 0;
+    out.world.emplace(World::from_state(st));
+    for (int k = 0; k < out.world->body_count(); ++k)
+      if (out.world->kind(k) == BodyKind::kinematic) {
+        out.world->set_velocity(k, b.kinematic_velocity);
+        out.world->set_angular_velocity(k, b.kinematic_omega);
+      }
+    for (const int c : r.chain_of_bead) out.chain_ids.push_back(next_chain + c);
+    return out;
+  }
+
+  out.world.emplace(std::move(container));
+  World& w = *out.world;
+  const auto n = static_cast<std::size_t>(b.chains.beads_per_chain);
+  for (std::size_t c = 0; c < b.mobile.size() / n; ++c) {
+    std::vector<int> ids;
+    for (std::size_t k = 0; k < n; ++k) {
+      ids.push_back(w.add_sphere(b.mobile[c * n + k], b.diameter, b.density));
+      out.chain_ids.push_back(next_chain);
+    }
+    ++next_chain;
+    if (n > 1) w.add_chain(ids, b.diameter + b.chains.l_max, b.chains.theta_max);
+  }
+  if (b.fill) {
+    const ChainPlacement p = place_chains(b.fill_region, b.chains);
+    add_chains(w, p, b.chains);
+    for (const int c : p.chain_of_bead) out.chain_ids.push_back(next_chain + c);
+  }
+  return out;
+}
+
+/// A fresh scene must not start with overlapping beads: the solver would push them
+/// apart in one step (a bead leaving at metres per second) and report nothing.
+/// Pairs of fixed beads (walls) may touch. Throws InputError naming the first bead
+/// (in body order) that overlaps another by more than sim.max_overlap x d.
+void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene) {
+  const int n = w.body_count();
+  if (n < 2) return;
+  double dmax = 0;
+  for (int k = 0; k < n; ++k) dmax = std::max(dmax, w.diameter(k));
+  const double cell = dmax;
+  auto key = [&](const Vec3& x, int dx, int dy, int dz) {
+    const auto c = [&](double v, int d) { return static_cast<std::int64_t>(std::floor(v / cell)) + d; };
+    return std::array<std::int64_t, 3>{c(x.x(), dx), c(x.y(), dy), c(x.z(), dz)};
+  };
+  std::map<std::array<std::int64_t, 3>, std::vector<int>> grid;
+  for (int k = 0; k < n; ++k) grid[key(w.position(k), 0, 0, 0)].push_back(k);
+  const double limit = w.options().max_overlap;
+  for (int k = 0; k < n; ++k) {
+    int worst = -1;
+    double worst_rel = limit;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find(key(w.position(k), dx, dy, dz));
+          if (it == grid.end()) continue;
+          for (int j : it->second) {
+            if (j <= k || (w.kind(k) == BodyKind::fixed && w.kind(j) == BodyKind::fixed)) continue;
+            const double overlap = 0.5 * (w.diameter(k) + w.diameter(j)) - (w.position(k) - w.position(j)).norm();
+            const double rel = overlap / std::min(w.diameter(k), w.diameter(j));
+            if (rel > worst_rel) {
+              worst_rel = rel;
+              worst = j;
+            }
+          }
+        }
+    if (worst >= 0)
+      throw InputError(fmt::format(
+          "{}: beads {} and {} overlap by {:.4g} d at the start (centres {:.6g} m apart, diameters {} "
+          "and {} m); expected at most sim.max_overlap = {} d: move them apart",
+          scene.string(), k, worst, worst_rel, (w.position(k) - w.position(worst)).norm(),
+          io::CsvWriter::format_number(w.diameter(k)), io::CsvWriter::format_number(w.diameter(worst)),
+          io::CsvWriter::format_number(limit)));
+  }
+}
+
+}  // namespace
+
+LoadedScene load_scene(const std::filesystem::path& path, bool check_only) {
+  const Scene scene(path);
+  const SceneCadence cadence = read_cadence(scene);
+  LoadedScene out = build_world(scene, check_only);
+  out.cadence = cadence;
+  if (!check_only) refuse_initial_overlaps(*out.world, path);
+  return out;
+}
+
+}  // namespace shearzone::sim
