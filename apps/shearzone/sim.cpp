@@ -56,7 +56,7 @@ std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx) {
   CLI::App* c = root.add_subcommand(
       "sim", "Contact-dynamics simulation of a scene (TOML) -> snapshots (HDF5 + XDMF), "
              "checkpoints, diagnostics CSV");
-  c->add_option("scene", s->scene, "Scene .toml (keys: README, \"Contact-dynamics engine\")")
+  c->add_option("scene", s->scene, "Scene .toml (keys: docs/sim.md)")
       ->required();
   c->add_option("-o,--output", s->output, "Run folder")->required();
   c->add_option("--restart", s->restart,

@@ -129,7 +129,7 @@ TEST_CASE("collapse fss: optimum on the percolation data lies in the published S
   // Initial simplex the size of the published S+1 errors (the scale on which the
   // answer is wanted). S is rugged: with steps >= 2x larger the simplex settles in
   // another minimum, S = 0.925 on 69 terms at (0.59265, 0.7533, 0.1058), where
-  // points leave the window (README, "Collapse fss").
+  // points leave the window (docs/fits-collapse.md).
   o.step = {0.000075, 0.0054, 0.00097};
   const auto r = fit::fit_fss_collapse(d, o);
   INFO("xc = " << r.best[0] << " a = " << r.best[1] << " b = " << r.best[2] << " S = "

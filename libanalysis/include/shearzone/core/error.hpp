@@ -1,6 +1,6 @@
 // shearzone/core/error.hpp: the error types of the toolkit.
 //
-// Three kinds of failure are kept apart (see README, "Errors and exit codes"):
+// Three kinds of failure are kept apart (see README, Exit codes):
 //  1. Bad input or configuration: InputError, ConfigError. The message says where
 //     (file:line, column, dataset, frame), the bad value, and what was expected.
 //     The CLI maps both to exit code 2.

@@ -1,6 +1,6 @@
 // shearzone/laos/analysis.hpp: LAOS analysis of one oscillation record (a log segment)
 // given as plain vectors: amplitudes, drive phase θ, cycles, start-up transient and
-// steady state, harmonics and derived measures per amplitude (README, "shearzone laos").
+// steady state, harmonics and derived measures per amplitude (docs/laos.md).
 //
 // Steps, per record:
 //  1. Amplitudes. Raw cycles are cut at upward crossings of the drive through its mid

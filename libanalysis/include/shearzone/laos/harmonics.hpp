@@ -13,7 +13,7 @@
 // A⁻¹ Xᵀ W² X A⁻¹ σ̂² (A = XᵀWX), with σ̂² the weighted mean squared residual times
 // n/(n − p). With equal weights this is the usual σ̂² (XᵀX)⁻¹.
 //
-// Sign convention (README, "Conventions"): φ > 0 counter-clockwise as the camera
+// Sign convention (README, Conventions): φ > 0 counter-clockwise as the camera
 // sees it, τ > 0 when the motor drives towards +φ; an elastic sample has K'_1 > 0.
 #pragma once
 

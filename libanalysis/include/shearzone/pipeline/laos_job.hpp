@@ -5,7 +5,7 @@
 // segment (interval / step block), and writes into the output folder (all files or
 // none, io::AtomicOutputSet): summary.csv (one row per amplitude of every log),
 // cycles.csv, harmonics.csv and lissajous_NN.csv (NN = the amplitude's row in the
-// summary). Columns: README, "shearzone laos".
+// summary). Columns: docs/formats.md.
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,5 @@
 // shearzone/pipeline/sim_job.hpp: `shearzone sim scene.toml -o run/`: a generic
-// contact-dynamics scene (README, "Contact-dynamics engine") run to its duration, with
+// contact-dynamics scene (docs/sim.md) run to its duration, with
 // snapshots (HDF5 + XDMF), checkpoints and the diagnostics CSV in one output folder.
 //
 // The scene file's keys and what they build: sim/scene.hpp.

@@ -1,6 +1,6 @@
 // shearzone/piv/options.hpp: the settings of the multipass PIV engine.
 //
-// Defaults follow the accuracy gates (README, "PIV"): three passes 64 -> 32 -> 16 px
+// Defaults follow the accuracy gates (docs/piv.md): three passes 64 -> 32 -> 16 px
 // at 50 % overlap plus one repeat of the last, symmetric image deformation with a
 // quintic B-spline (the cubic B-spline leaves 0.012 px of bias at half-pixel shifts
 // of 3 px particles, bilinear and Keys 0.05-0.06 px), 3-point Gaussian sub-pixel fit,
