@@ -1,4 +1,4 @@
-// Closed-form LAOS cases of the research note (laos_fit.md §A3) through the whole
+// Closed-form LAOS cases (the table of docs/laos.md, "Accuracy") through the whole
 // stage: sine fit (or arcsin phase), cycles, weighted least squares, derived measures.
 #include <cmath>
 #include <vector>
@@ -15,11 +15,11 @@ using testutil::kPi;
 
 namespace {
 /// Models inside the fitted basis: everything exact up to round-off of the sine fit
-/// and the QR solve (the issue's 1e-9 relative).
+/// and the QR solve (1e-9 relative, the bound in docs/laos.md, "Accuracy").
 constexpr double kExact = 1e-9;
-/// Maxwell after the transient has decayed below 1e-10 of the signal (issue: 1e-8).
+/// Maxwell after the transient has decayed below 1e-10 of the signal (bound 1e-8).
 constexpr double kMaxwell = 1e-8;
-/// Coulomb and elastic-plastic loops at 1e5 samples per cycle (issue: <= 1e-4).
+/// Coulomb and elastic-plastic loops at 1e5 samples per cycle (bound <= 1e-4).
 constexpr double kLoop = 1e-4;
 
 bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol * std::abs(b); }
@@ -169,8 +169,8 @@ TEST_CASE("linear torque drift: the drift column removes the -2c/(n omega x0) bi
   CHECK(rel_close(A.fit.drift_per_cycle, c * 2 * kPi / omega, kExact));
   testutil::note("drift with column worst rel err", std::max(testutil::rel_err(A.measures.K1p, G),
                                                              testutil::rel_err(A.measures.K1pp, eta * omega)));
-  // Without the column the in-phase terms are biased by −2c/(n ω x0) (§A3 case 8b);
-  // the discrete sawtooth projection matches it to O(h²).
+  // Without the column the in-phase terms are biased by −2c/(n ω x0) (the cos terms are
+  // not); the discrete sawtooth projection matches it to O(h²).
   constexpr double kBiasTol = 1e-4;
   AnalysisOptions o;
   o.drift = false;

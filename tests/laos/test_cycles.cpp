@@ -19,7 +19,8 @@ bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol *
 }  // namespace
 
 TEST_CASE("white noise: reported SEs match sigma sqrt(2/N)/x0 over 200 seeds", "[laos]") {
-  // §A3 case 8d. Uniform θ over 4 cycles, N = 4000 samples (+1 closing sample).
+  // White noise σ on uniform θ: SE(K'_n) ≈ σ √(2/N)/x0. Uniform θ over 4 cycles,
+  // N = 4000 samples (+1 closing sample).
   const double x0 = 0.1, sigma = 0.01, G = 50;
   const int N = 4000;
   std::vector<double> th(N + 1), w(N + 1, 0.0);
@@ -27,7 +28,7 @@ TEST_CASE("white noise: reported SEs match sigma sqrt(2/N)/x0 over 200 seeds", "
   add_trapezoid_weights(th, 0.0, 8 * kPi, w);
   const double expected = sigma * std::sqrt(2.0 / N) / x0;
   // The SE of one fit scatters by about 1/√(2(N − p)) = 1.1 % around its mean; 10 %
-  // (the issue's bound) is 9 such widths.
+  // (the bound in docs/laos.md, "Accuracy") is 9 such widths.
   constexpr double kSeTol = 0.10;
   // The scatter of 200 estimates has a relative error of about 1/√400 = 5 %; 20 % is 4σ.
   constexpr double kScatterTol = 0.20;

@@ -1,5 +1,5 @@
 // External waveforms (tests/data/laos-external, README there): our estimator against
-// the reference estimator C (weighted least squares) of the research note, at M = 15.
+// the reference estimator C (weighted least squares) of that README, at M = 15.
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
@@ -16,7 +16,7 @@ using namespace shearzone;
 using namespace shearzone::laos;
 
 namespace {
-/// The agreement bound with estimator C for the robust quantities.
+/// The agreement bound with estimator C for the robust quantities (docs/laos.md, "Accuracy").
 constexpr double kRel = 0.01;
 /// Absolute floor, as a fraction of |G*_1| (in the numerator's units for ratios).
 constexpr double kFloor = 1e-3;

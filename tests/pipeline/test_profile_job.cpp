@@ -48,8 +48,8 @@ void synth_and_piv(const fs::path& dir, synth::FieldKind kind, double omega, int
 
 TEST_CASE("a static texture measured by PIV is noise_limited, never a silent r_c = R",
           "[pipeline][profile]") {
-  // Issue #4 ("Noise"): a static pair; the lab's calibration (R = 34 mm over 500 px,
-  // 25 fps): v_c = 4e-5 m/s is 0.015 px per pair, below the PIV noise.
+  // docs/profile-width.md ("Accuracy"): a static pair; the lab's calibration (R = 34 mm
+  // over 500 px, 25 fps): v_c = 4e-5 m/s is 0.015 px per pair, below the PIV noise.
   TempDir tmp("static");
   synth_and_piv(tmp / "in", synth::FieldKind::kUniform, 0, 2, tmp / "v.csv");
   pipeline::ProfileJobOptions o;
@@ -109,8 +109,9 @@ TEST_CASE("an HDF5 clip of a solid rotation gives v_theta = omega r", "[pipeline
       rsum[b] += rr;
       rn[b] += 1;
     }
-  // PIV of this field is good to 0.03 px RMS (issue #3 gate); averaged over a bin of
-  // 64-220 vectors the mean is good to 0.01 px per pair, i.e. 2.5e-5 m/s here.
+  // PIV of this field is good to 0.03 px RMS (the solid-rotation gate of docs/piv.md,
+  // "Accuracy"); averaged over a bin of 64-220 vectors the mean is good to 0.01 px per
+  // pair, i.e. 2.5e-5 m/s here.
   constexpr double kTolMPerS = 0.01 * 1e-4 * 25;
   for (std::size_t k = 0; k < r.size(); ++k) {
     REQUIRE(rn[k] > 0);

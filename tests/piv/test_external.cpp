@@ -23,13 +23,14 @@ core::VectorField piv_files(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
-// The issue's gate is openpiv's 0.036 px on this pair. That figure (the research note's
-// openpiv-0.25.4_error_vs_truth.json) is the per-component RMS, sqrt(mean((eu^2 +
-// ev^2)/2)), over the 3149 interior vectors; openpiv's vector RMS, sqrt(mean(eu^2 +
-// ev^2)), is 0.0505 px on the same vectors (recomputed from its CSV). We hold the gate
-// in openpiv's metric and report both; most of the error is at the kink at R1.
+// The gate (docs/piv.md, "Accuracy") is openpiv's 0.036 px on this pair. That figure
+// (openpiv-0.25.4_error_vs_truth.json beside the pair) is the per-component RMS,
+// sqrt(mean((eu^2 + ev^2)/2)), over the 3149 interior vectors; openpiv's vector RMS,
+// sqrt(mean(eu^2 + ev^2)), is 0.0505 px on the same vectors (recomputed from its CSV).
+// We hold the gate in openpiv's metric and report both; most of the error is at the
+// kink at R1.
 TEST_CASE("the external vane-like pair is measured as well as openpiv does", "[piv][external]") {
-  constexpr double kOpenpivComponentRmsPx = 0.036;  // issue #3 gate (openpiv's figure)
+  constexpr double kOpenpivComponentRmsPx = 0.036;  // the gate (openpiv's figure)
   constexpr double kAwayFromKinkRmsPx = 0.02;       // vector RMS farther than 16 px from R1
   const auto f = piv_files(kData + "/piv-synthetic-vane/vane_shear_640x480_A.png",
                            kData + "/piv-synthetic-vane/vane_shear_640x480_B.png");
@@ -63,7 +64,7 @@ TEST_CASE("the external vane-like pair is measured as well as openpiv does", "[p
 }
 
 TEST_CASE("PIVlab sand frames: the 1-3 field is the sum of 1-2 and 2-3", "[piv][external]") {
-  constexpr double kCompositionRmsPx = 0.1;  // issue #3
+  constexpr double kCompositionRmsPx = 0.1;  // the gate in docs/piv.md
   const std::string d = kSamples + "/pivlab-sand/Fuerteventura_00000";
   const auto f12 = piv_files(d + "0.jpeg", d + "1.jpeg");
   const auto f23 = piv_files(d + "1.jpeg", d + "2.jpeg");
@@ -117,11 +118,11 @@ std::vector<std::vector<double>> read_rows(const std::string& path, std::size_t 
 }
 }  // namespace
 
-// Issue #3: on the OpenPIV tutorial pair, the median |difference| from the shipped
-// openpiv windef output is at most 0.05 px. Compared like with like: our settings
-// matched to openpiv's (64/32/16 at 50 %, cubic B-spline, no final repeat and no
-// predictor smoothing, median threshold 3; the default peak-height validation, which
-// is relative to the pair's median peak).
+// docs/piv.md's gate: on the OpenPIV tutorial pair, the median |difference| from the
+// shipped openpiv windef output is at most 0.05 px. Compared like with like: our
+// settings matched to openpiv's (64/32/16 at 50 %, cubic B-spline, no final repeat and
+// no predictor smoothing, median threshold 3; the default peak-height validation,
+// which is relative to the pair's median peak).
 TEST_CASE("the OpenPIV tutorial pair agrees with openpiv's own result", "[piv][external]") {
   constexpr double kMedianDiffPx = 0.05;
   piv::PivOptions o;
@@ -184,13 +185,14 @@ TEST_CASE("default validation keeps a seeded-particle recording", "[piv][externa
   CHECK(rms <= kMaxRmsFromOpenpivPx);
 }
 
-// Issue #3: fluidimage's Oseen vortex against the UVmat civ2 vectors, 0.1 px RMS after
-// checking the sign convention. The convention check holds (UVmat's y points up); the
-// 0.1 px is not met: 0.14 px measured, and openpiv's own windef 32-16 field on this
-// pair is 0.13 px from UVmat too (UVmat civ2: 21 px boxes, no iterated deformation),
-// while ours and openpiv's agree to 0.065 px. Guarded at the measured values.
+// docs/piv.md's gate: fluidimage's Oseen vortex against the UVmat civ2 vectors, 0.1 px
+// RMS after checking the sign convention. The convention check holds (UVmat's y
+// points up); the 0.1 px is not met: 0.14 px measured, and openpiv's own windef 32-16
+// field on this pair is 0.13 px from UVmat too (UVmat civ2: 21 px boxes, no iterated
+// deformation), while ours and openpiv's agree to 0.065 px. Guarded at the measured
+// values.
 TEST_CASE("the Oseen vortex matches UVmat once its y axis is flipped", "[piv][external]") {
-  constexpr double kUvmatRmsGuardPx = 0.15;    // measured 0.140 (issue gate 0.1, open)
+  constexpr double kUvmatRmsGuardPx = 0.15;    // measured 0.140 (gate 0.1, not met)
   constexpr double kOpenpivRmsPx = 0.08;       // measured 0.065
   const std::string d = kData + "/fluidimage-oseen/";
   piv::PivOptions o;

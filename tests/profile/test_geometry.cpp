@@ -1,4 +1,4 @@
-// Cup geometry: circle fit and rim detection (issue #4, "Geometry and calibration").
+// Cup geometry: circle fit and rim detection (docs/profile-width.md, "Geometry and calibration").
 #include <cmath>
 #include <random>
 

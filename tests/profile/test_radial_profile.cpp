@@ -1,4 +1,4 @@
-// Radial profiles of analytic fields sampled on a grid (issue #4, "Profiles").
+// Radial profiles of analytic fields sampled on a grid (docs/profile-width.md, "Profile").
 #include <cmath>
 #include <random>
 
@@ -178,7 +178,8 @@ TEST_CASE("masked and invalid vectors are excluded and counted", "[profile]") {
 
 TEST_CASE("pure PIV noise gives the Rayleigh floor sigma sqrt(pi/2) and r_c is noise_limited",
           "[profile]") {
-  // A static texture measured with 0.02 px of PIV noise per component (issue #4).
+  // A static texture measured with 0.02 px of PIV noise per component (the test of
+  // docs/profile-width.md, "Noise floor").
   // Calibration of the lab: R = 34 mm over 500 px, 25 fps consecutive pairs:
   // 0.02 px -> 3.4e-5 m/s per component, a floor of 4.3e-5 m/s, above v_c = 4e-5.
   constexpr double kNoisePx = 0.02;

@@ -1,4 +1,4 @@
-// Shear-zone width r_c: scan, statuses and bootstrap coverage (issue #4, "Width").
+// Shear-zone width r_c: scan, statuses and bootstrap coverage (docs/profile-width.md, "Width").
 #include <cmath>
 #include <random>
 

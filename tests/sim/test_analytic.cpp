@@ -1,6 +1,6 @@
-// Analytic validations of the contact solve (cd_sim.md §4.1 with the §0b corrections):
-// a sphere on an incline (rolling and sliding), a sphere launched on a plane, columns at
-// rest (support impulse = M g h), a bead at rest in a pocket of fixed beads.
+// Analytic validations of the contact solve (docs/sim.md, "Accuracy"): a sphere on an
+// incline (rolling and sliding), a sphere launched on a plane, columns at rest (support
+// impulse from all fixed bodies = M g h), a bead at rest in a pocket of fixed beads.
 #include <cmath>
 #include <numbers>
 
@@ -12,11 +12,11 @@ using namespace shearzone::sim;
 using namespace testutil;
 
 namespace {
-/// The bound for the incline accelerations (relative).
+/// The bound for the incline accelerations (relative; docs/sim.md, "Accuracy").
 constexpr double kIncline = 1e-3;
-/// The bound for the support impulse of a column at rest (relative).
+/// The bound for the support impulse of a column at rest (relative; docs/sim.md).
 constexpr double kColumn = 1e-4;
-/// The bound for the bead in a pocket: displacement / d over 1e4 steps.
+/// The bound for the bead in a pocket: displacement / d over 1e4 steps (docs/sim.md).
 constexpr double kPocket = 1e-6;
 
 struct InclineResult {

@@ -1,5 +1,6 @@
 // Chain builder (placement invariants, determinism, fill), sphere–region volumes, and
-// the packing anchors of cd_sim.md §4.2/§4.3 ([slow]).
+// the packing anchors ([slow]): random loose packing of poured spheres at μ ≈ 0.2 and
+// φ falling with the chain length N (Zou et al., Science 326, 408 (2009)).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -308,8 +309,8 @@ PackingRun pour(int n, std::uint64_t seed) {
 
 TEST_CASE("Packing: poured single beads near random loose packing, chains looser (Zou et al.)",
           "[sim][builder][slow]") {
-  // Gates of issue 6: ⟨φ⟩(N = 1, μ = 0.2) in [0.57, 0.64] over 3 seeds; N = 9 and N = 45
-  // each at least 0.02 below N = 1.
+  // Gates of docs/sim.md ("Chain builder and packing"): ⟨φ⟩(N = 1, μ = 0.2) in [0.57, 0.64]
+  // over 3 seeds; N = 9 and N = 45 each at least 0.02 below N = 1.
   std::vector<std::pair<int, double>> mean;
   for (const int n : {1, 9, 45}) {
     double sum = 0.0;

@@ -1,5 +1,5 @@
-// Chain constraints (cd_sim.md §1.5, §4.1): hanging chain tension, rope pendulum,
-// turning-angle limit (bent chain, swinging chain, straight chain guard).
+// Chain constraints (docs/sim.md, "The model" and "Accuracy"): hanging chain tension,
+// rope pendulum, turning-angle limit (bent chain, swinging chain, straight chain guard).
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -13,7 +13,7 @@ using namespace shearzone::sim;
 using namespace testutil;
 
 namespace {
-/// The bound for the hanging-chain tension (relative).
+/// The bound for the hanging-chain tension (relative; docs/sim.md, "Accuracy").
 constexpr double kTension = 1e-4;
 }  // namespace
 

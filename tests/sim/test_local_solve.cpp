@@ -1,5 +1,6 @@
 // The closed-form sphere contact solve against the Signorini–Coulomb conditions
-// (cd_sim.md §1.3; §0b: De Saxcé residual ≤ 2e-15 over 20 000 random cases).
+// of docs/sim.md, "The model" (20 000 random cases; an independent check of the closed
+// form found a De Saxcé residual ≤ 2e-15 on as many).
 #include <cmath>
 #include <random>
 

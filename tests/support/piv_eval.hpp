@@ -17,7 +17,7 @@ struct PivScore {
   std::size_t valid = 0;          ///< of which flagged valid
 };
 
-/// Border excluded from scoring, px (issue #3: 48 px).
+/// Border excluded from scoring, px (48 px, as in the accuracy gates of docs/piv.md).
 constexpr double kScoreBorderPx = 48.0;
 
 /// A processed synthetic pair and what is needed to score it.

@@ -49,14 +49,14 @@ TEST_CASE("invalid synth options name the option and the rule", "[synth]") {
                              "shear-zone"));
 }
 
-// Issue #2 asks for cv::phaseCorrelate to recover a uniform (2.3, -1.7) shift to 0.02 px.
-// OpenCV 4.6's phaseCorrelate locates the peak with a 5x5 weighted centroid of the
+// cv::phaseCorrelate was to recover a uniform (2.3, -1.7) shift to 0.02 px. OpenCV
+// 4.6's phaseCorrelate locates the peak with a 5x5 weighted centroid of the
 // phase-correlation surface, which is a Dirichlet kernel for a sub-pixel shift; the
 // centroid pulls it towards the integer shift (measured on this pair: (2.108, -1.895)
-// with a Hann window, (2.125, -1.875) without). So phaseCorrelate checks the integer
-// part here, and the sub-pixel part is checked to the issue's 0.02 px with an
-// independent estimator: OpenCV's normalised cross-correlation (matchTemplate) and a
-// 3-point Gaussian peak fit (measured error 0.0015 px).
+// with a Hann window, (2.125, -1.875) without; docs/synth.md, "Known limits"). So
+// phaseCorrelate checks the integer part here, and the sub-pixel part is checked to
+// 0.02 px with an independent estimator: OpenCV's normalised cross-correlation
+// (matchTemplate) and a 3-point Gaussian peak fit (measured error 0.0015 px).
 TEST_CASE("a uniform pair carries the requested shift", "[synth]") {
   constexpr double kShiftTolPx = 0.02;
   struct Shift {
@@ -109,7 +109,7 @@ TEST_CASE("a uniform pair carries the requested shift", "[synth]") {
   }
 }
 
-// Issue #2: the particle count found from local maxima at 0.005 particles per pixel is
+// The particle count found from local maxima at 0.005 particles per pixel is
 // within 3 sigma of the request (sigma = sqrt(N): the count in a region is Poisson).
 TEST_CASE("the particle count from local maxima matches the requested density", "[synth]") {
   SynthOptions o = particle_pair(FieldKind::kUniform);
@@ -142,7 +142,7 @@ TEST_CASE("the particle count from local maxima matches the requested density", 
   CHECK(std::abs(count - requested) < 3.0 * std::sqrt(requested));
 }
 
-// Issue #2: a rotation pair's truth has the sign of the convention.
+// A rotation pair's truth has the sign of the convention.
 TEST_CASE("a rotation pair turns counter-clockwise on screen for omega > 0", "[synth]") {
   SynthOptions o = particle_pair(FieldKind::kRotation);
   o.field.omega_rad = 0.02;

@@ -28,8 +28,8 @@ Moments moments(const cv::Mat& img, double scale) {
 }
 }  // namespace
 
-// Issue #2: an isolated particle's centroid is within 0.01 px of its set position and
-// its summed intensity matches the Gaussian integral to 1e-3. Checked on the stored
+// docs/synth.md: an isolated particle's centroid is within 0.01 px of its set position
+// and its summed intensity matches the Gaussian integral to 1e-3. Checked on the stored
 // 16-bit image (noise off), so pixel integration, cut-off and quantisation all count.
 TEST_CASE("an isolated particle's centroid and summed intensity match the set values",
           "[synth]") {

@@ -127,9 +127,9 @@ int harmonic_cap(const std::vector<double>& drive, double x0, bool timed, double
   }
   const double dx = median(steps);
   if (!(dx > 0)) return 0;
-  // Largest phase gap near the turning points is √(2Δx/x0) (§A1.6); the sampling
-  // resolves harmonics up to π/gap. A small tolerance keeps exact ratios (π/0.2)
-  // from flooring one below.
+  // Largest phase gap near the turning points is √(2Δx/x0) (θ = arcsin(x/x0) there);
+  // the sampling resolves harmonics up to π/gap. A small tolerance keeps exact ratios
+  // (π/0.2) from flooring one below.
   return static_cast<int>(std::floor(kPi / std::sqrt(2.0 * dx / x0) * (1 + 1e-12)));
 }
 

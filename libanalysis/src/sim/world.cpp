@@ -16,6 +16,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "solver_rows.hpp"
 
 namespace shearzone::sim {
 namespace {
@@ -31,7 +32,7 @@ std::uint64_t wall_key(int w, int j) {
   return kWallKeyBit | (static_cast<std::uint64_t>(w) << 32) | static_cast<std::uint64_t>(j);
 }
 
-/// Relative straight-chain guard on W_a (§0b item 10): below it the angle row is
+/// Relative straight-chain guard on W_a: below it the angle row is
 /// treated as inactive (sin θ ≈ 0, the constraint cannot bind within one step).
 constexpr double kAngleGuard = 1e-12;
 
@@ -131,6 +132,23 @@ int World::add_wall(const Wall& wall) {
   walls_.push_back(w);
   return static_cast<int>(walls_.size()) - 1;
 }
+
+World::World(const World&) = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(const World&) = default;
+World& World::operator=(World&&) noexcept = default;
+World::~World() = default;
+
+const World::SolverBody& World::body_at(int b) const {
+  if (b < 0 || b >= body_count()) check_body(b, "access");
+  return body_[static_cast<std::size_t>(b)];
+}
+const Vec3& World::velocity(int b) const { return body_at(b).v; }
+const Vec3& World::angular_velocity(int b) const { return body_at(b).w; }
+int World::rope_count() const { return static_cast<int>(ropes_.size()); }
+int World::angle_count() const { return static_cast<int>(angles_.size()); }
+double World::rope_impulse(int r) const { return ropes_.at(static_cast<std::size_t>(r)).lambda; }
+double World::angle_impulse(int a) const { return angles_.at(static_cast<std::size_t>(a)).lambda; }
 
 void World::check_body(int b, const char* what) const {
   if (b < 0 || b >= body_count())
@@ -533,7 +551,7 @@ void note_quiet(Row& r, int sweep, int freeze_sweeps) {
 }  // namespace
 
 // One pass over a list of rows (contacts, ropes, angles; reversed when backward).
-// `check`: solve only the frozen rows (the convergence check of §"Freezing" in world.hpp);
+// `check`: solve only the frozen rows (the convergence check of "Freezing" in world.hpp);
 // otherwise solve every row that is not frozen.
 void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out) {
   SweepTotals t;  // local: the totals of the slabs share cache lines
@@ -683,17 +701,71 @@ void World::integrate_positions() {
   }
 }
 
-StepDiagnostics World::step() {
-  static_assert(sizeof(SolverBody) == 64, "one cache line per body");
-  static_assert(sizeof(ContactRow) == 128, "two cache lines per contact row");
-  const double h = opt_.time_step;
-  const std::int64_t this_step = step_ + 1;
-  const std::size_t n = x_.size();
-  const int T = opt_.threads;
-  body_.resize(n + static_cast<std::size_t>(T));  // wall sentinels: zero velocity, zero inverse mass
-  for (std::size_t s = n; s < body_.size(); ++s) body_[s] = SolverBody{};
+namespace detail {
 
-  // Alert distance from the fastest sphere (mobile or kinematic) and one gravity step.
+/// The stopping logic of one step's sweeps, shared by the serial and the threaded loop.
+/// Sweep `sweep` (1-based) is forward when odd. A sweep that meets the tolerance with
+/// frozen rows skipped is followed by a check sweep over the frozen rows only: the step
+/// has converged when none of them changes (the state is then the one the residual was
+/// measured on); otherwise the changed rows are unfrozen and the normal sweeps go on.
+/// The check sweeps count as sweeps.
+struct SweepControl {
+  SweepControl(const Options& o, StepDiagnostics& diag, std::size_t parts) : opt(o), d(diag), part(parts) {}
+  const Options& opt;
+  StepDiagnostics& d;
+  std::vector<SweepTotals> part;  ///< per slab, then the rows across slabs
+  bool check = false;             ///< the next sweep is a check sweep
+  bool converged = false;
+  int iterations = 0;
+  double residual = 0.0;
+
+  /// Sums the parts of sweep `sweep`; true when the sweeps stop (converged or the cap).
+  bool finish_sweep(int sweep) {
+    SweepTotals sum;
+    for (const SweepTotals& p : part) {  // fixed order: deterministic
+      sum.dv2 += p.dv2;
+      sum.wp2 += p.wp2;
+      sum.updates += p.updates;
+      sum.active += p.active;
+      sum.skipped += p.skipped;
+      sum.changed += p.changed;
+    }
+    d.row_updates += sum.updates;
+    d.active_row_updates += sum.active;
+    iterations = sweep;
+    if (check) {
+      check = false;
+      if (sum.changed == 0) {
+        converged = true;
+        return true;
+      }
+    } else {
+      d.frozen_skips += sum.skipped;
+      residual = sum.wp2 > 0.0 ? std::sqrt(sum.dv2 / sum.wp2)
+                               : (sum.dv2 > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
+      if (residual <= opt.tolerance) {
+        if (sum.skipped == 0) {
+          converged = true;
+          return true;
+        }
+        check = true;
+      }
+    }
+    return sweep >= opt.max_iterations;
+  }
+};
+
+}  // namespace detail
+
+// Stage 1 (before the search): the solver view with T wall sentinels (zero velocity,
+// zero inverse mass), and the alert distance from the fastest sphere (mobile or
+// kinematic) and one gravity step. Refuses a non-finite distance and one beyond
+// kMaxAlertDiameters.
+double World::contact_search_distance(std::int64_t this_step) {
+  const double h = opt_.time_step;
+  const std::size_t n = x_.size();
+  body_.resize(n + static_cast<std::size_t>(opt_.threads));
+  for (std::size_t s = n; s < body_.size(); ++s) body_[s] = SolverBody{};
   double vmax = 0.0, dmin = std::numeric_limits<double>::infinity();
   std::size_t fastest = 0;
   for (std::size_t b = 0; b < n; ++b) {
@@ -716,120 +788,101 @@ StepDiagnostics World::step() {
         "sim: time step too large at step {}: the contact search reaches {:.3g} d (body {} at {:.3g} m/s, "
         "|g| h = {:.3g} m/s); expected at most {} d: lower sim.time_step_s",
         this_step, alert / dmin, fastest, vmax, opt_.gravity.norm() * h, kMaxAlertDiameters));
+  return alert;
+}
 
-  find_contacts(alert);
-  for (std::size_t b = 0; b < n; ++b)
+// Stage 2: free velocities, v <- v + h g for mobile spheres.
+void World::add_free_velocities() {
+  const double h = opt_.time_step;
+  for (std::size_t b = 0; b < x_.size(); ++b)
     if (kind_[b] == BodyKind::mobile) body_[b].v += h * opt_.gravity;
-  prepare_rows();
-  partition_rows();
+}
 
-  StepDiagnostics d;
-  d.step = this_step;
-  d.rows = static_cast<int>(contacts_.size() + ropes_.size() + angles_.size());
-  bool any_rows = false;
-  for (const RowLists& l : lists_) any_rows = any_rows || !l.contacts.empty() || !l.ropes.empty() || !l.angles.empty();
-  double residual = 0.0;
-  int it = 0;
-  bool converged = false;
-  if (any_rows) {
-    // Sweep `sweep` (1-based): forward when odd. A sweep that meets the tolerance with
-    // frozen rows skipped is followed by a check sweep over the frozen rows only: the
-    // step has converged when none of them changes (the state is then the one the
-    // residual was measured on); otherwise the changed rows are unfrozen and the normal
-    // sweeps go on. The check sweeps count as sweeps.
-    bool check = false;
-    std::vector<SweepTotals> part(static_cast<std::size_t>(T) + 1);
-    auto finish_sweep = [&](int sweep) {
-      SweepTotals sum;
-      for (const SweepTotals& p : part) {  // fixed order: deterministic
-        sum.dv2 += p.dv2;
-        sum.wp2 += p.wp2;
-        sum.updates += p.updates;
-        sum.active += p.active;
-        sum.skipped += p.skipped;
-        sum.changed += p.changed;
-      }
-      d.row_updates += sum.updates;
-      d.active_row_updates += sum.active;
-      it = sweep;
-      if (check) {
-        check = false;
-        if (sum.changed == 0) {
-          converged = true;
-          return true;
-        }
-      } else {
-        d.frozen_skips += sum.skipped;
-        residual = sum.wp2 > 0.0 ? std::sqrt(sum.dv2 / sum.wp2)
-                                 : (sum.dv2 > 0.0 ? std::numeric_limits<double>::infinity() : 0.0);
-        if (residual <= opt_.tolerance) {
-          if (sum.skipped == 0) {
-            converged = true;
-            return true;
-          }
-          check = true;
-        }
-      }
-      return sweep >= opt_.max_iterations;
-    };
-    if (T == 1) {
-      for (int sweep = 1;; ++sweep) {
-        part[0] = SweepTotals{};
-        sweep_lists(lists_[0], sweep % 2 == 1, sweep, check, part[0]);
-        if (finish_sweep(sweep)) break;
-      }
-    } else {
-      // Two to three barriers per sweep: OpenMP's own barriers put a waiting thread to
-      // sleep after a short spin, and the wake-up costs milliseconds on a virtual machine
-      // (measured: 15 000 beads, 2 threads, 0.9 s per step against 0.1 s serial), so the
-      // sweep loop synchronises through a spinning barrier (SpinBarrier) instead.
-      bool stop = false;
-      const std::size_t boundary = static_cast<std::size_t>(T);
-      SpinBarrier barrier;
-      // Small problems run the same slabs on one thread (the same bits: the slabs share no
-      // body), since waking the pool each step costs more than the sweep saves there.
-      const int workers =
-          static_cast<std::int64_t>(d.rows) >= static_cast<std::int64_t>(opt_.parallel_min_rows_per_thread) * T
-              ? T
-              : 1;
+void World::sweep_serial(detail::SweepControl& c) {
+  for (int sweep = 1;; ++sweep) {
+    c.part[0] = SweepTotals{};
+    sweep_lists(lists_[0], sweep % 2 == 1, sweep, c.check, c.part[0]);
+    if (c.finish_sweep(sweep)) break;
+  }
+}
+
+// Slabs in parallel, then the rows across slabs on one thread (before the slabs in
+// backward sweeps). Two to three barriers per sweep: OpenMP's own barriers put a waiting
+// thread to sleep after a short spin, and the wake-up costs milliseconds on a virtual
+// machine (measured: 15 000 beads, 2 threads, 0.9 s per step against 0.1 s serial), so
+// the sweep loop synchronises through a spinning barrier (SpinBarrier) instead.
+void World::sweep_parallel(detail::SweepControl& c, int rows) {
+  const int T = opt_.threads;
+  bool stop = false;
+  const std::size_t boundary = static_cast<std::size_t>(T);
+  SpinBarrier barrier;
+  // Small problems run the same slabs on one thread (the same bits: the slabs share no
+  // body), since waking the pool each step costs more than the sweep saves there.
+  const int workers =
+      static_cast<std::int64_t>(rows) >= static_cast<std::int64_t>(opt_.parallel_min_rows_per_thread) * T ? T : 1;
 #pragma omp parallel num_threads(workers)
-      {
+  {
 #pragma omp single
-        barrier.reset(omp_get_num_threads());
-        const int nthreads = omp_get_num_threads();
-        const int me = omp_get_thread_num();
-        for (int sweep = 1;; ++sweep) {
-          const bool forward = sweep % 2 == 1;
-          if (!forward) {
-            if (me == 0) sweep_lists(lists_[boundary], false, sweep, check, part[boundary]);
-            barrier.wait();
-          }
-          for (int s = me; s < T; s += nthreads)
-            sweep_lists(lists_[static_cast<std::size_t>(s)], forward, sweep, check,
-                        part[static_cast<std::size_t>(s)]);
-          barrier.wait();
-          if (me == 0) {
-            if (forward) sweep_lists(lists_[boundary], true, sweep, check, part[boundary]);
-            stop = finish_sweep(sweep);
-          }
-          barrier.wait();
-          if (stop) break;
-        }
+    barrier.reset(omp_get_num_threads());
+    const int nthreads = omp_get_num_threads();
+    const int me = omp_get_thread_num();
+    for (int sweep = 1;; ++sweep) {
+      const bool forward = sweep % 2 == 1;
+      if (!forward) {
+        if (me == 0) sweep_lists(lists_[boundary], false, sweep, c.check, c.part[boundary]);
+        barrier.wait();
       }
-    }
-    if (!converged) {
-      d.hit_iteration_cap = true;
-      ++cap_hits_;
+      for (int s = me; s < T; s += nthreads)
+        sweep_lists(lists_[static_cast<std::size_t>(s)], forward, sweep, c.check, c.part[static_cast<std::size_t>(s)]);
+      barrier.wait();
+      if (me == 0) {
+        if (forward) sweep_lists(lists_[boundary], true, sweep, c.check, c.part[boundary]);
+        stop = c.finish_sweep(sweep);
+      }
+      barrier.wait();
+      if (stop) break;
     }
   }
-  d.iterations = it;
-  d.residual = residual;
+}
 
-  integrate_positions();
-  step_ = this_step;
+// Stage 4: nonlinear Gauss-Seidel sweeps until the tolerance or max_iterations.
+void World::solve(StepDiagnostics& d) {
+  bool any_rows = false;
+  for (const RowLists& l : lists_) any_rows = any_rows || !l.contacts.empty() || !l.ropes.empty() || !l.angles.empty();
+  if (!any_rows) return;
+  detail::SweepControl c(opt_, d, static_cast<std::size_t>(opt_.threads) + 1);
+  if (opt_.threads == 1) sweep_serial(c);
+  else sweep_parallel(c, d.rows);
+  if (!c.converged) {
+    d.hit_iteration_cap = true;
+    ++cap_hits_;
+  }
+  d.iterations = c.iterations;
+  d.residual = c.residual;
+}
+
+// Stage 6: the final impulses, keyed, for the next step's warm start.
+void World::remember_impulses() {
   previous_.resize(contacts_.size());
   for (std::size_t k = 0; k < contacts_.size(); ++k)
     previous_[k] = {info_[k].key, contacts_[k].pn, contacts_[k].pt, contacts_[k].status};
+}
+
+StepDiagnostics World::step() {
+  static_assert(sizeof(SolverBody) == 64, "one cache line per body");
+  static_assert(sizeof(ContactRow) == 128, "two cache lines per contact row");
+  const std::int64_t this_step = step_ + 1;
+  find_contacts(contact_search_distance(this_step));  // 1. contact detection
+  add_free_velocities();                              // 2. free velocities
+  prepare_rows();                                     // 3. warm start
+  partition_rows();
+  StepDiagnostics d;                                  // 4. solve
+  d.step = this_step;
+  d.rows = static_cast<int>(contacts_.size() + ropes_.size() + angles_.size());
+  solve(d);
+  integrate_positions();                              // 5. positions
+  step_ = this_step;                                  // 6. diagnostics
+  remember_impulses();
   check_state(d);
   return d;
 }

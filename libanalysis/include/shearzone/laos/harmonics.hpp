@@ -1,6 +1,7 @@
 // shearzone/laos/harmonics.hpp: harmonic (Fourier) analysis of an oscillatory
 // response by quadrature-weighted linear least squares in the drive phase θ, and
-// the quantities derived from the harmonics (research note laos_fit.md §A1, §A1.6).
+// the quantities derived from the harmonics (docs/laos.md, "Estimator"; the Chebyshev
+// measures of Ewoldt, Hosoi & McKinley, J. Rheol. 52, 1427 (2008)).
 //
 // Model. The drive is x = x0 sin θ (x: vane angle φ in rad, or strain), the
 // response r (torque in N m, or stress in Pa) is fitted as

@@ -43,8 +43,9 @@ struct PivOptions {
   double overlap = 0.5;
   /// Extra iterations of the final pass (re-deform with the refined field). One
   /// repeat costs a third of the time but halves the error in shear zones (0.095 ->
-  /// 0.060 px RMS on the shear field) and removes the first pass's bias with
-  /// two windows (0.011 px for 32 -> 16 without it). More repeats amplify noise.
+  /// 0.060 px RMS on the shear-zone field of docs/piv.md, "Accuracy") and removes the
+  /// first pass's bias with two windows (0.011 px for 32 -> 16 without it). More
+  /// repeats amplify noise.
   int final_pass_repeats = 1;
   /// Image interpolation for the deformation between passes.
   Interpolation interpolation = Interpolation::kBSpline5;

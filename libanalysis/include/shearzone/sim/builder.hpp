@@ -1,7 +1,10 @@
 // shearzone/sim/builder.hpp: the chain builder (random non-overlapping bead chains in a
 // region, filled into a container by a cheap drop and a relaxation) and the packing
 // fraction of mobile spheres inside a measurement region.
-// Research note: ../shared/research/cd_sim.md §6 ("Cheap fill"), §4.2, §4.3.
+// Packing anchors (docs/sim.md, "Chain builder and packing"): poured frictional spheres at
+// μ ≈ 0.2 pack loosely at φ ≈ 0.60–0.62 (Silbert, Soft Matter 6, 2918 (2010); Song, Wang &
+// Makse, Nature 453, 629 (2008)), and φ falls with the chain length N (Zou et al., Science
+// 326, 408 (2009)).
 //
 // Placement (place_chains): every chain is a self-avoiding random walk. The first bead
 // is uniform in the region; each further bead sits at a bond length uniform in

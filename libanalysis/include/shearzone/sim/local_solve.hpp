@@ -1,5 +1,5 @@
 // shearzone/sim/local_solve.hpp: the exact per-contact Signorini–Coulomb solve for
-// spheres (research note cd_sim.md §1.3, checked in §0b).
+// spheres (the contact model of docs/sim.md, "The model").
 //
 // For a sphere–sphere or sphere–plane contact the 3×3 Delassus block is diagonal in
 // the contact frame, W = diag(W_n, W_t, W_t), so the local problem with all other

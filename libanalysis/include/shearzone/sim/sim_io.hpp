@@ -1,7 +1,8 @@
-// shearzone/sim/sim_io.hpp: the simulator's files (issue 6, I/O): checkpoints of the
-// full World state in HDF5, snapshot series in HDF5 with an XDMF index for ParaView,
-// and the per-step diagnostics CSV. Writing goes through shearzone/io (H5File,
-// CsvWriter); atomicity is the caller's business (write to AtomicOutput::temp_path()).
+// shearzone/sim/sim_io.hpp: the simulator's files (docs/formats.md, "Sim outputs"):
+// checkpoints of the full World state in HDF5, snapshot series in HDF5 with an XDMF
+// index for ParaView, and the per-step diagnostics CSV. Writing goes through
+// shearzone/io (H5File, CsvWriter); atomicity is the caller's business (write to
+// AtomicOutput::temp_path()).
 //
 // Checkpoint layout (format "shearzone-sim-checkpoint", format_version 2; version 1
 // files, without orientations, still read), float64

@@ -1,12 +1,14 @@
 // shearzone/sim/world.hpp: the contact-dynamics engine (non-smooth contact dynamics,
 // Moreau–Jean θ = 1) for rigid spheres, half-space walls and bead-chain constraints.
-// Research note: ../shared/research/cd_sim.md §1 (with the corrections of §0b).
+// References: M. Jean, Comput. Methods Appl. Mech. Eng. 177, 235 (1999); J. J. Moreau, in
+// Nonsmooth Mechanics and Applications, CISM 302 (Springer, 1988);
+// the model and its validations in docs/sim.md.
 //
 // Model, one step of length h (SI units throughout):
 //  1. Contact detection at the positions x(t) through a uniform cell grid: every
 //     sphere pair with at least one mobile sphere, and every mobile sphere–wall pair,
 //     whose gap g = |x_j − x_i| − (d_i + d_j)/2 is below the alert distance
-//     δ = 2 (v_max + |g| h) h + margin (§0b item 8) becomes a contact row.
+//     δ = 2 (v_max + |g| h) h + margin becomes a contact row.
 //  2. Free velocities: v ← v + h g for mobile spheres (implicit Euler, θ = 1).
 //  3. Warm start: every row that existed in the previous step (contacts matched by body
 //     pair, rope and angle rows by index) starts from its previous impulse (the
@@ -14,12 +16,12 @@
 //  4. Nonlinear Gauss–Seidel sweeps over all rows, alternately forward and backward:
 //     contacts by the exact closed form of local_solve.hpp, ropes (tension only,
 //     |x_j − x_i| ≤ L_max through the centres) and turning-angle limits (exact three-body
-//     row, §1.5). Each visit applies its impulse change at once.
-//     Stopping test (§0b item 7, LMGC90's QuadDV in non-dimensional form): after a sweep
+//     row). Each visit applies its impulse change at once.
+//     Stopping test (LMGC90's QuadDV in non-dimensional form): after a sweep
 //     r = √Σ|W ΔP|² / √Σ|W P| (velocity corrections made by the sweep over the velocity
 //     the impulses carry; an angle row is scaled by its mean bond length), converged
 //     when r ≤ tolerance. Hitting max_iterations is counted.
-//     Freezing (§6, "contact freezing"): a row without impulse whose local solve left it
+//     Freezing ("contact freezing"): a row without impulse whose local solve left it
 //     unchanged on two consecutive visits, with a positive gap (or a slack rope, an angle
 //     below its limit), is skipped for the next `freeze_sweeps` sweeps. A sweep that meets
 //     the tolerance with rows skipped is followed by a check sweep over the frozen rows
@@ -127,7 +129,7 @@ struct ContactRecord {
   ContactStatus status = ContactStatus::open;
 };
 
-/// The complete state of a World (checkpoint/restart, §7.5 of the research note):
+/// The complete state of a World (checkpoint/restart):
 /// World::state() exports it and World::from_state() rebuilds a World that continues
 /// bit-identically (one thread). Masses and inertias are stored as such (not recomputed
 /// from a density); the contact rows are the warm-start rows of the last step in their
@@ -156,10 +158,28 @@ struct WorldState {
   std::vector<ContactRecord> contacts;  ///< last step's rows, raw status
 };
 
+// The solver's rows and scratch, private to the engine (src/sim/solver_rows.hpp).
+namespace detail {
+struct SolverBody;
+struct ContactRow;
+struct ContactInfo;
+struct PreviousContact;
+struct RopeRow;
+struct AngleRow;
+struct RowLists;
+struct SweepTotals;
+struct SweepControl;
+}  // namespace detail
+
 class World {
  public:
   /// Throws ConfigError for an option out of range.
   explicit World(const Options& options);
+  World(const World&);
+  World(World&&) noexcept;
+  World& operator=(const World&);
+  World& operator=(World&&) noexcept;
+  ~World();
 
   /// Adds a sphere; returns its index. Mass ρ π d³/6, moment of inertia m d²/10.
   /// Throws ConfigError for a non-finite position or a non-positive diameter/density.
@@ -187,8 +207,8 @@ class World {
   [[nodiscard]] const Options& options() const { return opt_; }
   [[nodiscard]] int body_count() const { return static_cast<int>(x_.size()); }
   [[nodiscard]] const Vec3& position(int b) const { return x_.at(static_cast<std::size_t>(b)); }
-  [[nodiscard]] const Vec3& velocity(int b) const { return body_at(b).v; }
-  [[nodiscard]] const Vec3& angular_velocity(int b) const { return body_at(b).w; }
+  [[nodiscard]] const Vec3& velocity(int b) const;
+  [[nodiscard]] const Vec3& angular_velocity(int b) const;
   /// Orientation (body frame to world), identity at creation.
   [[nodiscard]] const Eigen::Quaterniond& orientation(int b) const {
     return q_.at(static_cast<std::size_t>(b));
@@ -201,14 +221,12 @@ class World {
 
   /// Contact rows of the last step with their final impulses.
   [[nodiscard]] std::vector<ContactRecord> contacts() const;
-  [[nodiscard]] int rope_count() const { return static_cast<int>(ropes_.size()); }
-  [[nodiscard]] int angle_count() const { return static_cast<int>(angles_.size()); }
+  [[nodiscard]] int rope_count() const;
+  [[nodiscard]] int angle_count() const;
   /// λ of a rope row in the last step (N s); tension = λ/h.
-  [[nodiscard]] double rope_impulse(int r) const { return ropes_.at(static_cast<std::size_t>(r)).lambda; }
+  [[nodiscard]] double rope_impulse(int r) const;
   /// λ of an angle row in the last step (N s m).
-  [[nodiscard]] double angle_impulse(int a) const {
-    return angles_.at(static_cast<std::size_t>(a)).lambda;
-  }
+  [[nodiscard]] double angle_impulse(int a) const;
 
   [[nodiscard]] std::int64_t steps_done() const { return step_; }
   [[nodiscard]] std::int64_t iteration_cap_hits() const { return cap_hits_; }
@@ -225,85 +243,32 @@ class World {
   [[nodiscard]] std::uint64_t state_hash() const;
 
  private:
-  // Solver view of a body: one cache line (sentinel bodies after the real ones stand
-  // for the walls: zero velocity, zero inverse mass).
-  struct alignas(64) SolverBody {
-    Vec3 v = Vec3::Zero();
-    Vec3 w = Vec3::Zero();
-    double inv_mass = 0.0;
-    double inv_inertia = 0.0;
-  };
-  // Hot contact row, two cache lines; the freeze state sits in the first, so a skipped
-  // row costs one line. A wall row has i = a wall sentinel and ri = 0.
-  struct alignas(64) ContactRow {
-    int i = 0, j = 0;
-    std::int32_t frozen_until = 0;
-    std::uint8_t quiet = 0;
-    ContactStatus status = ContactStatus::open;
-    Vec3 n = Vec3::UnitZ();  // from i (or the wall) to j
-    double bias = 0.0;       // gap / h
-    double ri = 0.0, rj = 0.0;
-    double inv_wn = 0.0, inv_wt = 0.0;
-    double mu = 0.0;
-    double pn = 0.0;
-    Vec3 pt = Vec3::Zero();
-  };
-  // Cold contact data, parallel to contacts_.
-  struct ContactInfo {
-    std::uint64_t key = 0;
-    int i = -1, wall = -1;  // i = −1 for a wall row
-    double gap = 0.0;
-  };
-  struct PreviousContact {
-    std::uint64_t key = 0;
-    double pn = 0.0;
-    Vec3 pt = Vec3::Zero();
-    ContactStatus status = ContactStatus::open;
-  };
-  struct RopeRow {
-    int i = 0, j = 0;
-    double max_length = 0.0;
-    Vec3 e = Vec3::UnitX();
-    double c = 0.0, bias = 0.0, wb = 0.0, lambda = 0.0;
-    std::int32_t frozen_until = 0;
-    std::uint8_t quiet = 0;
-  };
-  struct AngleRow {
-    int a = 0, b = 0, c = 0;
-    double max_angle = 0.0, cos_max = 1.0;
-    Vec3 ga = Vec3::Zero(), gb = Vec3::Zero(), gc = Vec3::Zero();  // ∂c/∂x
-    double ca = 0.0, bias = 0.0, wa = 0.0, scale = 0.0, lambda = 0.0;
-    std::int32_t frozen_until = 0;
-    std::uint8_t quiet = 0;
-    bool live = false;  // W_a above the straight-chain guard
-  };
-  // Rows of one slab (or of the boundary between slabs), by index.
-  struct RowLists {
-    std::vector<int> contacts, ropes, angles;
-    void clear() {
-      contacts.clear();
-      ropes.clear();
-      angles.clear();
-    }
-  };
-  struct SweepTotals {
-    double dv2 = 0.0, wp2 = 0.0;
-    std::int64_t updates = 0, active = 0, skipped = 0, changed = 0;
-  };
+  using SolverBody = detail::SolverBody;
+  using ContactRow = detail::ContactRow;
+  using ContactInfo = detail::ContactInfo;
+  using PreviousContact = detail::PreviousContact;
+  using RopeRow = detail::RopeRow;
+  using AngleRow = detail::AngleRow;
+  using RowLists = detail::RowLists;
+  using SweepTotals = detail::SweepTotals;
 
-  [[nodiscard]] const SolverBody& body_at(int b) const {
-    if (b < 0 || b >= body_count()) check_body(b, "access");
-    return body_[static_cast<std::size_t>(b)];
-  }
+  [[nodiscard]] const SolverBody& body_at(int b) const;
   void check_body(int b, const char* what) const;
   [[nodiscard]] ContactRecord record(std::size_t k) const;  // contact row k, raw status
-  void find_contacts(double alert);
-  void prepare_rows();
-  void partition_rows();
+  // The stages of step(), in order (model 1-6 above).
+  double contact_search_distance(std::int64_t step);  // 1: δ, wall sentinels, step-size refusals
+  void find_contacts(double alert);                   // 1: the contact rows
+  void add_free_velocities();                          // 2
+  void prepare_rows();                                 // 3: row geometry and warm start
+  void partition_rows();                               // 3: sweep lists (slabs)
+  void solve(StepDiagnostics& d);                      // 4: NLGS to the tolerance or the cap
+  void sweep_serial(detail::SweepControl& control);
+  void sweep_parallel(detail::SweepControl& control, int rows);
   void sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out);
   void apply_contact(const ContactRow& r, const Vec3& p);
-  void integrate_positions();
-  void check_state(StepDiagnostics& d) const;
+  void integrate_positions();                          // 5
+  void remember_impulses();                            // 6: warm start of the next step
+  void check_state(StepDiagnostics& d) const;          // 6: diagnostics, divergence checks
 
   Options opt_;
   // Bodies: positions and orientations, solver view (+ sentinels), properties.
