@@ -8,7 +8,6 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
-#include "shearzone/synth/field.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -111,7 +110,7 @@ int run_synth(CLI::App& c, SynthCli& s, const Context& ctx) {
   require_option(c, "output");
 
   auto& o = s.job.synth;
-  o.field.kind = synth::field_kind_from_name(s.field);
+  o.field.kind = pipeline::synth_field_kind(s.field);
   if (!s.centre.empty()) {
     o.field.centre_x_px = s.centre[0];
     o.field.centre_y_px = s.centre[1];

@@ -1,5 +1,7 @@
 #include "shearzone/pipeline/synth_job.hpp"
 
+#include "shearzone/synth/field.hpp"
+
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
@@ -129,5 +131,7 @@ SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metada
   summary.resolved_options = gen.options().to_metadata();
   return summary;
 }
+
+synth::FieldKind synth_field_kind(const std::string& name) { return synth::field_kind_from_name(name); }
 
 }  // namespace shearzone::pipeline

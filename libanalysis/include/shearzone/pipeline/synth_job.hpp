@@ -48,4 +48,8 @@ struct SynthJobSummary {
 SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metadata& header,
                               const core::ProgressCallback& progress = {});
 
+/// The displacement field named on the command line ("uniform", "rotation",
+/// "shear-zone"); ConfigError lists the valid names.
+synth::FieldKind synth_field_kind(const std::string& name);
+
 }  // namespace shearzone::pipeline
