@@ -2,10 +2,10 @@
 // settles, and the throughput in row updates per second is reported (one thread).
 #include <chrono>
 #include <cmath>
-#include <random>
 
 #include <catch2/catch.hpp>
 
+#include "shearzone/sim/scenario.hpp"
 #include "sim/sim_test_util.hpp"
 
 using namespace shearzone::sim;
@@ -18,22 +18,19 @@ TEST_CASE("2000 beads poured into a box settle without divergence (throughput)",
   o.max_iterations = 200;
   o.friction = 0.2;
   World w(o);
-  const int side = 12;  // beads per row, box 12.5 d wide
-  const double half = 0.5 * 12.5 * kD;
-  w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), 0.2});
-  w.add_wall(Wall{Vec3(-half, 0, 0), Vec3::UnitX(), 0.2});
-  w.add_wall(Wall{Vec3(half, 0, 0), -Vec3::UnitX(), 0.2});
-  w.add_wall(Wall{Vec3(0, -half, 0), Vec3::UnitY(), 0.2});
-  w.add_wall(Wall{Vec3(0, half, 0), -Vec3::UnitY(), 0.2});
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> jitter(-0.02 * kD, 0.02 * kD);
-  int made = 0;
-  for (int layer = 0; made < 2000; ++layer)
-    for (int iy = 0; iy < side && made < 2000; ++iy)
-      for (int ix = 0; ix < side && made < 2000; ++ix, ++made)
-        w.add_sphere(Vec3((ix - 0.5 * (side - 1)) * 1.02 * kD + jitter(rng),
-                          (iy - 0.5 * (side - 1)) * 1.02 * kD + jitter(rng), (0.6 + 1.05 * layer) * kD),
-                     kD, kRho);
+  BoxPour p;  // layers of 12 x 12 at 1.02 d in a box 12.5 d wide
+  p.beads = 2000;
+  p.per_row = 12;
+  p.diameter = kD;
+  p.density = kRho;
+  p.half_width = 0.5 * 12.5 * kD;
+  p.wall_friction = 0.2;
+  p.pitch = 1.02;
+  p.jitter = 0.02;
+  p.z0 = 0.6;
+  p.layer_dz = 1.05;
+  p.seed = 11;
+  add_box_pour(w, p);
   std::int64_t updates = 0;
   double seconds = 0.0, worst_overlap = 0.0;
   StepDiagnostics d;

@@ -1,10 +1,10 @@
 // Determinism (state hash) and divergence detection: each trigger provoked.
 #include <cmath>
-#include <random>
 #include <string>
 
 #include <catch2/catch.hpp>
 
+#include "shearzone/sim/scenario.hpp"
 #include "sim/sim_test_util.hpp"
 
 using namespace shearzone;
@@ -25,21 +25,11 @@ World pour(int steps, StepDiagnostics* last = nullptr, int threads = 1, int free
   o.threads = threads;
   o.freeze_sweeps = freeze_sweeps;
   World w(o);
-  const double side = 5.0 * kD;
-  w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), 0.3});
-  w.add_wall(Wall{Vec3(-side, 0, 0), Vec3::UnitX(), 0.3});
-  w.add_wall(Wall{Vec3(side, 0, 0), -Vec3::UnitX(), 0.3});
-  w.add_wall(Wall{Vec3(0, -side, 0), Vec3::UnitY(), 0.3});
-  w.add_wall(Wall{Vec3(0, side, 0), -Vec3::UnitY(), 0.3});
-  std::mt19937_64 rng(7);
-  std::uniform_real_distribution<double> jitter(-0.05 * kD, 0.05 * kD);
-  int made = 0;
-  for (int layer = 0; made < 60; ++layer)
-    for (int iy = 0; iy < 4 && made < 60; ++iy)
-      for (int ix = 0; ix < 4 && made < 60; ++ix, ++made)
-        w.add_sphere(Vec3((ix - 1.5) * 1.2 * kD + jitter(rng), (iy - 1.5) * 1.2 * kD + jitter(rng),
-                          (1.0 + 1.2 * layer) * kD),
-                     kD, kRho);
+  BoxPour p;  // 60 beads, layers of 4 x 4 at 1.2 d, box 10 d wide, seed 7
+  p.diameter = kD;
+  p.density = kRho;
+  p.half_width = 5.0 * kD;
+  add_box_pour(w, p);
   StepDiagnostics d;
   for (int k = 0; k < steps; ++k) d = w.step();
   if (last) *last = d;

@@ -13,6 +13,7 @@
 #include <gsl/gsl_cdf.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 
 namespace shearzone::fit {
 namespace {
@@ -257,15 +258,6 @@ double quantile_for(const FitOptions& o, int dof) {
   return dof > 0 ? gsl_cdf_tdist_Pinv(pr, dof) : kNaN;
 }
 
-double percentile(std::vector<double> v, double f) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const double pos = f * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(pos));
-  const std::size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
-
 }  // namespace
 
 const char* loss_name(Loss loss) {
@@ -468,8 +460,8 @@ FitResult solve(const Problem& pr, const std::vector<double>& start, const FitOp
     const double alpha = 1.0 - o.confidence;
     for (int k = 0; k < p; ++k) {
       const auto kk = static_cast<std::size_t>(k);
-      res.boot_low[kk] = percentile(samples[kk], 0.5 * alpha);
-      res.boot_high[kk] = percentile(samples[kk], 1.0 - 0.5 * alpha);
+      res.boot_low[kk] = core::percentile(samples[kk], 0.5 * alpha);
+      res.boot_high[kk] = core::percentile(samples[kk], 1.0 - 0.5 * alpha);
     }
   }
   return res;

@@ -15,13 +15,14 @@
 #include "shearzone/io/file.hpp"
 
 namespace shearzone::io {
-namespace {
 
-std::string_view trim(std::string_view s) {
+std::string_view trim_blanks(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
   return s;
 }
+
+namespace {
 
 /// One physical line of the text, for the comment/blank-line checks.
 std::string_view line_at(std::string_view text, std::size_t pos) {
@@ -57,7 +58,7 @@ std::vector<std::string> parse_record(std::string_view text, std::size_t& pos, s
   std::string field;
   const std::size_t start_line = line;
   while (true) {
-    if (pos < text.size() && text[pos] == '"' && trim(field).empty()) {
+    if (pos < text.size() && text[pos] == '"' && trim_blanks(field).empty()) {
       // Quoted field.
       field.clear();
       ++pos;
@@ -105,7 +106,7 @@ std::vector<std::string> parse_record(std::string_view text, std::size_t& pos, s
               source, line));
         field += text[pos++];
       }
-      fields.emplace_back(trim(field));
+      fields.emplace_back(trim_blanks(field));
       field.clear();
     }
     if (pos < text.size() && text[pos] == sep) {
@@ -121,7 +122,7 @@ std::vector<std::string> parse_record(std::string_view text, std::size_t& pos, s
 }  // namespace
 
 bool parse_number(std::string_view text, bool decimal_comma, double& value) {
-  text = trim(text);
+  text = trim_blanks(text);
   if (text.empty()) return false;
   std::string buf(text);
   if (decimal_comma) std::replace(buf.begin(), buf.end(), ',', '.');
@@ -144,14 +145,14 @@ CsvTable parse_csv(std::string_view text, const std::string& source) {
   // Leading comment block and blank lines.
   while (pos < text.size()) {
     std::string_view l = line_at(text, pos);
-    std::string_view tl = trim(l);
+    std::string_view tl = trim_blanks(l);
     if (tl.empty() || tl.front() == '#') {
       if (!tl.empty()) {
-        std::string_view body = trim(tl.substr(1));
+        std::string_view body = trim_blanks(tl.substr(1));
         const std::size_t colon = body.find(':');
         if (colon != std::string_view::npos && colon > 0)
-          t.metadata.emplace_back(std::string(trim(body.substr(0, colon))),
-                                  std::string(trim(body.substr(colon + 1))));
+          t.metadata.emplace_back(std::string(trim_blanks(body.substr(0, colon))),
+                                  std::string(trim_blanks(body.substr(colon + 1))));
       }
       pos += l.size();
       skip_newline(text, pos);
@@ -181,7 +182,7 @@ CsvTable parse_csv(std::string_view text, const std::string& source) {
 
   while (pos < text.size()) {
     std::string_view l = line_at(text, pos);
-    if (trim(l).empty()) {  // blank line
+    if (trim_blanks(l).empty()) {  // blank line
       pos += l.size();
       skip_newline(text, pos);
       ++line;
@@ -223,7 +224,7 @@ double CsvTable::number(std::size_t row, std::size_t col, bool require_finite) c
   const std::string& cell = rows.at(row).at(col);
   double v = 0;
   if (!parse_number(cell, decimal_comma, v)) {
-    if (trim(cell).empty())
+    if (trim_blanks(cell).empty())
       throw InputError(fmt::format("{}:{}: column \"{}\": empty cell; expected a number",
                                    source, row_lines[row], excerpt(columns[col], 60)));
     throw InputError(fmt::format("{}:{}: column \"{}\": \"{}\" is not a number", source,
@@ -240,7 +241,9 @@ std::string excerpt(std::string_view text, std::size_t max_chars) {
   return fmt::format("{}... ({} more characters)", text.substr(0, max_chars), text.size() - max_chars);
 }
 
-bool CsvTable::cell_empty(std::size_t row, std::size_t col) const { return trim(rows.at(row).at(col)).empty(); }
+bool CsvTable::cell_empty(std::size_t row, std::size_t col) const {
+  return trim_blanks(rows.at(row).at(col)).empty();
+}
 
 std::vector<double> CsvTable::numeric_column(std::string_view name, bool require_finite) const {
   const std::size_t c = column_index(name);
@@ -271,7 +274,17 @@ std::string shortest_text(T value, const char* fallback_format) {
 }
 }  // namespace
 
-std::string CsvWriter::format_number(double value) { return shortest_text(value, "{:.17g}"); }
+std::string format_number(double value) { return shortest_text(value, "{:.17g}"); }
+
+std::string format_number_or_empty(double value) {
+  return std::isfinite(value) ? format_number(value) : std::string();
+}
+
+std::string format_number_nan_empty(double value) {
+  return std::isnan(value) ? std::string() : format_number(value);
+}
+
+std::string CsvWriter::format_number(double value) { return io::format_number(value); }
 
 std::string CsvWriter::format_float(float value) { return shortest_text(value, "{:.9g}"); }
 

@@ -1,7 +1,6 @@
 #include "shearzone/io/field_file.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <limits>
 
@@ -9,13 +8,13 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/file.hpp"
 #include "shearzone/io/hdf5.hpp"
 
 namespace shearzone::io {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-std::string num(double v) { return CsvWriter::format_number(v); }
 
 class H5Reader final : public FieldReader {
  public:
@@ -79,7 +78,7 @@ class H5Reader final : public FieldReader {
     try {
       return h5_.attribute_string("/", name);
     } catch (const InputError&) {
-      return num(h5_.attribute_double("/", name));
+      return format_number(h5_.attribute_double("/", name));
     }
   }
 
@@ -154,11 +153,7 @@ class CsvReader final : public FieldReader {
 
 }  // namespace
 
-bool is_field_csv(const std::filesystem::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".csv";
-}
+bool is_field_csv(const std::filesystem::path& p) { return has_extension(p, ".csv"); }
 
 void write_field_csv(std::ostream& os, const core::Metadata& meta, const core::VectorField& f) {
   CsvWriter w(os, meta, {"x_px", "y_px", "u_px", "v_px", "flag", "peak", "peak_ratio"});
@@ -166,8 +161,9 @@ void write_field_csv(std::ostream& os, const core::Metadata& meta, const core::V
   for (std::size_t i = 0; i < f.ny(); ++i)
     for (std::size_t j = 0; j < f.nx(); ++j) {
       const std::size_t k = f.index(i, j);
-      w.row(std::vector<std::string>{num(f.x_px[j]), num(f.y_px[i]), fl(f.u_px[k]), fl(f.v_px[k]),
-                                     core::flag_name(f.flag[k]), fl(f.peak[k]), fl(f.peak_ratio[k])});
+      w.row(std::vector<std::string>{format_number(f.x_px[j]), format_number(f.y_px[i]), fl(f.u_px[k]),
+                                     fl(f.v_px[k]), core::flag_name(f.flag[k]), fl(f.peak[k]),
+                                     fl(f.peak_ratio[k])});
     }
 }
 

@@ -1,5 +1,7 @@
 #include "shearzone/io/file.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <sstream>
 
@@ -21,6 +23,12 @@ std::string read_file_bytes(const std::filesystem::path& path, const std::string
   ss << in.rdbuf();
   if (in.bad()) throw InputError(fmt::format("{}: read error", path.string()));
   return ss.str();
+}
+
+bool has_extension(const std::filesystem::path& path, std::string_view ext) {
+  const std::string e = path.extension().string();
+  const auto same = [](unsigned char a, unsigned char b) { return std::tolower(a) == std::tolower(b); };
+  return std::equal(e.begin(), e.end(), ext.begin(), ext.end(), same);
 }
 
 }  // namespace shearzone::io

@@ -27,6 +27,8 @@
 namespace shearzone::io {
 namespace {
 
+/// The extension, ASCII-lower-cased (encode_image needs it as text: the encoder and
+/// its messages take it; is_*_extension use io::has_extension).
 std::string lower_ext(const std::filesystem::path& p) {
   std::string e = p.extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -197,16 +199,15 @@ void check_image_size(int width, int height, const std::string& source) {
 }
 
 bool is_image_extension(const std::filesystem::path& path) {
-  const std::string e = lower_ext(path);
-  return e == ".png" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".jpg" ||
-         e == ".jpeg";
+  for (const char* x : {".png", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg"})
+    if (has_extension(path, x)) return true;
+  return false;
 }
 
 bool is_readable_image_extension(const std::filesystem::path& path) {
-  const std::string e = lower_ext(path);
   for (const char* x : {".png", ".tif", ".tiff", ".bmp", ".dib", ".jpg", ".jpeg", ".jpe", ".pgm", ".ppm",
                         ".pbm", ".pnm", ".pxm", ".webp", ".jp2", ".j2k"})
-    if (e == x) return true;
+    if (has_extension(path, x)) return true;
   return false;
 }
 

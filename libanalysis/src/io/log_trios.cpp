@@ -104,11 +104,11 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
           if (f == "stress constant")
             log.parameters.emplace_back(
                 "stress_constant_Pa_per_N_m",
-                CsvWriter::format_number(trios_constant(cells, true, src, lines[i].number)));
+                format_number(trios_constant(cells, true, src, lines[i].number)));
           if (f == "strain constant")
             log.parameters.emplace_back(
                 "strain_constant_per_rad",
-                CsvWriter::format_number(trios_constant(cells, false, src, lines[i].number)));
+                format_number(trios_constant(cells, false, src, lines[i].number)));
           std::string value;
           for (std::size_t k = 1; k < cells.size(); ++k)
             if (!cells[k].empty()) value += (value.empty() ? "" : " ") + std::string(cells[k]);

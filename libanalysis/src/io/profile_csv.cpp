@@ -8,11 +8,6 @@
 #include "shearzone/io/csv.hpp"
 
 namespace shearzone::io {
-namespace {
-
-std::string num(double v) { return CsvWriter::format_number(v); }
-
-}  // namespace
 
 std::string ProfileCsv::meta(const std::string& key) const {
   for (const auto& [k, v] : metadata)
@@ -36,10 +31,11 @@ void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const 
                "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid"});
   for (const auto& b : rows) {
     const bool have = b.n_vectors > 0;
-    auto cell = [&](double v) { return have && std::isfinite(v) ? num(v) : std::string(); };
-    w.row(std::vector<std::string>{num(b.r_m), cell(b.v_abs), cell(b.v_theta), cell(b.v_r), cell(b.v_abs_rms),
-                                   cell(b.v_abs_sem), num(b.v_noise), std::to_string(b.n_vectors),
-                                   std::to_string(b.n_masked), std::to_string(b.n_invalid)});
+    auto cell = [&](double v) { return have ? format_number_or_empty(v) : std::string(); };
+    w.row(std::vector<std::string>{format_number(b.r_m), cell(b.v_abs), cell(b.v_theta), cell(b.v_r),
+                                   cell(b.v_abs_rms), cell(b.v_abs_sem), format_number(b.v_noise),
+                                   std::to_string(b.n_vectors), std::to_string(b.n_masked),
+                                   std::to_string(b.n_invalid)});
   }
 }
 
@@ -53,7 +49,8 @@ void write_profile_groups_csv(std::ostream& out, const core::Metadata& metadata,
   for (const auto& g : rows) {
     const bool known = g.cycle != ProfileGroupRow::kNoCycle;
     w.row(std::vector<std::string>{std::to_string(g.pair), known ? std::to_string(g.cycle) : "",
-                                   known ? num(g.phase_deg) : "", num(g.r_m), num(g.v_abs), num(g.n_vectors)});
+                                   known ? format_number(g.phase_deg) : "", format_number(g.r_m),
+                                   format_number(g.v_abs), format_number(g.n_vectors)});
   }
 }
 
@@ -93,7 +90,7 @@ std::vector<ProfileGroupRow> read_profile_groups_csv(const std::filesystem::path
   for (std::size_t k = 0; k < g.num_rows(); ++k) {
     if (!(pair[k] >= 0 && pair[k] == std::floor(pair[k]) && pair[k] < 1e8))
       throw InputError(fmt::format("{}:{}: column \"pair\": {} is not a pair index", path.string(), g.row_lines[k],
-                                   num(pair[k])));
+                                   format_number(pair[k])));
     const auto pk = static_cast<std::size_t>(pair[k]);
     if (pk + 1 < pairs || pk > pairs)
       throw InputError(fmt::format("{}:{}: pair {} out of order: rows must come pair by pair", path.string(),

@@ -39,7 +39,7 @@ std::string scalar_text(const toml::value& v, const std::string& source, const s
   switch (v.type()) {
     case toml::value_t::string: return v.as_string().str;
     case toml::value_t::integer: return std::to_string(v.as_integer());
-    case toml::value_t::floating: return CsvWriter::format_number(v.as_floating());
+    case toml::value_t::floating: return format_number(v.as_floating());
     case toml::value_t::boolean: return v.as_boolean() ? "true" : "false";
     default:
       throw ConfigError(fmt::format("{}:{}: key \"{}\": a {} is not allowed here; expected a "

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
 
 namespace shearzone::io {
 namespace {
@@ -66,9 +67,7 @@ std::string accepted_units(UnitKind kind) {
 }
 
 std::string normalize_unit(std::string_view u) {
-  auto is_space = [](char c) { return c == ' ' || c == '\t'; };
-  while (!u.empty() && is_space(u.front())) u.remove_prefix(1);
-  while (!u.empty() && is_space(u.back())) u.remove_suffix(1);
+  u = trim_blanks(u);
   if (u.size() >= 2 && ((u.front() == '[' && u.back() == ']') ||
                         (u.front() == '(' && u.back() == ')'))) {
     u = u.substr(1, u.size() - 2);

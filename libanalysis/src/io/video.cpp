@@ -17,6 +17,7 @@ extern "C" {
 }
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/file.hpp"
 #include "shearzone/io/image.hpp"
 #include "stderr_silencer.hpp"
 
@@ -36,9 +37,9 @@ std::string fourcc_text(double v) {
 }  // namespace
 
 bool is_video_extension(const std::filesystem::path& path) {
-  std::string e = path.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".mp4" || e == ".avi" || e == ".mov" || e == ".mkv";
+  for (const char* x : {".mp4", ".avi", ".mov", ".mkv"})
+    if (has_extension(path, x)) return true;
+  return false;
 }
 
 namespace {

@@ -12,6 +12,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 
 namespace shearzone::laos {
 
@@ -82,13 +83,6 @@ LinSine linear_sine(const std::vector<double>& tau, const std::vector<double>& x
   return s;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 /// Value of y at θ = a by linear interpolation on the (non-decreasing) θ samples.
 double interp_at(const std::vector<double>& theta, const std::vector<double>& y, double a) {
   auto it = std::lower_bound(theta.begin(), theta.end(), a);
@@ -125,7 +119,7 @@ int harmonic_cap(const std::vector<double>& drive, double x0, bool timed, double
     const double d = std::abs(drive[i] - drive[i - 1]);
     if (d > 0) steps.push_back(d);
   }
-  const double dx = median(steps);
+  const double dx = core::upper_median_inplace(steps);  // NaN (no step): cap 0
   if (!(dx > 0)) return 0;
   // Largest phase gap near the turning points is √(2Δx/x0) (θ = arcsin(x/x0) there);
   // the sampling resolves harmonics up to π/gap. A small tolerance keeps exact ratios
@@ -300,8 +294,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
   if (n >= 3) {
     std::vector<double> steps(n - 1);
     for (std::size_t i = 0; i + 1 < n; ++i) steps[i] = std::abs(theta[i + 1] - theta[i]);
-    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
-    kThetaSlack = std::max(kThetaSlackMin, kThetaSlackSteps * steps[steps.size() / 2]);
+    kThetaSlack = std::max(kThetaSlackMin, kThetaSlackSteps * core::upper_median_inplace(steps));
   }
   const double th0 = theta.front(), th1 = theta.back();
   theta_span = th1 - th0;

@@ -68,7 +68,7 @@ Pair render(const synth::SynthOptions& o) {
   return p;
 }
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 std::string fixed(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
 
 }  // namespace
@@ -132,7 +132,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   meta.emplace_back("bench", fmt::format("synthetic {}x{} shear-zone pair (r0 200 px, w 80 px, U0 4 "
                                          "px, 3 px particles, 0.02 ppp, noise 0.01); {} px border "
                                          "excluded; time = median of {} runs",
-                                         big.image.width_px, big.image.height_px, num(kBorderPx),
+                                         big.image.width_px, big.image.height_px, format_number(kBorderPx),
                                          o.timing_repeats));
   std::vector<std::vector<std::string>> rows;
   std::string best;
@@ -208,8 +208,8 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
       }
       const Pair p = render(s);
       const Score sc = score(engine.process(p.a, p.b).field, p.resolved, p.scale);
-      fw.row(std::vector<std::string>{st.name, st.unit, num(v), fixed(sc.rms, 4), fixed(sc.bias_u, 4),
-                                      fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2),
+      fw.row(std::vector<std::string>{st.name, st.unit, format_number(v), fixed(sc.rms, 4),
+                                      fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2),
                                       fixed(sc.outlier_pct, 2)});
       if (progress) progress(++done, total);
     }

@@ -11,7 +11,7 @@
 
 namespace shearzone::pipeline {
 namespace {
-std::string num(double v) { return std::isfinite(v) ? io::CsvWriter::format_number(v) : ""; }
+using io::format_number_or_empty;
 }  // namespace
 
 void CollapseErfJobOptions::validate() const {
@@ -60,23 +60,23 @@ CollapseErfJobSummary run_collapse_erf_job(const CollapseErfJobOptions& o,
   meta.emplace_back("y_column", o.y_column);
   meta.emplace_back("sigma_column", o.sigma_column.empty() ? "none (unit weights)" : o.sigma_column);
   meta.emplace_back("group_column", o.group_column);
-  meta.emplace_back("group_rtol", num(o.group_rtol));
+  meta.emplace_back("group_rtol", format_number_or_empty(o.group_rtol));
   meta.emplace_back("absolute_sigma", o.fit.absolute_sigma ? "true" : "false");
   meta.emplace_back("loss", fit::loss_name(o.fit.loss));
-  meta.emplace_back("loss_scale", num(o.fit.loss_scale));
-  meta.emplace_back("confidence", num(o.fit.confidence));
+  meta.emplace_back("loss_scale", format_number_or_empty(o.fit.loss_scale));
+  meta.emplace_back("confidence", format_number_or_empty(o.fit.confidence));
   meta.emplace_back("bootstrap", std::to_string(o.fit.bootstrap));
   meta.emplace_back("seed", std::to_string(o.fit.seed));
   meta.emplace_back("model", "y = rc0_g + (rcinf_g - rc0_g) (1 + erf((x - phi_c)/W(N)))/2, W(N) = W0 (N/N_ref)^-alpha");
-  meta.emplace_back("N_ref", num(r.n_ref));
+  meta.emplace_back("N_ref", format_number_or_empty(r.n_ref));
   meta.emplace_back("global_status", fit::status_name(r.global_status));
   if (r.global.usable) {
-    meta.emplace_back("global_chi2", num(r.global.chi2));
-    meta.emplace_back("global_reduced_chi2", num(r.global.reduced_chi2));
+    meta.emplace_back("global_chi2", format_number_or_empty(r.global.chi2));
+    meta.emplace_back("global_reduced_chi2", format_number_or_empty(r.global.reduced_chi2));
     meta.emplace_back("global_dof", std::to_string(r.global.dof));
-    meta.emplace_back("global_aic", num(r.global.aic));
-    meta.emplace_back("global_bic", num(r.global.bic));
-    meta.emplace_back("global_cond", num(r.global.cond));
+    meta.emplace_back("global_aic", format_number_or_empty(r.global.aic));
+    meta.emplace_back("global_bic", format_number_or_empty(r.global.bic));
+    meta.emplace_back("global_cond", format_number_or_empty(r.global.cond));
   }
 
   {
@@ -99,10 +99,12 @@ CollapseErfJobSummary run_collapse_erf_job(const CollapseErfJobOptions& o,
           pg = (x - gv[0]) / r.width(groups[k].N);
           rg = (y - gv[a]) / (gv[a + 1] - gv[a]);
         }
-        w.row(std::vector<std::string>{g.labels[k], num(groups[k].N), num(x), num(y),
-                                       num((x - v[2]) / v[3]), num((y - v[0]) / (v[1] - v[0])),
-                                       num(s / std::fabs(v[1] - v[0])), num(pg), num(rg),
-                                       fit::status_name(c.status)});
+        w.row(std::vector<std::string>{
+            g.labels[k], format_number_or_empty(groups[k].N), format_number_or_empty(x),
+            format_number_or_empty(y), format_number_or_empty((x - v[2]) / v[3]),
+            format_number_or_empty((y - v[0]) / (v[1] - v[0])),
+            format_number_or_empty(s / std::fabs(v[1] - v[0])), format_number_or_empty(pg),
+            format_number_or_empty(rg), fit::status_name(c.status)});
       }
     }
   }
@@ -121,10 +123,10 @@ CollapseErfJobSummary run_collapse_erf_job(const CollapseErfJobOptions& o,
     if (r.global.usable)
       for (std::size_t k = 0; k < r.global.values.size(); ++k) {
         const std::string unit = k == 0 ? ux : k == 1 ? ux : k == 2 ? "1" : uy;
-        w.row(std::vector<std::string>{"global", r.global.names[k], num(r.global.values[k]),
-                                       num(r.global.std_errors[k]), num(r.global.ci_low[k]),
-                                       num(r.global.ci_high[k]), unit,
-                                       fit::status_name(r.global_status)});
+        w.row(std::vector<std::string>{
+            "global", r.global.names[k], format_number_or_empty(r.global.values[k]),
+            format_number_or_empty(r.global.std_errors[k]), format_number_or_empty(r.global.ci_low[k]),
+            format_number_or_empty(r.global.ci_high[k]), unit, fit::status_name(r.global_status)});
       }
     const std::vector<std::string> names = {"rc0", "rcinf", "phi_c", "W"};
     const std::vector<std::string> units = {uy, uy, ux, ux};
@@ -132,9 +134,10 @@ CollapseErfJobSummary run_collapse_erf_job(const CollapseErfJobOptions& o,
       const auto& c = r.per_group[k];
       if (!c.has_result) continue;
       for (std::size_t j = 0; j < 4; ++j)
-        w.row(std::vector<std::string>{g.labels[k], names[j], num(c.result.values[j]),
-                                       num(c.result.std_errors[j]), num(c.result.ci_low[j]),
-                                       num(c.result.ci_high[j]), units[j], fit::status_name(c.status)});
+        w.row(std::vector<std::string>{
+            g.labels[k], names[j], format_number_or_empty(c.result.values[j]),
+            format_number_or_empty(c.result.std_errors[j]), format_number_or_empty(c.result.ci_low[j]),
+            format_number_or_empty(c.result.ci_high[j]), units[j], fit::status_name(c.status)});
     }
   }
   outs.commit_all();

@@ -13,11 +13,11 @@
 namespace shearzone::pipeline {
 namespace {
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
-/// A number, or an empty cell when it is not defined (NaN).
-std::string cell(double v) { return std::isnan(v) ? std::string() : num(v); }
+using io::format_number;
 
-std::string window_text(const fit::FssWindow& w) { return fmt::format("[{}, {}]", num(w.lo), num(w.hi)); }
+std::string window_text(const fit::FssWindow& w) {
+  return fmt::format("[{}, {}]", format_number(w.lo), format_number(w.hi));
+}
 
 core::Metadata job_metadata(const CollapseFssJobOptions& o, const CollapseFssJobSummary& s,
                             const core::Metadata& header) {
@@ -34,32 +34,34 @@ core::Metadata job_metadata(const CollapseFssJobOptions& o, const CollapseFssJob
   std::string sizes;
   for (double L : s.sizes) {
     if (!sizes.empty()) sizes += ',';
-    sizes += num(L);
+    sizes += format_number(L);
   }
   m.emplace_back("sizes", sizes);
   m.emplace_back("points", std::to_string(s.rows));
   m.emplace_back("x_window", window_text(f.window));
-  m.emplace_back("start", fmt::format("x_c={},a={},b={}", num(f.start[0]), num(f.start[1]), num(f.start[2])));
-  m.emplace_back("step", fmt::format("x_c={},a={},b={}", num(r.step[0]), num(r.step[1]), num(r.step[2])));
+  m.emplace_back("start", fmt::format("x_c={},a={},b={}", format_number(f.start[0]),
+                                      format_number(f.start[1]), format_number(f.start[2])));
+  m.emplace_back("step", fmt::format("x_c={},a={},b={}", format_number(r.step[0]), format_number(r.step[1]),
+                                     format_number(r.step[2])));
   std::string fixed;
   for (std::size_t k = 0; k < 3; ++k)
     if (f.fixed[k]) fixed += (fixed.empty() ? "" : ",") + std::string(fit::fss_param_name(k));
   m.emplace_back("fixed", fixed.empty() ? "none" : fixed);
-  m.emplace_back("tolerance_steps", num(f.tolerance));
+  m.emplace_back("tolerance_steps", format_number(f.tolerance));
   m.emplace_back("max_iterations", std::to_string(f.max_iterations));
   m.emplace_back("max_restarts", std::to_string(f.max_restarts));
   m.emplace_back("rescale_errors", f.rescale_errors ? "true" : "false");
-  m.emplace_back("dy_scale", num(r.dy_scale));
+  m.emplace_back("dy_scale", format_number(r.dy_scale));
   m.emplace_back("errors", f.s_plus_one ? "S+1 (one parameter at a time, others at the optimum)" : "none");
   m.emplace_back("bootstrap", std::to_string(f.bootstrap));
   if (f.bootstrap > 0) {
     m.emplace_back("bootstrap_mode", fit::fss_bootstrap_mode_name(f.bootstrap_mode));
     m.emplace_back("bootstrap_seed", std::to_string(f.seed));
-    m.emplace_back("bootstrap_ci_level", num(f.ci_level));
+    m.emplace_back("bootstrap_ci_level", format_number(f.ci_level));
     m.emplace_back("bootstrap_ok", std::to_string(r.bootstrap_ok));
     m.emplace_back("bootstrap_failed", std::to_string(r.bootstrap_failed));
   }
-  m.emplace_back("S_min", num(r.quality.S));
+  m.emplace_back("S_min", format_number(r.quality.S));
   m.emplace_back("n_terms", std::to_string(r.quality.n_terms));
   m.emplace_back("evaluations", std::to_string(r.evaluations));
   m.emplace_back("restarts", std::to_string(r.restarts));
@@ -74,18 +76,20 @@ void write_params(std::ostream& os, const core::Metadata& meta, const CollapseFs
   io::CsvWriter w(os, meta,
                   {"parameter", "value", "err_low", "err_high", "boot_ci_low", "boot_ci_high", "fixed"});
   for (std::size_t k = 0; k < 3; ++k)
-    w.row(std::vector<std::string>{fit::fss_param_name(k), num(r.best[k]), cell(r.err_low[k]),
-                                   cell(r.err_high[k]), cell(r.ci_low[k]), cell(r.ci_high[k]),
-                                   o.fit.fixed[k] ? "1" : "0"});
-  w.row(std::vector<std::string>{"S_min", num(r.quality.S), "", "", "", "", ""});
+    w.row(std::vector<std::string>{
+        fit::fss_param_name(k), format_number(r.best[k]), io::format_number_nan_empty(r.err_low[k]),
+        io::format_number_nan_empty(r.err_high[k]), io::format_number_nan_empty(r.ci_low[k]),
+        io::format_number_nan_empty(r.ci_high[k]), o.fit.fixed[k] ? "1" : "0"});
+  w.row(std::vector<std::string>{"S_min", format_number(r.quality.S), "", "", "", "", ""});
   w.row(std::vector<std::string>{"n_terms", std::to_string(r.quality.n_terms), "", "", "", "", ""});
 }
 
 void write_points(std::ostream& os, const core::Metadata& meta, const std::vector<fit::FssPoint>& pts) {
   io::CsvWriter w(os, meta, {"L", "x", "y", "dy", "x_scaled", "y_scaled", "dy_scaled", "in_window"});
   for (const auto& p : pts)
-    w.row(std::vector<std::string>{num(p.L), num(p.x), num(p.y), num(p.dy), num(p.x_scaled),
-                                   num(p.y_scaled), num(p.dy_scaled), p.in_window ? "1" : "0"});
+    w.row(std::vector<std::string>{format_number(p.L), format_number(p.x), format_number(p.y),
+                                   format_number(p.dy), format_number(p.x_scaled), format_number(p.y_scaled),
+                                   format_number(p.dy_scaled), p.in_window ? "1" : "0"});
 }
 
 void write_master(std::ostream& os, const core::Metadata& meta, std::vector<fit::FssPoint> pts) {
@@ -93,8 +97,10 @@ void write_master(std::ostream& os, const core::Metadata& meta, std::vector<fit:
                    [](const fit::FssPoint& a, const fit::FssPoint& b) { return a.x_scaled < b.x_scaled; });
   io::CsvWriter w(os, meta, {"x_scaled", "y_scaled", "dy_scaled", "L", "Y", "dY", "in_window", "term"});
   for (const auto& p : pts)
-    w.row(std::vector<std::string>{num(p.x_scaled), num(p.y_scaled), num(p.dy_scaled), num(p.L),
-                                   cell(p.Y), cell(p.dY), p.in_window ? "1" : "0", cell(p.term)});
+    w.row(std::vector<std::string>{format_number(p.x_scaled), format_number(p.y_scaled),
+                                   format_number(p.dy_scaled), format_number(p.L),
+                                   io::format_number_nan_empty(p.Y), io::format_number_nan_empty(p.dY),
+                                   p.in_window ? "1" : "0", io::format_number_nan_empty(p.term)});
 }
 
 }  // namespace
@@ -151,7 +157,8 @@ CollapseFssJobSummary run_collapse_fss_job(const CollapseFssJobOptions& o, const
   }
   for (double s : o.sizes)
     if (std::find(L.begin(), L.end(), s) == L.end())
-      throw ConfigError(fmt::format("collapse fss: --sizes: no row of {} has {} = {}", src, o.L_column, num(s)));
+      throw ConfigError(
+          fmt::format("collapse fss: --sizes: no row of {} has {} = {}", src, o.L_column, format_number(s)));
 
   CollapseFssJobSummary sum;
   sum.unit_errors = o.dy_column.empty();

@@ -13,7 +13,7 @@
 namespace shearzone::pipeline {
 namespace {
 
-std::string num(double v) { return std::isfinite(v) ? io::CsvWriter::format_number(v) : ""; }
+using io::format_number_or_empty;
 
 std::string model_name(FitModel m) { return m == FitModel::kErf ? "erf" : "power"; }
 
@@ -133,7 +133,7 @@ GroupedData read_grouped(const std::filesystem::path& input, const std::string& 
       // that summing three 0.05 gives); the value itself stays exact.
       double label = mean;
       io::parse_number(fmt::format("{:.12g}", mean), false, label);
-      g.labels.push_back(io::CsvWriter::format_number(label));
+      g.labels.push_back(io::format_number(label));
     }
   } else {
     std::map<std::string, std::size_t> index;
@@ -194,12 +194,13 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
       if (!std::isnan(o.subtract_at)) {
         double s0 = 0;
         have_ref = fit::subtract_at(x, y, s, o.subtract_at, o.subtract_rtol, &gr.y0, &s0);
-        if (have_ref) note = fmt::format(" (y - y(x={}) with y(x={}) = {:.6g})", num(o.subtract_at),
-                                         num(o.subtract_at), gr.y0);
+        if (have_ref)
+          note = fmt::format(" (y - y(x={}) with y(x={}) = {:.6g})", format_number_or_empty(o.subtract_at),
+                             format_number_or_empty(o.subtract_at), gr.y0);
       }
       if (!have_ref) {
         gr.fit.status = fit::FitStatus::kTooFewPoints;
-        gr.fit.message = fmt::format("no point at x = {} to subtract", num(o.subtract_at));
+        gr.fit.message = fmt::format("no point at x = {} to subtract", format_number_or_empty(o.subtract_at));
       } else {
         gr.fit = fit::fit_power(x, y, s, o.space, o.fit);
         const auto other = o.space == fit::PowerSpace::kLinear ? fit::PowerSpace::kLog : fit::PowerSpace::kLinear;
@@ -235,23 +236,24 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
   meta.emplace_back("y_column", o.y_column);
   meta.emplace_back("sigma_column", o.sigma_column.empty() ? "none (unit weights)" : o.sigma_column);
   meta.emplace_back("group_column", o.group_column.empty() ? "none" : o.group_column);
-  meta.emplace_back("group_rtol", num(o.group_rtol));
+  meta.emplace_back("group_rtol", format_number_or_empty(o.group_rtol));
   meta.emplace_back("absolute_sigma", o.fit.absolute_sigma ? "true" : "false");
   meta.emplace_back("loss", fit::loss_name(o.fit.loss));
-  meta.emplace_back("loss_scale", num(o.fit.loss_scale));
-  meta.emplace_back("confidence", num(o.fit.confidence));
+  meta.emplace_back("loss_scale", format_number_or_empty(o.fit.loss_scale));
+  meta.emplace_back("confidence", format_number_or_empty(o.fit.confidence));
   meta.emplace_back("interval", o.fit.absolute_sigma ? "value +/- z*SE (normal quantile)"
                                                      : "value +/- t(dof)*SE (Student t quantile)");
   meta.emplace_back("bootstrap", std::to_string(o.fit.bootstrap));
   meta.emplace_back("seed", std::to_string(o.fit.seed));
-  meta.emplace_back("tolerance", num(o.fit.tolerance));
+  meta.emplace_back("tolerance", format_number_or_empty(o.fit.tolerance));
   meta.emplace_back("max_iterations", std::to_string(o.fit.max_iterations));
   if (erf) {
     meta.emplace_back("model", "y = rc0 + (rcinf - rc0) * (1 + erf((x - phi_c)/W))/2; W = sqrt(2) * Gaussian sigma");
   } else {
     meta.emplace_back("model", "y = A * x^k");
     meta.emplace_back("space", o.space == fit::PowerSpace::kLog ? "log" : "linear");
-    meta.emplace_back("subtract_at", std::isnan(o.subtract_at) ? "none" : num(o.subtract_at));
+    meta.emplace_back("subtract_at",
+                      std::isnan(o.subtract_at) ? "none" : format_number_or_empty(o.subtract_at));
   }
   if (g.skipped_rows > 0) meta.emplace_back("skipped_rows_status_not_ok", std::to_string(g.skipped_rows));
 
@@ -269,11 +271,13 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
       if (!gr.fit.has_result) continue;
       const auto& r = gr.fit.result;
       for (std::size_t k = 0; k < names.size(); ++k) {
-        std::vector<std::string> row = {gr.group, names[k], num(r.values[k]), num(r.std_errors[k]),
-                                        num(r.ci_low[k]), num(r.ci_high[k]), units[k]};
+        std::vector<std::string> row = {gr.group, names[k], format_number_or_empty(r.values[k]),
+                                        format_number_or_empty(r.std_errors[k]),
+                                        format_number_or_empty(r.ci_low[k]),
+                                        format_number_or_empty(r.ci_high[k]), units[k]};
         if (boot) {
-          row.push_back(num(r.boot_low[k]));
-          row.push_back(num(r.boot_high[k]));
+          row.push_back(format_number_or_empty(r.boot_low[k]));
+          row.push_back(format_number_or_empty(r.boot_high[k]));
         }
         w.row(row);
       }
@@ -293,8 +297,8 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
     for (const auto& gr : sum.groups) {
       std::vector<std::string> row = {gr.group};
       for (std::size_t k = 0; k < names.size(); ++k) {
-        row.push_back(gr.fit.has_result ? num(gr.fit.result.values[k]) : "");
-        row.push_back(gr.fit.has_result ? num(gr.fit.result.std_errors[k]) : "");
+        row.push_back(gr.fit.has_result ? format_number_or_empty(gr.fit.result.values[k]) : "");
+        row.push_back(gr.fit.has_result ? format_number_or_empty(gr.fit.result.std_errors[k]) : "");
       }
       row.push_back(fit::status_name(gr.fit.status));
       w.row(row);
@@ -316,14 +320,15 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
       if (h) {
         for (double v : {double(r.n), double(r.p), double(r.dof), r.chi2, r.reduced_chi2, r.aic,
                          r.aicc, r.bic, r.cond, r.cond_scaled, double(r.iterations)})
-          row.push_back(num(v));
+          row.push_back(format_number_or_empty(v));
         row.push_back(r.termination);
       } else {
         row.insert(row.end(), 12, "");
       }
       const std::size_t p = names.size();
       for (std::size_t a = 0; a < p; ++a)
-        for (std::size_t b = a + 1; b < p; ++b) row.push_back(h ? num(r.correlation[a * p + b]) : "");
+        for (std::size_t b = a + 1; b < p; ++b)
+          row.push_back(h ? format_number_or_empty(r.correlation[a * p + b]) : "");
       w.row(row);
     }
   }

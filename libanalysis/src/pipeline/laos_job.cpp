@@ -28,9 +28,7 @@ Names names(bool ss) {
           "phi_over_phi0", "phidot_over_phidot_max", "tau_N_m"};
 }
 
-std::string num(double v) {
-  return std::isfinite(v) ? io::CsvWriter::format_number(v) : (std::isnan(v) ? "" : (v > 0 ? "inf" : "-inf"));
-}
+using io::format_number_nan_empty;
 
 std::string join_ints(const std::vector<int>& v) {
   std::string s;
@@ -144,13 +142,13 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
                       "floor((samples per cycle - 1)/2) timed; M used per amplitude in column M");
   add("drift_column", o.analysis.drift ? "true" : "false");
   add("split_amplitudes", o.analysis.split_amplitudes ? "true" : "false");
-  add("amplitude_change", num(o.analysis.amplitude_change));
-  add("steady_tolerance", num(o.analysis.steady_tolerance));
+  add("amplitude_change", format_number_nan_empty(o.analysis.amplitude_change));
+  add("steady_tolerance", format_number_nan_empty(o.analysis.steady_tolerance));
   add("cycles", o.analysis.all_cycles ? "all" : join_ints(o.analysis.cycles));
-  add("f_Hz", num(o.f_Hz));
-  add("inertia_kg_m2", num(o.inertia_kg_m2));
-  add("stress_constant_Pa_per_N_m", num(o.stress_constant_Pa_per_N_m));
-  add("strain_constant_per_rad", num(o.strain_constant_per_rad));
+  add("f_Hz", format_number_nan_empty(o.f_Hz));
+  add("inertia_kg_m2", format_number_nan_empty(o.inertia_kg_m2));
+  add("stress_constant_Pa_per_N_m", format_number_nan_empty(o.stress_constant_Pa_per_N_m));
+  add("strain_constant_per_rad", format_number_nan_empty(o.strain_constant_per_rad));
   add("log_constants", o.log_constants ? "true" : "false");
   for (const auto& [k, v] : o.tags) add("tag_" + k, v);
   add("laos_model", "response = x0 sum_{n=1..M} [K'_n sin(n theta) + K''_n cos(n theta)] + offset + "
@@ -207,11 +205,11 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
           static_cast<double>(used), static_cast<double>(A.cycles.size()),
           static_cast<double>(A.partial_cycles), static_cast<double>(A.first_steady_cycle),
           static_cast<double>(A.M), static_cast<double>(A.M_cap)};
-      for (double v : vals) row.push_back(num(v));
+      for (double v : vals) row.push_back(format_number_nan_empty(v));
       if (A.first_line == 0) row[row.size() - vals.size()] = row[row.size() - vals.size() + 1] = "";
       if (A.first_steady_cycle == 0) row[row.size() - 4] = "";
       row.push_back(A.phase_method);
-      row.push_back(num(A.x_offset));
+      row.push_back(format_number_nan_empty(A.x_offset));
       row.push_back(A.status);
       w.row(row);
       sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
@@ -227,10 +225,11 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
                      nm.E, "steady", "used"});
     for (std::size_t i = 0; i < items.size(); ++i)
       for (const auto& c : items[i].A.cycles)
-        w.row(std::vector<std::string>{items[i].source, items[i].segment, std::to_string(i + 1),
-                                       std::to_string(c.cycle), num(c.t_start_s), num(c.x0),
-                                       num(c.r_max), num(c.K1p), num(c.K1pp), num(c.E_d),
-                                       c.steady ? "1" : "0", c.used ? "1" : "0"});
+        w.row(std::vector<std::string>{
+            items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(c.cycle),
+            format_number_nan_empty(c.t_start_s), format_number_nan_empty(c.x0),
+            format_number_nan_empty(c.r_max), format_number_nan_empty(c.K1p), format_number_nan_empty(c.K1pp),
+            format_number_nan_empty(c.E_d), c.steady ? "1" : "0", c.used ? "1" : "0"});
   }
   {
     auto& f = set.add("harmonics.csv");
@@ -241,11 +240,12 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     for (std::size_t i = 0; i < items.size(); ++i) {
       const auto& A = items[i].A;
       for (int n = 1; n <= A.M; ++n)
-        w.row(std::vector<std::string>{items[i].source, items[i].segment, std::to_string(i + 1),
-                                       std::to_string(n), num(A.fit.Kp[n]), num(A.fit.Kp_se[n]),
-                                       num(A.fit.Kpp[n]), num(A.fit.Kpp_se[n]),
-                                       num(A.measures.I_over_I1[n]), num(A.measures.Phi[n]),
-                                       std::to_string(A.M)});
+        w.row(std::vector<std::string>{
+            items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(n),
+            format_number_nan_empty(A.fit.Kp[n]), format_number_nan_empty(A.fit.Kp_se[n]),
+            format_number_nan_empty(A.fit.Kpp[n]), format_number_nan_empty(A.fit.Kpp_se[n]),
+            format_number_nan_empty(A.measures.I_over_I1[n]), format_number_nan_empty(A.measures.Phi[n]),
+            std::to_string(A.M)});
     }
   }
   for (std::size_t i = 0; i < items.size(); ++i) {
@@ -255,7 +255,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     lm.emplace_back("segment", items[i].segment);
     lm.emplace_back("amplitude", std::to_string(i + 1));
     if (!items[i].N.empty()) lm.emplace_back("N", items[i].N);
-    lm.emplace_back("phi0_rad", num(A.x0));
+    lm.emplace_back("phi0_rad", format_number_nan_empty(A.x0));
     lm.emplace_back("M", std::to_string(A.M));
     lm.emplace_back("decomposition", "elastic = x0 sum_odd K'_n sin(n theta), viscous = x0 sum_odd "
                                      "K''_n cos(n theta) (odd harmonics of the fit; offset and "
@@ -271,10 +271,11 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     for (std::size_t k = 0; k < A.theta.size(); ++k) {
       const double th = A.theta[k];
       w.row(std::vector<std::string>{
-          std::to_string(A.sample_cycle[k]), num(th - th0), A.timed ? num(A.time_s[k]) : "",
-          num(A.drive[k]), num((A.drive[k] - A.x_offset) / A.x0), num(std::cos(th)),
-          num(A.response[k]), num(A.fit.evaluate(th)), num(A.fit.odd_sin_part(th)),
-          num(A.fit.odd_cos_part(th))});
+          std::to_string(A.sample_cycle[k]), format_number_nan_empty(th - th0),
+          A.timed ? format_number_nan_empty(A.time_s[k]) : "", format_number_nan_empty(A.drive[k]),
+          format_number_nan_empty((A.drive[k] - A.x_offset) / A.x0), format_number_nan_empty(std::cos(th)),
+          format_number_nan_empty(A.response[k]), format_number_nan_empty(A.fit.evaluate(th)),
+          format_number_nan_empty(A.fit.odd_sin_part(th)), format_number_nan_empty(A.fit.odd_cos_part(th))});
     }
   }
   sum.files = set.final_paths();

@@ -16,6 +16,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
+#include "shearzone/io/file.hpp"
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/image.hpp"
 #include "shearzone/io/video.hpp"
@@ -26,13 +27,7 @@
 namespace shearzone::pipeline {
 namespace {
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
-
-std::string lower_ext(const std::filesystem::path& p) {
-  std::string e = p.extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e;
-}
+using io::format_number;
 
 /// phi(t) of the vane: a sinusoid or a log.
 class VaneAngle {
@@ -48,8 +43,8 @@ class VaneAngle {
       if (!(time_[r] > time_[r - 1]))
         throw InputError(fmt::format("{}:{}: column \"time_s\": {} does not increase (previous "
                                      "row has {}); expected strictly increasing times",
-                                     o.log_path, t.row_lines[r], num(time_[r]),
-                                     num(time_[r - 1])));
+                                     o.log_path, t.row_lines[r], format_number(time_[r]),
+                                     format_number(time_[r - 1])));
   }
 
   const std::vector<double>& log_times() const { return time_; }
@@ -64,10 +59,11 @@ class VaneAngle {
       return angle0 + o_.phi0_rad * std::sin(2.0 * std::numbers::pi * o_.f_Hz * t_s + o_.phase_rad);
     const double tl = t_s + o_.log_offset_s;
     if (tl < time_.front() || tl > time_.back())
-      throw InputError(fmt::format("{}: frame {} at t = {} s (log time {} s) is outside the angle "
-                                   "log's range [{}, {}] s; check --log-offset-s",
-                                   o_.log_path, frame_label, num(t_s), num(tl), num(time_.front()),
-                                   num(time_.back())));
+      throw InputError(
+          fmt::format("{}: frame {} at t = {} s (log time {} s) is outside the angle "
+                      "log's range [{}, {}] s; check --log-offset-s",
+                      o_.log_path, frame_label, format_number(t_s), format_number(tl),
+                      format_number(time_.front()), format_number(time_.back())));
     return angle0 + piv::interpolate_log(time_, angle_, tl);
   }
 
@@ -92,12 +88,12 @@ void PivJobOptions::validate() const {
   piv.validate();
   preprocess.validate();
   if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
-  const std::string ext = lower_ext(output);
-  if (ext != ".csv" && ext != ".h5" && ext != ".hdf5")
+  const bool csv = io::is_field_csv(output);
+  if (!csv && !io::has_extension(output, ".h5") && !io::has_extension(output, ".hdf5"))
     throw ConfigError(fmt::format("{}: output must end in .csv (one pair) or .h5 (any number "
                                   "of pairs)",
                                   output.string()));
-  if (ext == ".csv") {
+  if (csv) {
     // One pair: exactly two image files. Say what the inputs really are.
     auto is_image = [](const std::string& in) {
       return io::is_readable_image_extension(in) || (std::filesystem::exists(in) && io::looks_like_image(in));
@@ -133,31 +129,34 @@ void PivJobOptions::validate() const {
     throw ConfigError(fmt::format("frame range {}..{} holds no pair of spacing {}", first_frame,
                                   last_frame, pair_spacing));
   if (!(duplicate_tolerance >= 0))
-    throw ConfigError(fmt::format("duplicate tolerance {}: must be >= 0", num(duplicate_tolerance)));
+    throw ConfigError(
+        fmt::format("duplicate tolerance {}: must be >= 0", format_number(duplicate_tolerance)));
   if (std::isinf(centre_x_px) || std::isinf(centre_y_px))
-    throw ConfigError(fmt::format("centre {},{} px: expected finite pixel coordinates", num(centre_x_px),
-                                  num(centre_y_px)));
+    throw ConfigError(fmt::format("centre {},{} px: expected finite pixel coordinates",
+                                  format_number(centre_x_px), format_number(centre_y_px)));
   for (const auto& [name, v] : {std::pair{"--vane-angle0-deg", vane.angle0_deg}, {"--phi0-rad", vane.phi0_rad},
                                 {"--phase-rad", vane.phase_rad}, {"--log-offset-s", vane.log_offset_s}})
-    if (!std::isfinite(v)) throw ConfigError(fmt::format("{} {}: expected a finite number", name, num(v)));
+    if (!std::isfinite(v))
+      throw ConfigError(fmt::format("{} {}: expected a finite number", name, format_number(v)));
   if (!(std::abs(vane.phi0_rad) <= 1000.0))
-    throw ConfigError(fmt::format("--phi0-rad {}: expected |phi0| <= 1000 rad", num(vane.phi0_rad)));
+    throw ConfigError(
+        fmt::format("--phi0-rad {}: expected |phi0| <= 1000 rad", format_number(vane.phi0_rad)));
   if (!(vane.f_Hz >= 0 && vane.f_Hz <= 1e6))
-    throw ConfigError(fmt::format("vane frequency {} Hz: expected 0 to 1e6 Hz", num(vane.f_Hz)));
+    throw ConfigError(fmt::format("vane frequency {} Hz: expected 0 to 1e6 Hz", format_number(vane.f_Hz)));
   const bool need_centre = annulus_outer_px > 0 || vane.geometry.blades > 0;
   if (need_centre && (std::isnan(centre_x_px) || std::isnan(centre_y_px)))
     throw ConfigError("the annulus and vane masks need the cup centre (--centre X,Y in px)");
   if ((annulus_outer_px != 0 || annulus_inner_px != 0) &&
       !(std::isfinite(annulus_outer_px) && annulus_outer_px > annulus_inner_px && annulus_inner_px >= 0))
     throw ConfigError(fmt::format("annulus radii {}..{} px: need 0 <= inner < outer",
-                                  num(annulus_inner_px), num(annulus_outer_px)));
+                                  format_number(annulus_inner_px), format_number(annulus_outer_px)));
   if (vane.geometry.blades < 0 || vane.geometry.blades > 64)
     throw ConfigError(fmt::format("vane blades {}: must be 0..64", vane.geometry.blades));
   if (vane.geometry.blades > 0 &&
       !(vane.geometry.half_width_px > 0 && vane.geometry.radius_px > vane.geometry.half_width_px))
     throw ConfigError("vane: need half-width > 0 and radius > half-width (px)");
   if (vane.geometry.blades > 0 && vane.log_path.empty() && !(vane.f_Hz >= 0))
-    throw ConfigError(fmt::format("vane frequency {} Hz: must be >= 0", num(vane.f_Hz)));
+    throw ConfigError(fmt::format("vane frequency {} Hz: must be >= 0", format_number(vane.f_Hz)));
   if (!(vane.margin_px >= 0)) throw ConfigError("vane margin: must be >= 0 px");
 }
 
@@ -192,11 +191,11 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     const double off = piv::best_log_offset(ts, phis, vane_angle.log_times(), vane_angle.log_angles(),
                                             0.25 / src->fps());
     if (std::isnan(off))
-      throw InputError(fmt::format("{}: the angle log spans {} s, less than the clip's {} s; it "
-                                   "cannot be aligned",
-                                   o.vane.log_path,
-                                   num(vane_angle.log_times().back() - vane_angle.log_times().front()),
-                                   num(ts.back() - ts.front())));
+      throw InputError(fmt::format(
+          "{}: the angle log spans {} s, less than the clip's {} s; it "
+          "cannot be aligned",
+          o.vane.log_path, format_number(vane_angle.log_times().back() - vane_angle.log_times().front()),
+          format_number(ts.back() - ts.front())));
     vane_angle.set_log_offset(off);
   }
 
@@ -219,7 +218,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     background = piv::temporal_median(sample);
   }
   const piv::PivEngine engine(o.piv);
-  const bool csv = lower_ext(o.output) == ".csv";
+  const bool csv = io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
   struct Unique {
@@ -241,23 +240,25 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                                          o.pair_spacing, o.stride, o.first_frame,
                                          o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
   if (o.annulus_outer_px > 0)
-    meta.emplace_back("mask_annulus", fmt::format("centre ({}, {}) px, r in [{}, {}] px measured",
-                                                  num(o.centre_x_px), num(o.centre_y_px),
-                                                  num(o.annulus_inner_px), num(o.annulus_outer_px)));
+    meta.emplace_back("mask_annulus",
+                      fmt::format("centre ({}, {}) px, r in [{}, {}] px measured",
+                                  format_number(o.centre_x_px), format_number(o.centre_y_px),
+                                  format_number(o.annulus_inner_px), format_number(o.annulus_outer_px)));
   if (!o.mask_image.empty()) meta.emplace_back("mask_image", o.mask_image);
   if (o.vane.geometry.blades > 0)
-    meta.emplace_back("mask_vane",
-                      fmt::format("{} blades, half-width {} px, radius {} px, margin {} px, "
-                                  "angle0 {} deg, phi(t) = {}",
-                                  o.vane.geometry.blades, num(o.vane.geometry.half_width_px),
-                                  num(o.vane.geometry.radius_px), num(o.vane.margin_px),
-                                  num(o.vane.angle0_deg),
-                                  o.vane.log_path.empty()
-                                      ? fmt::format("{} sin(2 pi {} t + {})", num(o.vane.phi0_rad),
-                                                    num(o.vane.f_Hz), num(o.vane.phase_rad))
-                                      : fmt::format("log {} at t + {} s{}", o.vane.log_path,
-                                                    num(vane_angle.log_offset()),
-                                                    o.vane.log_offset_auto ? " (offset found from the video)" : "")));
+    meta.emplace_back(
+        "mask_vane",
+        fmt::format(
+            "{} blades, half-width {} px, radius {} px, margin {} px, "
+            "angle0 {} deg, phi(t) = {}",
+            o.vane.geometry.blades, format_number(o.vane.geometry.half_width_px),
+            format_number(o.vane.geometry.radius_px), format_number(o.vane.margin_px),
+            format_number(o.vane.angle0_deg),
+            o.vane.log_path.empty()
+                ? fmt::format("{} sin(2 pi {} t + {})", format_number(o.vane.phi0_rad),
+                              format_number(o.vane.f_Hz), format_number(o.vane.phase_rad))
+                : fmt::format("log {} at t + {} s{}", o.vane.log_path, format_number(vane_angle.log_offset()),
+                              o.vane.log_offset_auto ? " (offset found from the video)" : "")));
   meta.emplace_back("units", "displacements in px per pair from frame a to frame b");
 
   std::size_t pair_index = 0;
@@ -320,8 +321,8 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       core::Metadata m2 = meta;
       m2.emplace_back("frame_a", a.frame.label);
       m2.emplace_back("frame_b", b.frame.label);
-      m2.emplace_back("t_a_s", num(a.frame.t_s));
-      m2.emplace_back("dt_s", num(dt));
+      m2.emplace_back("t_a_s", format_number(a.frame.t_s));
+      m2.emplace_back("dt_s", format_number(dt));
       io::write_field_csv(out.stream(), m2, f);
     } else {
       fields.append(f, a.frame.index, b.frame.index, a.frame.t_s, dt);

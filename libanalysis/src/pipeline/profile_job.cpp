@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
@@ -23,7 +24,7 @@ namespace {
 
 static_assert(profile::PairSeries::kNoCycle == io::ProfileGroupRow::kNoCycle);
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 bool set(double v) { return !std::isnan(v); }
 
 /// The pairs of a field file (io/field_file.hpp); a CSV pair needs its time step.
@@ -40,12 +41,6 @@ cv::Mat first_frame(const std::string& path) {
   io::Frame fr;
   if (!src->next(fr)) throw InputError(fmt::format("{}: no frame to detect the cup in", path));
   return fr.gray;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return kUnset;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
 }
 
 }  // namespace
@@ -96,7 +91,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     }
     if (!set(R_px)) R_px = c.radius_px;
     sum.geometry_source = fmt::format("rim detected in {} (rms {} px, {} edge px)", o.detect_cup_frame,
-                                      num(c.rms_residual_px), c.edge_points);
+                                      format_number(c.rms_residual_px), c.edge_points);
   }
   if (!set(cx)) {
     cx = src->attribute("centre_x_px");
@@ -117,15 +112,18 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     std::string text;
   };
   std::vector<ScaleSource> scales;
-  if (set(o.m_per_px)) scales.push_back({"m-per-px", o.m_per_px, fmt::format("--m-per-px {}", num(o.m_per_px))});
+  if (set(o.m_per_px))
+    scales.push_back({"m-per-px", o.m_per_px, fmt::format("--m-per-px {}", format_number(o.m_per_px))});
   if (set(o.cup_radius_m) && set(R_px)) {
     const double m = profile::m_per_px_from_radius(o.cup_radius_m, R_px);
-    scales.push_back({"cup-radius", m, fmt::format("--cup-radius-m {} / R = {} px = {} m/px",
-                                                    num(o.cup_radius_m), num(R_px), fmt::format("{:.6g}", m))});
+    scales.push_back({"cup-radius", m,
+                      fmt::format("--cup-radius-m {} / R = {} px = {} m/px", format_number(o.cup_radius_m),
+                                  format_number(R_px), fmt::format("{:.6g}", m))});
   }
   const double file_scale = src->attribute("m_per_px");
   if (set(file_scale))
-    scales.push_back({"file", file_scale, fmt::format("m_per_px = {} in {}", num(file_scale), o.input.string())});
+    scales.push_back({"file", file_scale,
+                      fmt::format("m_per_px = {} in {}", format_number(file_scale), o.input.string())});
   double m_per_px = kUnset;
   if (!o.scale_from.empty()) {
     for (const auto& sc : scales)
@@ -163,7 +161,8 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
                       "--detect-cup FRAME");
   }
   if (!(std::isfinite(m_per_px) && m_per_px > 0))
-    throw InputError(fmt::format("{}: scale {} m/px: expected a positive number", o.input.string(), num(m_per_px)));
+    throw InputError(fmt::format("{}: scale {} m/px: expected a positive number", o.input.string(),
+                                 format_number(m_per_px)));
   if (!set(R_px)) {
     if (!set(o.cup_radius_m))
       throw ConfigError("no cup radius: give --radii-px RV,R, --detect-cup FRAME or --cup-radius-m");
@@ -228,6 +227,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     throw NoResultError(fmt::format("{}: no pair selected ({} read): check --cycles, "
                                     "--phase-range-deg, --t0-s and f",
                                     o.input.string(), sum.pairs_read));
+  const double dt_median = core::upper_median_inplace(dts);  // dts: all > 0, at least one
 
   // Noise floor: a static reference, or a region of each profile.
   std::unique_ptr<profile::ProfileAccumulator> racc;
@@ -237,20 +237,19 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   if (!o.noise_ref.empty()) {
     auto ref = open_fields(o.noise_ref, o.dt_s);
     racc = std::make_unique<profile::ProfileAccumulator>(po);
-    const double dt_main = median(dts);
     core::VectorField rf;
     for (std::size_t k = 0; k < ref->size(); ++k) {
       double t_a = 0, dt = 0;
       ref->read(k, rf, t_a, dt);
       // The reference is static: its displacements are noise in px per pair; convert
       // them with the time step of the measurement so that both floors compare.
-      racc->add(rf, dt_main);
+      racc->add(rf, dt_median);
     }
     noise_method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)",
                                o.noise_ref.string(), ref->size());
   } else {
     noise_method = fmt::format("sigma*sqrt(pi/2), sigma = scatter of v_r in {} <= r <= {} m",
-                               num(noise_lo), num(noise_hi));
+                               format_number(noise_lo), format_number(noise_hi));
   }
   sum.centre_x_px = cx;
   sum.centre_y_px = cy;
@@ -263,23 +262,23 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   core::Metadata meta = header;
   meta.emplace_back("input", o.input.string());
   meta.emplace_back("geometry_source", sum.geometry_source);
-  meta.emplace_back("centre_x_px", num(cx));
-  meta.emplace_back("centre_y_px", num(cy));
-  meta.emplace_back("m_per_px", num(m_per_px));
+  meta.emplace_back("centre_x_px", format_number(cx));
+  meta.emplace_back("centre_y_px", format_number(cy));
+  meta.emplace_back("m_per_px", format_number(m_per_px));
   meta.emplace_back("scale_source", sum.scale_source);
-  meta.emplace_back("Rv_m", num(po.r_min_m));
-  meta.emplace_back("R_m", num(po.r_max_m));
-  meta.emplace_back("bin_m", num(po.bin_m));
+  meta.emplace_back("Rv_m", format_number(po.r_min_m));
+  meta.emplace_back("R_m", format_number(po.r_max_m));
+  meta.emplace_back("bin_m", format_number(po.bin_m));
   meta.emplace_back("r_m", "bin centre; bin k covers [Rv + k bin, Rv + (k+1) bin)");
   meta.emplace_back("replaced_vectors", o.exclude_replaced ? "excluded (counted as invalid)" : "used");
-  meta.emplace_back("f_Hz", set(f) ? num(f) : "unknown");
-  meta.emplace_back("t0_s", num(o.t0_s));
+  meta.emplace_back("f_Hz", set(f) ? format_number(f) : "unknown");
+  meta.emplace_back("t0_s", format_number(o.t0_s));
   std::string cyc;
   for (int c : o.cycles) cyc += (cyc.empty() ? "" : ",") + std::to_string(c);
   meta.emplace_back("cycles", cyc.empty() ? "all" : cyc);
-  meta.emplace_back("dt_s", num(median(dts)));
+  meta.emplace_back("dt_s", format_number(dt_median));
   const double fps = src->attribute("fps");
-  if (set(fps)) meta.emplace_back("fps", num(fps));
+  if (set(fps)) meta.emplace_back("fps", format_number(fps));
   meta.emplace_back("noise_method", noise_method);
   for (const char* tag : {"N", "phi0_rad"}) {
     const std::string v = src->text_attribute(tag);
@@ -302,7 +301,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     const double plo = o.phase_min_deg + ph * phase_w, phi = plo + phase_w;
     if (acc.num_pairs() == 0)
       throw NoResultError(fmt::format("{}: no pair in phase bin {} ({}-{} deg): use fewer --phase-bins",
-                                      o.input.string(), ph, num(plo), num(phi)));
+                                      o.input.string(), ph, format_number(plo), format_number(phi)));
     const profile::RadialProfile p = racc ? acc.finish_with_reference_noise(*racc)
                                           : acc.finish_with_region_noise(noise_lo, noise_hi);
     sum.groups += p.n_groups;
@@ -312,7 +311,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
       sum.rho = p.rho;
     }
     core::Metadata m = meta;
-    m.emplace_back("phase_range_deg", num(plo) + "," + num(phi));
+    m.emplace_back("phase_range_deg", format_number(plo) + "," + format_number(phi));
     m.emplace_back("n_pairs", std::to_string(p.n_pairs));
     {
       std::size_t nv = 0;
@@ -325,7 +324,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     m.emplace_back("groups", profile::grouping_name(p.grouping));
     m.emplace_back("n_groups", std::to_string(p.n_groups));
     m.emplace_back("noise_lag1_rho", p.grouping == profile::Grouping::kCycles || p.grouping == profile::Grouping::kNone ? "" : fmt::format("{:.3f}", p.rho));
-    m.emplace_back("noise_sigma_m_per_s", num(p.noise_sigma_m_per_s));
+    m.emplace_back("noise_sigma_m_per_s", format_number(p.noise_sigma_m_per_s));
     outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
     {
       std::vector<io::ProfileCsvRow> rows;

@@ -63,15 +63,15 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   if (!(steps <= kMaxSteps))
     throw ConfigError(fmt::format("{}: sim.duration_s = {} s over sim.time_step_s = {} s is {:.3g} steps; "
                                   "expected at most {:.0e} (a longer time step or a shorter run)",
-                                  o.scene.string(), io::CsvWriter::format_number(cad.duration_s),
-                                  io::CsvWriter::format_number(h), steps, kMaxSteps));
+                                  o.scene.string(), io::format_number(cad.duration_s),
+                                  io::format_number(h), steps, kMaxSteps));
   const auto end_step = static_cast<std::int64_t>(std::llround(steps));
   const std::int64_t todo = std::max<std::int64_t>(0, end_step - w.steps_done());
 
   core::Metadata meta = header;
   meta.emplace_back("scene", o.scene.string());
   if (!o.restart.empty()) meta.emplace_back("restart", o.restart.string());
-  meta.emplace_back("time_step_s", io::CsvWriter::format_number(h));
+  meta.emplace_back("time_step_s", io::format_number(h));
   meta.emplace_back("threads", std::to_string(w.options().threads));
   meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
   meta.emplace_back("bodies", std::to_string(w.body_count()));
@@ -81,7 +81,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     meta.emplace_back("fill_settle_cap_hits", std::to_string(sum.fill_settle_cap_hits));
     meta.emplace_back("fill_relax_steps", std::to_string(sum.fill_relax_steps));
     meta.emplace_back("fill_relaxed", sum.fill_relaxed ? "true" : "false");
-    meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::CsvWriter::format_number(sum.fill_kinetic_energy));
+    meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::format_number(sum.fill_kinetic_energy));
     meta.emplace_back("fill_note", "step 0 is the relaxed packing (the drop and relaxation steps are not counted)");
   }
 

@@ -36,7 +36,7 @@ void SynthJobOptions::validate() const {
                                   video_codec));
   if (!(truth_spacing_px >= 1))
     throw ConfigError(
-        fmt::format("truth_spacing_px = {}: must be >= 1", io::CsvWriter::format_number(truth_spacing_px)));
+        fmt::format("truth_spacing_px = {}: must be >= 1", io::format_number(truth_spacing_px)));
   if (out_dir.empty()) throw ConfigError("no output folder given");
 }
 
@@ -105,7 +105,7 @@ SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metada
     m.emplace_back("truth", pair ? "exact displacement from frame A to frame B, px"
                                  : "displacement per frame at disp_scale = 1, px; the pair (k, "
                                    "k+1) moves disp_scale_k times this (frames.csv)");
-    m.emplace_back("truth_grid_spacing_px", io::CsvWriter::format_number(options.truth_spacing_px));
+    m.emplace_back("truth_grid_spacing_px", io::format_number(options.truth_spacing_px));
     io::CsvWriter w(out.add("truth.csv").stream(), m, {"x_px", "y_px", "u_px", "v_px"});
     for (const auto& p : gen.truth(options.truth_spacing_px, scale))
       w.row(std::vector<double>{p.x_px, p.y_px, p.u_px, p.v_px});

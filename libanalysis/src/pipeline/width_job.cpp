@@ -13,7 +13,7 @@
 namespace shearzone::pipeline {
 namespace {
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// The width input of one profile file and its groups file.
@@ -51,8 +51,8 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
     auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), g.r_m);
     if (it == in.r_m.end() || (it != in.r_m.begin() && g.r_m - *(it - 1) < *it - g.r_m)) --it;
     if (std::abs(*it - g.r_m) > 1e-9 * std::max(1.0, std::abs(g.r_m)) + 1e-12)
-      throw InputError(
-          fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.line, num(g.r_m), path));
+      throw InputError(fmt::format("{}:{}: r_m = {} is not a bin of {}", gpath.string(), g.line,
+                                   format_number(g.r_m), path));
     const std::size_t idx = g.pair * in.pairs.n_bins + static_cast<std::size_t>(it - in.r_m.begin());
     in.pairs.v_abs[idx] = g.v_abs;
     in.pairs.n_vectors[idx] = g.n_vectors;
@@ -109,21 +109,23 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
       if (!std::isnan(sigma) && !std::isnan(dt) && !std::isnan(fps) && sigma > 0) {
         const double k0 = std::max(1.0, std::round(dt * fps));
         const double k = std::ceil(5.0 * sigma * dt * fps / wo.v_c_m_per_s);
-        k_text = fmt::format("pair spacing k >= {} (now {})", num(std::max(k, k0 + 1)), num(k0));
+        k_text = fmt::format("pair spacing k >= {} (now {})", format_number(std::max(k, k0 + 1)),
+                             format_number(k0));
       }
       wr.advice = fmt::format(
           "{}: v_c = {} m/s is below {} x the noise floor {} m/s: r_c cannot be trusted; re-run "
           "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS",
-          path.string(), num(wo.v_c_m_per_s), num(wo.noise_factor), num(row.res.v_noise_m_per_s), k_text);
+          path.string(), format_number(wo.v_c_m_per_s), format_number(wo.noise_factor),
+          format_number(row.res.v_noise_m_per_s), k_text);
     }
     report.push_back(wr);
     rows.push_back(std::move(row));
   }
   core::Metadata meta = header;
-  meta.emplace_back("v_c_m_per_s", num(wo.v_c_m_per_s));
-  meta.emplace_back("noise_factor", num(wo.noise_factor));
+  meta.emplace_back("v_c_m_per_s", format_number(wo.v_c_m_per_s));
+  meta.emplace_back("noise_factor", format_number(wo.noise_factor));
   meta.emplace_back("bootstrap", std::to_string(wo.bootstrap));
-  meta.emplace_back("confidence", num(wo.confidence));
+  meta.emplace_back("confidence", format_number(wo.confidence));
   meta.emplace_back("seed", std::to_string(wo.seed));
   meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
                             "interpolation between bin centres; never_below: R (a lower bound); "
@@ -140,15 +142,15 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     io::CsvWriter w(out.stream(), meta,
                     {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
                      "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
-    auto cell = [](double v) { return std::isfinite(v) ? num(v) : std::string(); };
     for (const auto& r : rows) {
       const bool ci = std::isfinite(r.res.ci_low_m);
       w.row(std::vector<std::string>{
-          r.label, r.N, r.phi0, cell(r.res.rc_m), cell(r.res.ci_low_m), cell(r.res.ci_high_m),
+          r.label, r.N, r.phi0, io::format_number_or_empty(r.res.rc_m),
+          io::format_number_or_empty(r.res.ci_low_m), io::format_number_or_empty(r.res.ci_high_m),
           profile::width_status_name(r.res.status), ci ? profile::grouping_name(r.res.grouping) : "none",
           ci ? std::to_string(r.res.bootstrap_units) : "",
           ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
-          num(r.res.v_noise_m_per_s), r.n_pairs});
+          format_number(r.res.v_noise_m_per_s), r.n_pairs});
     }
   }
   out.commit();

@@ -9,7 +9,7 @@
 
 namespace shearzone::piv {
 namespace {
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 }  // namespace
 
 const char* interpolation_name(Interpolation i) {
@@ -63,7 +63,7 @@ void PivOptions::validate() const {
   }
   auto range = [](const char* what, double v, double lo, double hi, const char* rule) {
     if (!(v >= lo && v <= hi))
-      throw ConfigError(fmt::format("PivOptions::{} = {}: {}", what, num(v), rule));
+      throw ConfigError(fmt::format("PivOptions::{} = {}: {}", what, format_number(v), rule));
   };
   range("overlap", overlap, 0.0, 0.875, "must satisfy 0 <= overlap <= 0.875");
   range("final_pass_repeats", final_pass_repeats, 0, 10, "must satisfy 0 <= repeats <= 10");
@@ -75,7 +75,7 @@ void PivOptions::validate() const {
   range("std_threshold", std_threshold, -1e9, 1e9, "must be a number");
   if (!(max_displacement_px > 0))
     throw ConfigError(fmt::format("PivOptions::max_displacement_px = {}: must be > 0",
-                                  num(max_displacement_px)));
+                                  format_number(max_displacement_px)));
   range("min_peak", min_peak, 0.0, 1.0, "must satisfy 0 <= min_peak <= 1");
   range("min_peak_relative", min_peak_relative, 0.0, 1.0, "must satisfy 0 <= min_peak_relative <= 1 (0: off)");
   range("min_peak_ratio", min_peak_ratio, 1.0, 100.0, "must satisfy 1 <= min_peak_ratio <= 100");
@@ -85,23 +85,23 @@ void PivOptions::validate() const {
 
 core::Metadata PivOptions::to_metadata() const {
   return {{"piv_windows_px", fmt::format("{}", fmt::join(windows_px, ","))},
-          {"piv_overlap", num(overlap)},
+          {"piv_overlap", format_number(overlap)},
           {"piv_final_pass_repeats", std::to_string(final_pass_repeats)},
           {"piv_deformation", deform ? std::string("symmetric, ") + interpolation_name(interpolation)
                                      : std::string("off")},
           {"piv_subpixel", subpixel_name(subpixel)},
-          {"piv_restricted_search", num(restricted_search)},
-          {"piv_predictor_smoothing_steps", num(predictor_smoothing)},
+          {"piv_restricted_search", format_number(restricted_search)},
+          {"piv_predictor_smoothing_steps", format_number(predictor_smoothing)},
           {"piv_median_test",
            fmt::format("radius {}, epsilon {} px, threshold {}", median_radius,
-                       num(median_epsilon_px), num(median_threshold))},
-          {"piv_std_threshold", num(std_threshold)},
-          {"piv_max_displacement_px", num(max_displacement_px)},
-          {"piv_min_peak", num(min_peak)},
-          {"piv_min_peak_relative", num(min_peak_relative)},
-          {"piv_min_peak_ratio", num(min_peak_ratio)},
-          {"piv_min_window_std", num(min_window_std)},
-          {"piv_mask_fraction", num(mask_fraction)},
+                       format_number(median_epsilon_px), format_number(median_threshold))},
+          {"piv_std_threshold", format_number(std_threshold)},
+          {"piv_max_displacement_px", format_number(max_displacement_px)},
+          {"piv_min_peak", format_number(min_peak)},
+          {"piv_min_peak_relative", format_number(min_peak_relative)},
+          {"piv_min_peak_ratio", format_number(min_peak_ratio)},
+          {"piv_min_window_std", format_number(min_window_std)},
+          {"piv_mask_fraction", format_number(mask_fraction)},
           {"piv_window_centre", "a window covering pixels [s, s+W-1] has its centre at s + (W-1)/2"}};
 }
 

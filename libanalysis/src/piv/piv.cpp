@@ -8,6 +8,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 #include "shearzone/piv/correlate.hpp"
 #include "shearzone/piv/deform.hpp"
 #include "shearzone/piv/validate.hpp"
@@ -331,13 +332,8 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           peaks.push_back(f.peak[k]);
           ratios.push_back(f.peak_ratio[k]);
         }
-      auto median = [](std::vector<float>& v) {
-        auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-        std::nth_element(v.begin(), mid, v.end());
-        return static_cast<double>(*mid);
-      };
-      if (!peaks.empty() && median(ratios) >= kCleanPeakRatio)
-        peak_threshold = std::min(opt_.min_peak, opt_.min_peak_relative * median(peaks));
+      if (!peaks.empty() && core::upper_median_inplace(ratios) >= kCleanPeakRatio)
+        peak_threshold = std::min(opt_.min_peak, opt_.min_peak_relative * core::upper_median_inplace(peaks));
       for (std::size_t k = 0; k < f.size(); ++k)
         if (f.flag[k] == VectorFlag::kValid && f.peak[k] < peak_threshold) f.flag[k] = VectorFlag::kInvalid;
     }

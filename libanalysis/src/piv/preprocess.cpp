@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/piv/piv.hpp"
 
@@ -33,14 +34,16 @@ void PreprocessOptions::validate() const {
 }
 
 core::Metadata PreprocessOptions::to_metadata() const {
-  auto num = [](double v) { return io::CsvWriter::format_number(v); };
-  return {{"preprocess_background",
-           background ? fmt::format("temporal median of {} frames subtracted", background_frames)
-                      : std::string("off")},
-          {"preprocess_intensity_cap", intensity_cap > 0 ? "median + " + num(intensity_cap) + " std" : "off"},
-          {"preprocess_clahe", clahe ? fmt::format("tile {} px, clip {}", clahe_tile_px, num(clahe_clip))
-                                     : std::string("off")},
-          {"preprocess_highpass_sigma_px", highpass_sigma_px > 0 ? num(highpass_sigma_px) : "off"}};
+  return {
+      {"preprocess_background",
+       background ? fmt::format("temporal median of {} frames subtracted", background_frames)
+                  : std::string("off")},
+      {"preprocess_intensity_cap",
+       intensity_cap > 0 ? "median + " + io::format_number(intensity_cap) + " std" : "off"},
+      {"preprocess_clahe",
+       clahe ? fmt::format("tile {} px, clip {}", clahe_tile_px, io::format_number(clahe_clip))
+             : std::string("off")},
+      {"preprocess_highpass_sigma_px", highpass_sigma_px > 0 ? io::format_number(highpass_sigma_px) : "off"}};
 }
 
 cv::Mat temporal_median(const std::vector<cv::Mat>& frames) {
@@ -61,8 +64,7 @@ cv::Mat temporal_median(const std::vector<cv::Mat>& frames) {
       float* o = out.ptr<float>(i);
       for (int j = 0; j < size.width; ++j) {
         for (std::size_t k = 0; k < n; ++k) v[k] = f[k].ptr<float>(i)[j];
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
-        o[j] = v[n / 2];
+        o[j] = core::upper_median_inplace(v);
       }
     }
   }
@@ -81,8 +83,7 @@ cv::Mat preprocess(const cv::Mat& frame, const PreprocessOptions& o, const cv::M
     cv::Scalar mean, sd;
     cv::meanStdDev(img, mean, sd);
     std::vector<float> v(img.begin<float>(), img.end<float>());
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    const double cap = v[v.size() / 2] + o.intensity_cap * sd[0];
+    const double cap = core::upper_median_inplace(v) + o.intensity_cap * sd[0];
     cv::min(img, cap, img);
   }
   if (o.clahe) {

@@ -3,24 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "shearzone/core/stats.hpp"
+
 namespace shearzone::piv {
 
 using core::VectorFlag;
-
-namespace {
-
-double median(std::vector<double>& v) {
-  const std::size_t n = v.size();
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
-  double m = v[n / 2];
-  if (n % 2 == 0) {
-    const double lo = *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2));
-    m = 0.5 * (m + lo);
-  }
-  return m;
-}
-
-}  // namespace
 
 std::size_t flag_outliers(core::VectorField& f, const PivOptions& o) {
   const int nx = static_cast<int>(f.nx()), ny = static_cast<int>(f.ny());
@@ -75,10 +62,10 @@ std::size_t flag_outliers(core::VectorField& f, const PivOptions& o) {
           for (int comp = 0; comp < 2; ++comp) {
             std::vector<double>& vals = comp == 0 ? nu : nv;
             const double x0 = comp == 0 ? f.u_px[k] : f.v_px[k];
-            const double m = median(vals);
+            const double m = core::median_inplace(vals);
             res.resize(vals.size());
             for (std::size_t q = 0; q < vals.size(); ++q) res[q] = std::abs(vals[q] - m);
-            const double rm = median(res);
+            const double rm = core::median_inplace(res);
             if (std::abs(x0 - m) / (rm + o.median_epsilon_px) > o.median_threshold) outlier[k] = 1;
           }
         }

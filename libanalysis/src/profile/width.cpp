@@ -9,6 +9,7 @@
 #include <gsl/gsl_cdf.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/stats.hpp"
 
 namespace shearzone::profile {
 
@@ -69,18 +70,6 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
   return R_m;
 }
 
-namespace {
-
-double percentile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  const double pos = q * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(std::floor(pos));
-  const std::size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
-
-}  // namespace
-
 WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
   opt.validate();
   const std::size_t nb = in.r_m.size();
@@ -91,7 +80,7 @@ WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
   std::vector<double> noise;
   for (std::size_t k = 0; k < nb; ++k)
     if (in.n_vectors[k] > 0 && k < in.v_noise.size()) noise.push_back(in.v_noise[k]);
-  res.v_noise_m_per_s = noise.empty() ? 0.0 : percentile(noise, 0.5);
+  res.v_noise_m_per_s = noise.empty() ? 0.0 : core::percentile(noise, 0.5);
   if (opt.v_c_m_per_s < opt.noise_factor * res.v_noise_m_per_s) res.status = WidthStatus::kNoiseLimited;
 
   if (opt.bootstrap == 0 || in.grouping == Grouping::kNone || in.pairs.num_pairs() < 2) return res;
@@ -121,8 +110,8 @@ WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
     const double f = std::sqrt(G / (G - 1.0)) * gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
     for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
   }
-  res.ci_low_m = percentile(rcs, a);
-  res.ci_high_m = percentile(rcs, 1.0 - a);
+  res.ci_low_m = core::percentile(rcs, a);
+  res.ci_high_m = core::percentile(rcs, 1.0 - a);
   return res;
 }
 

@@ -496,8 +496,8 @@ void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene)
           "{}: beads {} and {} overlap by {:.4g} d at the start (centres {:.6g} m apart, diameters {} "
           "and {} m); expected at most sim.max_overlap = {} d: move them apart",
           scene.string(), k, worst, worst_rel, (w.position(k) - w.position(worst)).norm(),
-          io::CsvWriter::format_number(w.diameter(k)), io::CsvWriter::format_number(w.diameter(worst)),
-          io::CsvWriter::format_number(limit)));
+          io::format_number(w.diameter(k)), io::format_number(w.diameter(worst)),
+          io::format_number(limit)));
   }
 }
 

@@ -404,7 +404,7 @@ void write_snapshot_xdmf(std::ostream& out, const std::string& h5_name, std::siz
   };
   for (std::size_t k = 0; k < s; ++k) {
     out << "      <Grid Name=\"snapshot_" << k << "\" GridType=\"Uniform\">\n"
-        << "        <Time Value=\"" << io::CsvWriter::format_number(times[k]) << "\"/>\n"
+        << "        <Time Value=\"" << io::format_number(times[k]) << "\"/>\n"
         << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
         << "\" NodesPerElement=\"1\"/>\n"
         << "        <Geometry GeometryType=\"XYZ\">\n";
@@ -443,13 +443,13 @@ DiagnosticsCsv::DiagnosticsCsv(std::ostream& out, const core::Metadata& metadata
 DiagnosticsCsv::~DiagnosticsCsv() = default;
 
 void DiagnosticsCsv::row(const StepDiagnostics& d, double time_s) {
-  auto num = [](double v) { return io::CsvWriter::format_number(v); };
   csv_->row(std::vector<std::string>{
-      std::to_string(d.step), num(time_s), std::to_string(d.iterations), num(d.residual),
-      d.hit_iteration_cap ? "1" : "0", std::to_string(d.contacts), std::to_string(d.active_contacts),
-      std::to_string(d.sliding_contacts), std::to_string(d.sticking_contacts),
-      std::to_string(d.active_ropes), std::to_string(d.active_angles), num(d.max_overlap),
-      num(d.max_rope_excess), num(d.max_angle_excess), num(d.kinetic_energy),
+      std::to_string(d.step), io::format_number(time_s), std::to_string(d.iterations),
+      io::format_number(d.residual), d.hit_iteration_cap ? "1" : "0", std::to_string(d.contacts),
+      std::to_string(d.active_contacts), std::to_string(d.sliding_contacts),
+      std::to_string(d.sticking_contacts), std::to_string(d.active_ropes), std::to_string(d.active_angles),
+      io::format_number(d.max_overlap), io::format_number(d.max_rope_excess),
+      io::format_number(d.max_angle_excess), io::format_number(d.kinetic_energy),
       std::to_string(d.row_updates), std::to_string(d.active_row_updates), std::to_string(d.frozen_skips),
       std::to_string(d.rows)});
 }

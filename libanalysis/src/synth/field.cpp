@@ -13,7 +13,7 @@
 namespace shearzone::synth {
 
 namespace {
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 }  // namespace
 
 const char* field_kind_name(FieldKind kind) {
@@ -71,18 +71,18 @@ core::Metadata FieldOptions::to_metadata() const {
   core::Metadata m{{"field", field_kind_name(kind)}};
   switch (kind) {
     case FieldKind::kUniform:
-      m.emplace_back("field_u_px_per_frame", num(u_px));
-      m.emplace_back("field_v_px_per_frame", num(v_px));
+      m.emplace_back("field_u_px_per_frame", format_number(u_px));
+      m.emplace_back("field_v_px_per_frame", format_number(v_px));
       break;
     case FieldKind::kRotation:
-      m.emplace_back("field_centre_px", num(centre_x_px) + "," + num(centre_y_px));
-      m.emplace_back("field_omega_rad_per_frame", num(omega_rad));
+      m.emplace_back("field_centre_px", format_number(centre_x_px) + "," + format_number(centre_y_px));
+      m.emplace_back("field_omega_rad_per_frame", format_number(omega_rad));
       break;
     case FieldKind::kShearZone:
-      m.emplace_back("field_centre_px", num(centre_x_px) + "," + num(centre_y_px));
-      m.emplace_back("field_r0_px", num(r0_px));
-      m.emplace_back("field_w_px", num(w_px));
-      m.emplace_back("field_U0_px_per_frame", num(U0_px));
+      m.emplace_back("field_centre_px", format_number(centre_x_px) + "," + format_number(centre_y_px));
+      m.emplace_back("field_r0_px", format_number(r0_px));
+      m.emplace_back("field_w_px", format_number(w_px));
+      m.emplace_back("field_U0_px_per_frame", format_number(U0_px));
       break;
   }
   return m;

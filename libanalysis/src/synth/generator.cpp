@@ -14,10 +14,10 @@
 namespace shearzone::synth {
 namespace {
 
-std::string num(double v) { return io::CsvWriter::format_number(v); }
+using io::format_number;
 
 void require(bool ok, const std::string& what, double value, const std::string& rule) {
-  if (!ok) throw ConfigError(fmt::format("{} = {}: {}", what, num(value), rule));
+  if (!ok) throw ConfigError(fmt::format("{} = {}: {}", what, format_number(value), rule));
 }
 
 /// Poisson-disk sampling (Bridson 2007, "Fast Poisson disk sampling in arbitrary
@@ -143,30 +143,31 @@ void SynthOptions::validate() const {
 core::Metadata SynthOptions::to_metadata() const {
   core::Metadata m{{"synth_texture", texture_kind_name(texture)},
                    {"image_size_px", fmt::format("{}x{}", image.width_px, image.height_px)},
-                   {"noise_fraction_of_full_scale", num(image.noise)},
-                   {"background_fraction_of_full_scale", num(image.background)},
+                   {"noise_fraction_of_full_scale", format_number(image.noise)},
+                   {"background_fraction_of_full_scale", format_number(image.background)},
                    {"bit_depth", std::to_string(image.bit_depth)},
                    {"seed", std::to_string(image.seed)}};
   if (texture == TextureKind::kParticles) {
-    m.emplace_back("particle_diameter_px", num(particles.diameter_px) + " (e^-2 diameter)");
-    m.emplace_back("particle_density_ppp", num(particles.density_ppp));
+    m.emplace_back("particle_diameter_px", format_number(particles.diameter_px) + " (e^-2 diameter)");
+    m.emplace_back("particle_density_ppp", format_number(particles.density_ppp));
     m.emplace_back("particle_intensity_range",
-                   num(particles.intensity_min) + "," + num(particles.intensity_max));
+                   format_number(particles.intensity_min) + "," + format_number(particles.intensity_max));
   } else {
-    m.emplace_back("bead_diameter_px", num(beads.diameter_px));
-    m.emplace_back("bead_min_spacing_fraction_of_d", num(beads.min_spacing));
-    m.emplace_back("bead_albedo_range", num(beads.albedo_min) + "," + num(beads.albedo_max));
-    m.emplace_back("bead_height_jitter_fraction_of_d", num(beads.height_jitter));
+    m.emplace_back("bead_diameter_px", format_number(beads.diameter_px));
+    m.emplace_back("bead_min_spacing_fraction_of_d", format_number(beads.min_spacing));
+    m.emplace_back("bead_albedo_range",
+                   format_number(beads.albedo_min) + "," + format_number(beads.albedo_max));
+    m.emplace_back("bead_height_jitter_fraction_of_d", format_number(beads.height_jitter));
   }
   for (auto& kv : field.to_metadata()) m.push_back(std::move(kv));
   m.emplace_back("frames", std::to_string(sequence.frames));
-  m.emplace_back("fps_Hz", num(sequence.fps));
-  m.emplace_back("oscillate_f_Hz", num(sequence.oscillate_f_Hz));
+  m.emplace_back("fps_Hz", format_number(sequence.fps));
+  m.emplace_back("oscillate_f_Hz", format_number(sequence.oscillate_f_Hz));
   if (vane.blades > 0) {
     m.emplace_back("vane", fmt::format("blades={}, half_width_px={}, radius_px={}", vane.blades,
-                                       num(vane.half_width_px), num(vane.radius_px)));
-    m.emplace_back("vane_phi0_rad", num(vane.phi0_rad));
-    m.emplace_back("vane_angle0_deg", num(vane.angle0_deg));
+                                       format_number(vane.half_width_px), format_number(vane.radius_px)));
+    m.emplace_back("vane_phi0_rad", format_number(vane.phi0_rad));
+    m.emplace_back("vane_angle0_deg", format_number(vane.angle0_deg));
   }
   m.emplace_back("placement",
                  "symmetric about the midpoint: A = p - d(p)/2, B = p + d(p)/2; later frames by "

@@ -68,9 +68,27 @@ CsvTable read_csv(const std::filesystem::path& path);
 /// an error line never echoes a whole (possibly megabytes long) header or cell.
 std::string excerpt(std::string_view text, std::size_t max_chars = 120);
 
+/// `text` without its leading and trailing blanks: spaces and TABs only, as CSV cells
+/// and unit names are trimmed (the log readers' trim also drops CR, LF and no-break
+/// spaces).
+std::string_view trim_blanks(std::string_view text);
+
 /// Reads a number the way CsvTable::number does (trimmed; optional decimal comma).
 /// Returns false if `text` is not entirely a number.
 bool parse_number(std::string_view text, bool decimal_comma, double& value);
+
+/// Shortest text that reads back to exactly `value` ("0.1", "2.25", "1e-05"; "nan",
+/// "inf", "-inf" for the non-finite): the one way the toolkit writes a double into a
+/// CSV cell, a metadata line or a message (CsvWriter::format_number is the same).
+std::string format_number(double value);
+
+/// format_number(value) for a finite value; an empty cell (the value left out) for
+/// NaN and for +-inf.
+std::string format_number_or_empty(double value);
+
+/// format_number(value), but an empty cell for NaN (a value that is not defined);
+/// +-inf are written ("inf", "-inf"), unlike format_number_or_empty.
+std::string format_number_nan_empty(double value);
 
 /// Writes a CSV file row by row. The header block and the column row are written
 /// by the constructor.
@@ -82,7 +100,7 @@ class CsvWriter {
   void row(const std::vector<double>& values);
   std::size_t num_columns() const { return num_columns_; }
 
-  /// Shortest text that reads back to exactly `value` ("0.1", "2.25", "1e-05").
+  /// Shortest text that reads back to exactly `value`: io::format_number.
   static std::string format_number(double value);
   /// Shortest text that reads back to exactly the float `value` ("2.2979" not
   /// "2.297945022583008").
