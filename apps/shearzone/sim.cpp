@@ -24,14 +24,14 @@ int run_sim(SimCli& s, const Context& ctx) {
   const auto sum = pipeline::run_sim_job(s.job, ctx.header(), progress.callback());
   progress.finish();
   if (ctx.level != core::LogLevel::kQuiet) {
-    if (sum.fill_settled)
+    if (sum.fill.settled)
       std::printf("sim: fill settled: %lld drop steps (%lld iteration-cap hits), %lld relaxation steps, "
                   "%s (kinetic energy %.3g m g d per bead) in %.3g s; the run starts from it at step 0\n",
-                  static_cast<long long>(sum.fill_settle_steps),
-                  static_cast<long long>(sum.fill_settle_cap_hits),
-                  static_cast<long long>(sum.fill_relax_steps),
-                  sum.fill_relaxed ? "relaxed" : "NOT relaxed (fill.relax_max_steps reached)",
-                  sum.fill_kinetic_energy, sum.fill_seconds);
+                  static_cast<long long>(sum.fill.settle_steps),
+                  static_cast<long long>(sum.fill.settle_cap_hits),
+                  static_cast<long long>(sum.fill.relax_steps),
+                  sum.fill.relaxed ? "relaxed" : "NOT relaxed (fill.relax_max_steps reached)",
+                  sum.fill.kinetic_energy, sum.fill.seconds);
     std::string kinds;
     if (sum.fixed_bodies > 0 || sum.kinematic_bodies > 0)
       kinds = " (" + std::to_string(sum.fixed_bodies) + " fixed, " + std::to_string(sum.kinematic_bodies) +

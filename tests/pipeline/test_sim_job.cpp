@@ -100,10 +100,10 @@ TEST_CASE("sim job: a kinematic bead moves by x0 + v t and pushes a mobile bead"
 TEST_CASE("sim job: fill.settle starts the run from a relaxed packing at step 0", "[pipeline][sim]") {
   TempDir dir("sim-job-settle");
   const auto sum = run_scene(dir, kSettle, "run");
-  CHECK(sum.fill_settled);
-  CHECK(sum.fill_settle_steps > 0);
-  CHECK(sum.fill_relaxed);
-  CHECK(sum.fill_kinetic_energy <= 1e-4);
+  CHECK(sum.fill.settled);
+  CHECK(sum.fill.settle_steps > 0);
+  CHECK(sum.fill.relaxed);
+  CHECK(sum.fill.kinetic_energy <= 1e-4);
   CHECK(sum.first_step == 0);
   CHECK(sum.steps == 40);
   CHECK(sum.bodies == 31);
@@ -137,13 +137,13 @@ TEST_CASE("sim job: fill.settle starts the run from a relaxed packing at step 0"
   CHECK(diag.numeric_column("rows").front() >= 30.0);  // at least the ropes, angles and contacts
   CHECK(diag.numeric_column("active_row_updates").front() <= diag.numeric_column("row_updates").front());
   CHECK(core::metadata_value(diag.metadata, "fill_relaxed") == "true");
-  CHECK(core::metadata_value(diag.metadata, "fill_settle_steps") == std::to_string(sum.fill_settle_steps));
+  CHECK(core::metadata_value(diag.metadata, "fill_settle_steps") == std::to_string(sum.fill.settle_steps));
   CHECK(core::metadata_value(diag.metadata, "threads") == "1");
 
   // A restart takes the world from the checkpoint and does not fill again.
   const std::string longer = with(kSettle, "duration_s = 0.02", "duration_s = 0.03");
   const auto more = run_scene(dir, longer, "run2", "run/checkpoint.h5");
-  CHECK_FALSE(more.fill_settled);
+  CHECK_FALSE(more.fill.settled);
   CHECK(more.first_step == 40);
   CHECK(more.steps == 20);
 }
@@ -157,7 +157,7 @@ TEST_CASE("sim job: sim.threads = 2 runs reproduce the state hash", "[pipeline][
   text = with(text, "max_m = [0.025, 0.025, 0.05]", "max_m = [0.025, 0.025, 0.1]");
   const auto a = run_scene(dir, text, "a");
   const auto b = run_scene(dir, text, "b");
-  CHECK_FALSE(a.fill_settled);
+  CHECK_FALSE(a.fill.settled);
   CHECK(a.threads == 2);
   CHECK(a.steps == 40);
   CHECK(a.state_hash == b.state_hash);

@@ -32,13 +32,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   if (o.restart.empty()) {
     built.emplace(std::move(*scene.world));
     chain_ids = std::move(scene.chain_ids);
-    sum.fill_settled = scene.fill.settled;
-    sum.fill_settle_steps = scene.fill.settle_steps;
-    sum.fill_settle_cap_hits = scene.fill.settle_cap_hits;
-    sum.fill_relax_steps = scene.fill.relax_steps;
-    sum.fill_relaxed = scene.fill.relaxed;
-    sum.fill_kinetic_energy = scene.fill.kinetic_energy;
-    sum.fill_seconds = scene.fill.seconds;
+    sum.fill = scene.fill;
   } else {
     // The scene's sections were checked; the world comes from the checkpoint.
     built.emplace(sim::World::from_state(sim::read_checkpoint(o.restart)));
@@ -76,12 +70,12 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
   meta.emplace_back("bodies", std::to_string(w.body_count()));
   if (sum.kinematic_bodies > 0) meta.emplace_back("kinematic_bodies", std::to_string(sum.kinematic_bodies));
-  if (sum.fill_settled) {
-    meta.emplace_back("fill_settle_steps", std::to_string(sum.fill_settle_steps));
-    meta.emplace_back("fill_settle_cap_hits", std::to_string(sum.fill_settle_cap_hits));
-    meta.emplace_back("fill_relax_steps", std::to_string(sum.fill_relax_steps));
-    meta.emplace_back("fill_relaxed", sum.fill_relaxed ? "true" : "false");
-    meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::format_number(sum.fill_kinetic_energy));
+  if (sum.fill.settled) {
+    meta.emplace_back("fill_settle_steps", std::to_string(sum.fill.settle_steps));
+    meta.emplace_back("fill_settle_cap_hits", std::to_string(sum.fill.settle_cap_hits));
+    meta.emplace_back("fill_relax_steps", std::to_string(sum.fill.relax_steps));
+    meta.emplace_back("fill_relaxed", sum.fill.relaxed ? "true" : "false");
+    meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::format_number(sum.fill.kinetic_energy));
     meta.emplace_back("fill_note", "step 0 is the relaxed packing (the drop and relaxation steps are not counted)");
   }
 

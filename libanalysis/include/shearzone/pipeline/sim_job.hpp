@@ -11,6 +11,7 @@
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
+#include "shearzone/sim/scene.hpp"
 
 namespace shearzone::pipeline {
 
@@ -35,17 +36,11 @@ struct SimJobSummary {
   std::size_t checkpoints = 0;
   std::int64_t iteration_cap_hits = 0;  ///< in this run
   double max_overlap_over_d = 0.0;      ///< over the run
-  double wall_seconds = 0.0;  ///< the run (the fill stage: fill_seconds)
+  double wall_seconds = 0.0;  ///< the run (the fill stage: fill.seconds)
   std::uint64_t state_hash = 0;  ///< World::state_hash() at the end
   int threads = 1;               ///< sweep threads of the run (sim::Options::threads)
   // fill.settle = true (not on restart): the sim::fill stage before the run.
-  bool fill_settled = false;               ///< the fill stage ran
-  std::int64_t fill_settle_steps = 0;      ///< drop steps (cheap solver)
-  std::int64_t fill_settle_cap_hits = 0;   ///< iteration-cap hits of the drop (expected)
-  std::int64_t fill_relax_steps = 0;       ///< relaxation steps ([sim] options)
-  bool fill_relaxed = false;               ///< relax_kinetic_energy reached
-  double fill_kinetic_energy = 0.0;        ///< final ½ m v² per bead / (m g d)
-  double fill_seconds = 0.0;               ///< wall time of the fill stage
+  sim::SceneFillReport fill;
 };
 
 /// Runs the scene. Throws ConfigError / InputError (scene, checkpoint, outputs exist)
