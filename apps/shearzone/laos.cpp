@@ -76,7 +76,7 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
                   many ? fmt::format("{:<16.16s} ", std::filesystem::path(r.source).filename().string()).c_str()
                        : "",
                   r.segment.c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
-                  r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, r.status.c_str());
+                  r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, laos::amplitude_status_name(r.status));
   }
   return kExitOk;
 }

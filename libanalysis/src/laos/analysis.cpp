@@ -392,19 +392,19 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
                                       where, c, ncyc, ncyc == 1 ? "" : "s"));
       A.cycles[static_cast<std::size_t>(c - 1)].used = true;
     }
-    A.status = "cycles_selected";
+    A.status = AmplitudeStatus::kCyclesSelected;
   } else if (o.all_cycles) {
     for (auto& c : A.cycles) c.used = true;
-    A.status = ncyc == 1 ? "single_cycle" : "all_cycles";
+    A.status = ncyc == 1 ? AmplitudeStatus::kSingleCycle : AmplitudeStatus::kAllCycles;
   } else if (ncyc == 1) {
     A.cycles[0].used = true;
-    A.status = "single_cycle";
+    A.status = AmplitudeStatus::kSingleCycle;
   } else if (first_steady < 0) {
     A.cycles.back().used = true;
-    A.status = "not_steady";
+    A.status = AmplitudeStatus::kNotSteady;
   } else {
     for (auto& c : A.cycles) c.used = c.steady;
-    A.status = "ok";
+    A.status = AmplitudeStatus::kOk;
   }
   // Block fit over the used cycles.
   std::vector<double> wsum(n, 0.0);
@@ -506,6 +506,17 @@ RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o) {
                                  "{:.4g} rad); expected at least one complete cycle",
                                  w.context, lines_text(w, 0, n - 1), last_span));
   return out;
+}
+
+const char* amplitude_status_name(AmplitudeStatus s) {
+  switch (s) {
+    case AmplitudeStatus::kOk: return "ok";
+    case AmplitudeStatus::kNotSteady: return "not_steady";
+    case AmplitudeStatus::kSingleCycle: return "single_cycle";
+    case AmplitudeStatus::kAllCycles: return "all_cycles";
+    case AmplitudeStatus::kCyclesSelected: return "cycles_selected";
+  }
+  return "unknown";
 }
 
 }  // namespace shearzone::laos

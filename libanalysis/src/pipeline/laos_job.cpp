@@ -210,7 +210,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       if (A.first_steady_cycle == 0) row[row.size() - 4] = "";
       row.push_back(A.phase_method);
       row.push_back(format_number_nan_empty(A.x_offset));
-      row.push_back(A.status);
+      row.push_back(laos::amplitude_status_name(A.status));
       w.row(row);
       sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
                           m.tan_delta, m.I3_over_I1, A.phi_d, A.M, used,

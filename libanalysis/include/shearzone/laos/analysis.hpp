@@ -69,6 +69,13 @@ struct CycleResult {
   bool steady = false, used = false;
 };
 
+/// Which cycles an amplitude's harmonics come from: ok (the steady cycles), not_steady
+/// (no steady cycle: the last one), single_cycle (only one complete cycle), all_cycles
+/// (--all-cycles) or cycles_selected (--cycles).
+enum class AmplitudeStatus { kOk, kNotSteady, kSingleCycle, kAllCycles, kCyclesSelected };
+/// The name written in the outputs ("ok", "not_steady", ...).
+const char* amplitude_status_name(AmplitudeStatus s);
+
 struct AmplitudeResult {
   std::size_t first_sample = 0, last_sample = 0;  ///< inclusive, indices into the record
   std::size_t first_line = 0, last_line = 0;      ///< source lines (0 if unknown)
@@ -89,7 +96,7 @@ struct AmplitudeResult {
   double E_d = 0;               ///< mean loop area over used cycles
   double E_d_ratio = 0;         ///< E_d/(π x0² K''_1)
   double phi_d = 0;             ///< E_d/(4 x0 r_max)
-  std::string status;           ///< ok, not_steady, single_cycle, cycles_selected
+  AmplitudeStatus status = AmplitudeStatus::kOk;
   // Samples of the used cycles (for the Lissajous output), response inertia-corrected.
   std::vector<int> sample_cycle;
   std::vector<double> theta, time_s, drive, response;

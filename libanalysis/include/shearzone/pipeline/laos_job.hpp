@@ -41,7 +41,8 @@ struct LaosJobOptions {
 };
 
 struct LaosSummaryRow {
-  std::string source, segment, status;
+  std::string source, segment;
+  laos::AmplitudeStatus status = laos::AmplitudeStatus::kOk;
   std::size_t amplitude = 0;  ///< 1-based row index
   double x0 = 0, r_max = 0, K1p = 0, K1pp = 0, tan_delta = 0, I3_over_I1 = 0, phi_d = 0;
   int M = 0, cycles_used = 0, cycles_complete = 0;
