@@ -74,8 +74,13 @@ def code_lines(text):
         else:
             in_indented = False
         prev_blank = False
+    return join_continuations((no, line) for no, line, _ in raw)
+
+
+def join_continuations(numbered):
+    """Joins backslash-continued lines: [(first line number, joined text)]."""
     out, pending, start = [], "", None
-    for no, line, _ in raw:
+    for no, line in numbered:
         if start is None:
             start = no
         if line.rstrip().endswith("\\"):
@@ -254,15 +259,7 @@ def script_runs(path, root):
     """{words: description} of the `"$SZ" ...` lines of a shell script."""
     with open(path, encoding="utf-8") as f:
         lines = f.read().splitlines()
-    joined, pending, start = [], "", None
-    for no, line in enumerate(lines, 1):
-        if start is None:
-            start = no
-        if line.rstrip().endswith("\\"):
-            pending += line.rstrip()[:-1] + " "
-            continue
-        joined.append((start, pending + line))
-        pending, start = "", None
+    joined = join_continuations(enumerate(lines, 1))
     values = {}  # name -> value, or None when only known at run time
 
     def expand(s):

@@ -37,8 +37,7 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
 
   while (i < lines.size()) {
     const auto cells = split_cells(lines[i].text, '\t');
-    std::size_t first = 0;
-    while (first < cells.size() && cells[first].empty()) ++first;
+    const std::size_t first = first_nonempty(cells);
     if (first == cells.size()) {
       ++i;
       continue;
@@ -107,8 +106,7 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
     seg.label = std::to_string(++interval_number);
     while (i < lines.size()) {
       const auto row = split_cells(lines[i].text, '\t');
-      std::size_t f = 0;
-      while (f < row.size() && row[f].empty()) ++f;
+      const std::size_t f = first_nonempty(row);
       if (f == row.size()) {
         ++i;
         continue;

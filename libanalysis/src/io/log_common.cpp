@@ -82,6 +82,12 @@ bool all_empty(const std::vector<std::string_view>& cells) {
   return std::all_of(cells.begin(), cells.end(), [](std::string_view c) { return c.empty(); });
 }
 
+std::size_t first_nonempty(const std::vector<std::string_view>& cells) {
+  std::size_t f = 0;
+  while (f < cells.size() && cells[f].empty()) ++f;
+  return f;
+}
+
 /// For matching localised names: ASCII lower case, runs of spaces as one, typographic
 /// apostrophes as '.
 std::string fold(std::string_view s) {

@@ -33,6 +33,8 @@ std::vector<std::string_view> split_cells(std::string_view line, char sep);
 /// Fields of a line separated by runs of spaces or tabs.
 std::vector<std::string_view> split_whitespace(std::string_view line);
 bool all_empty(const std::vector<std::string_view>& cells);
+/// Index of the first non-empty cell (cells.size() when all are empty).
+std::size_t first_nonempty(const std::vector<std::string_view>& cells);
 /// For matching localised names: ASCII lower case, runs of spaces as one, typographic
 /// apostrophes as '.
 std::string fold(std::string_view s);

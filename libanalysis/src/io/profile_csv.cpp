@@ -5,15 +5,12 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/metadata.hpp"
 #include "shearzone/io/csv.hpp"
 
 namespace shearzone::io {
 
-std::string ProfileCsv::meta(const std::string& key) const {
-  for (const auto& [k, v] : metadata)
-    if (k == key) return v;
-  return {};
-}
+std::string ProfileCsv::meta(const std::string& key) const { return core::metadata_value(metadata, key); }
 
 double ProfileCsv::meta_number(const std::string& key) const {
   double v = 0;
