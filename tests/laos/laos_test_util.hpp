@@ -31,7 +31,6 @@ inline Waveform timed(double x0, double omega, int per_cycle, int cycles,
                       const std::function<double(double theta, double t)>& model,
                       double sign = 1.0) {
   Waveform w;
-  w.context = "synthetic";
   const long n = static_cast<long>(per_cycle) * cycles;
   const double T = 2 * kPi / omega;
   for (long i = 0; i <= n; ++i) {
@@ -49,7 +48,6 @@ inline Waveform timed(double x0, double omega, int per_cycle, int cycles,
 inline Waveform angle_sampled(double x0, double dx, int cycles,
                               const std::function<double(double theta)>& model) {
   Waveform w;
-  w.context = "synthetic";
   const long q = std::lround(x0 / dx);
   for (int c = 0; c < cycles; ++c) {
     const long start = c == 0 ? 0 : 1;

@@ -25,7 +25,7 @@ constexpr double kLoop = 1e-4;
 bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol * std::abs(b); }
 
 AmplitudeResult one(const Waveform& w, AnalysisOptions o = {}) {
-  const RecordResult r = analyse_record(w, o);
+  const RecordResult r = analyse_record(w, o, "synthetic");
   REQUIRE(r.amplitudes.size() == 1);
   return r.amplitudes[0];
 }

@@ -57,7 +57,6 @@ TEST_CASE("white noise: reported SEs match sigma sqrt(2/N)/x0 over 200 seeds", "
 TEST_CASE("two amplitudes in one record split at a 5 % change", "[laos]") {
   const double omega = 2, G = 30, eta = 4;
   Waveform w;
-  w.context = "synthetic";
   const int per = 400;
   for (int i = 0; i <= per * 8; ++i) {
     const double t = 2 * kPi / omega * i / per;
@@ -68,7 +67,7 @@ TEST_CASE("two amplitudes in one record split at a 5 % change", "[laos]") {
     w.drive.push_back(x0 * std::sin(2 * kPi * (i % per) / per));
     w.response.push_back(G * x0 * std::sin(th) + eta * x0 * omega * std::cos(th));
   }
-  const auto r = analyse_record(w, {});
+  const auto r = analyse_record(w, {}, "synthetic");
   REQUIRE(r.amplitudes.size() == 2);
   CHECK(rel_close(r.amplitudes[0].x0, 0.1, kExact));
   CHECK(rel_close(r.amplitudes[1].x0, 0.3, kExact));
@@ -83,7 +82,6 @@ TEST_CASE("partial cycles are dropped and counted; --cycles selects", "[laos]") 
   const double x0 = 0.2;  // ω = 1
   // Start a quarter cycle late and stop a quarter cycle early: 3 complete, 2 partial.
   Waveform w;
-  w.context = "synthetic";
   for (int i = 100; i <= 400 * 4 - 100; ++i) {
     const double t = 2 * kPi * i / 400.0;
     w.time_s.push_back(t);
@@ -92,7 +90,7 @@ TEST_CASE("partial cycles are dropped and counted; --cycles selects", "[laos]") 
   }
   AnalysisOptions o;
   o.cycles = {2};
-  const auto A = analyse_record(w, o).amplitudes.at(0);
+  const auto A = analyse_record(w, o, "synthetic").amplitudes.at(0);
   CHECK(A.cycles.size() == 2);
   CHECK(A.partial_cycles == 2);
   CHECK(std::string(amplitude_status_name(A.status)) == "cycles_selected");
@@ -100,14 +98,14 @@ TEST_CASE("partial cycles are dropped and counted; --cycles selects", "[laos]") 
   CHECK(A.cycles[1].used);
   CHECK(rel_close(A.cycles[1].t_start_s, 2 * kPi * 2, kExact));
   o.cycles = {3};
-  CHECK_THROWS_AS(analyse_record(w, o), ConfigError);
+  CHECK_THROWS_AS(analyse_record(w, o, "synthetic"), ConfigError);
 }
 
 TEST_CASE("timed M cap is (samples per cycle - 1)/2 and is recorded", "[laos]") {
   const auto w = testutil::timed(0.1, 1.0, 12, 3, [](double th, double) { return std::sin(th); });
   AnalysisOptions o;
   o.max_harmonic = 9;
-  const auto A = analyse_record(w, o).amplitudes.at(0);
+  const auto A = analyse_record(w, o, "synthetic").amplitudes.at(0);
   CHECK(A.M_cap == 5);
   CHECK(A.M == 5);
   CHECK(A.M_requested == 9);
@@ -115,7 +113,7 @@ TEST_CASE("timed M cap is (samples per cycle - 1)/2 and is recorded", "[laos]") 
 
 TEST_CASE("a record without time and without omega reports rates as unavailable", "[laos]") {
   const auto w = testutil::angle_sampled(0.05, 1e-3, 2, [](double th) { return 3 * std::cos(th); });
-  const auto A = analyse_record(w, {}).amplitudes.at(0);
+  const auto A = analyse_record(w, {}, "synthetic").amplitudes.at(0);
   CHECK(std::isnan(A.omega));
   CHECK(std::isnan(A.measures.eta_L));
   CHECK(std::isnan(A.measures.v[1]));
@@ -131,24 +129,24 @@ TEST_CASE("inertia subtraction removes I phi-double-dot", "[laos]") {
   });
   AnalysisOptions o;
   o.inertia = I;
-  CHECK(rel_close(analyse_record(w, o).amplitudes.at(0).measures.K1p, K, kExact));
+  CHECK(rel_close(analyse_record(w, o, "synthetic").amplitudes.at(0).measures.K1p, K, kExact));
   // Without time or ω the subtraction is impossible: a configuration error.
   auto a = testutil::angle_sampled(0.05, 1e-3, 2, [](double th) { return std::sin(th); });
-  CHECK_THROWS_AS(analyse_record(a, o), ConfigError);
+  CHECK_THROWS_AS(analyse_record(a, o, "synthetic"), ConfigError);
 }
 
 TEST_CASE("bad records: zero amplitude and less than one cycle name the lines", "[laos]") {
   Waveform w;
-  w.context = "log.csv: segment \"1\"";
+  const std::string ctx = "log.csv: segment \"1\"";
   for (int i = 0; i < 50; ++i) {
     w.time_s.push_back(i * 0.1);
     w.drive.push_back(0.0);
     w.response.push_back(1.0);
     w.line.push_back(static_cast<std::size_t>(i) + 3);
   }
-  CHECK_THROWS_WITH(analyse_record(w, {}),
+  CHECK_THROWS_WITH(analyse_record(w, {}, ctx),
                     Catch::Contains("log.csv: segment \"1\": lines 3-52: drive amplitude is zero"));
   for (int i = 0; i < 50; ++i) w.drive[static_cast<std::size_t>(i)] = std::sin(0.1 * i);  // 0.8 cycle
-  CHECK_THROWS_AS(analyse_record(w, {}), InputError);
-  CHECK_THROWS_WITH(analyse_record(w, {}), Catch::Contains("lines 3-52"));
+  CHECK_THROWS_AS(analyse_record(w, {}, ctx), InputError);
+  CHECK_THROWS_WITH(analyse_record(w, {}, ctx), Catch::Contains("lines 3-52"));
 }

@@ -38,7 +38,6 @@ std::string path(const std::string& rel) {
 Waveform load(const std::string& rel, bool rheojax) {
   const auto t = testutil::read_table(path(rel));
   Waveform w;
-  w.context = rel;
   if (!rheojax) {
     w.time_s = t.cols[0];
     w.drive = t.cols[1];
@@ -75,11 +74,11 @@ AmplitudeResult run(const std::string& rel, bool rheojax, bool last_only, const 
   o.max_harmonic = 15;
   o.all_cycles = true;
   o.split_amplitudes = split;
-  auto A = analyse_record(w, o).amplitudes.at(0);
+  auto A = analyse_record(w, o, rel).amplitudes.at(0);
   if (last_only) {
     o.all_cycles = false;
     o.cycles = {static_cast<int>(A.cycles.size())};
-    A = analyse_record(w, o).amplitudes.at(0);
+    A = analyse_record(w, o, rel).amplitudes.at(0);
   }
   if (!(x0_ref > 0)) x0_ref = A.x0;
   // Moduli scale as 1/x0: refer them to the reference's amplitude (matters only for
@@ -130,7 +129,8 @@ TEST_CASE("external: RepTate CPyCL (measured, non-uniform dt)", "[laos][external
 TEST_CASE("external: RepTate SlugSlime (angle and torque)", "[laos][external]") {
   // The drive steps through four amplitudes (0.274, 0.301, 0.343, 0.384 rad; about 6
   // cycles each): split by default, one record for the reference estimator.
-  const auto r = analyse_record(load("reptate/SlugSlime-omega03p00-Run31.laos", false), {});
+  const auto r =
+      analyse_record(load("reptate/SlugSlime-omega03p00-Run31.laos", false), {}, "SlugSlime");
   REQUIRE(r.amplitudes.size() == 4);
   CHECK(r.amplitudes[0].x0 == Approx(0.2742).epsilon(1e-3));
   CHECK(r.amplitudes[3].x0 == Approx(0.3838).epsilon(1e-3));

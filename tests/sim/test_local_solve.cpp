@@ -6,7 +6,7 @@
 
 #include <catch2/catch.hpp>
 
-#include "shearzone/sim/local_solve.hpp"
+#include "sim/local_solve.hpp"  // private to the engine: libanalysis/src
 
 using namespace shearzone::sim;
 

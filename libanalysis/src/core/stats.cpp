@@ -6,8 +6,10 @@
 #include <limits>
 
 #include "shearzone/core/check.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::core {
+
 namespace {
 
 template <class T>
@@ -22,7 +24,7 @@ T upper_median_of(std::span<T> v) {
 
 double median_inplace(std::span<double> v) {
   const std::size_t n = v.size();
-  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  if (n == 0) return core::kUnset;
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(n / 2);
   std::nth_element(v.begin(), mid, v.end());
   double m = *mid;
@@ -40,7 +42,7 @@ float upper_median_inplace(std::span<float> v) { return upper_median_of(v); }
 
 double percentile(std::vector<double> v, double q) {
   SHEARZONE_DCHECK(q >= 0 && q <= 1);
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  if (v.empty()) return core::kUnset;
   std::sort(v.begin(), v.end());
   const double pos = q * static_cast<double>(v.size() - 1);
   const auto lo = static_cast<std::size_t>(std::floor(pos));

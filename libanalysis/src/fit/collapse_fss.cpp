@@ -13,12 +13,13 @@
 #include <gsl/gsl_vector.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::fit {
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// Value the simplex sees where S is undefined (no term) or not finite: far above any
 /// real S, finite because nmsimplex2 rejects non-finite values.
 constexpr double kPenalty = 1e100;
@@ -415,10 +416,10 @@ FssFitResult fit_fss_collapse(const FssDataSet& data_in, const FssFitOptions& o)
   res.restarts = m.restarts;
   res.converged = m.converged;
 
-  res.err_low.fill(kNaN);
-  res.err_high.fill(kNaN);
-  res.ci_low.fill(kNaN);
-  res.ci_high.fill(kNaN);
+  res.err_low.fill(core::kUnset);
+  res.err_high.fill(core::kUnset);
+  res.ci_low.fill(core::kUnset);
+  res.ci_high.fill(core::kUnset);
   if (o.s_plus_one) {
     const double target = res.quality.S + 1.0;
     for (std::size_t k = 0; k < 3; ++k) {

@@ -14,11 +14,11 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/stats.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::fit {
-namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+namespace {
 /// Scaled singular values below this fraction of the largest make the covariance
 /// singular. With unit-norm columns, cond(J D) above 1e12 means a parameter
 /// combination is determined to fewer than ~4 of the ~16 digits of a double.
@@ -255,7 +255,7 @@ RunResult minimise(const Internal& in, const std::vector<double>& q0, const FitO
 double quantile_for(const FitOptions& o, int dof) {
   const double pr = 0.5 + 0.5 * o.confidence;
   if (o.absolute_sigma) return gsl_cdf_ugaussian_Pinv(pr);
-  return dof > 0 ? gsl_cdf_tdist_Pinv(pr, dof) : kNaN;
+  return dof > 0 ? gsl_cdf_tdist_Pinv(pr, dof) : core::kUnset;
 }
 
 }  // namespace
@@ -313,7 +313,7 @@ FitResult solve(const Problem& pr, const std::vector<double>& start, const FitOp
   res.loss_scale = o.loss_scale;
   res.seed = o.seed;
   res.confidence = o.confidence;
-  const auto nan_vec = [p] { return std::vector<double>(static_cast<std::size_t>(p), kNaN); };
+  const auto nan_vec = [p] { return std::vector<double>(static_cast<std::size_t>(p), core::kUnset); };
   res.values = res.std_errors = res.ci_low = res.ci_high = res.boot_low = res.boot_high = nan_vec();
   res.quantile = quantile_for(o, res.dof);
 
@@ -328,7 +328,7 @@ FitResult solve(const Problem& pr, const std::vector<double>& start, const FitOp
   {
     Eigen::VectorXd r0;
     if (in.evaluate(q0, r0, nullptr)) res.initial_cost = cost_of(r0, o.loss, o.loss_scale);
-    else res.initial_cost = kNaN;
+    else res.initial_cost = core::kUnset;
   }
   if (res.n < 1) {
     res.termination = "FAILURE";
@@ -369,7 +369,7 @@ FitResult solve(const Problem& pr, const std::vector<double>& start, const FitOp
   const double lnc = std::log(std::max(res.chi2, std::numeric_limits<double>::min()) / n);
   res.aic = n * lnc + 2.0 * p;
   res.bic = n * lnc + p * std::log(n);
-  res.aicc = res.n - p - 1 > 0 ? res.aic + 2.0 * p * (p + 1) / (n - p - 1) : kNaN;
+  res.aicc = res.n - p - 1 > 0 ? res.aic + 2.0 * p * (p + 1) / (n - p - 1) : core::kUnset;
 
   // Robust loss: covariance from the reweighted Jacobian (Gauss–Newton
   // approximation at the robust weights ρ'(r²)).
@@ -394,8 +394,8 @@ FitResult solve(const Problem& pr, const std::vector<double>& start, const FitOp
   res.cond_scaled = s(s.size() - 1) > 0 ? s(0) / s(s.size() - 1) : std::numeric_limits<double>::infinity();
   const bool enough = o.absolute_sigma ? res.dof >= 0 : res.dof > 0;
   res.covariance_ok = !zero_column && res.n >= p && s(s.size() - 1) > kSingularRcond * s(0) && enough;
-  res.covariance.assign(static_cast<std::size_t>(p * p), kNaN);
-  res.correlation.assign(static_cast<std::size_t>(p * p), kNaN);
+  res.covariance.assign(static_cast<std::size_t>(p * p), core::kUnset);
+  res.correlation.assign(static_cast<std::size_t>(p * p), core::kUnset);
   if (res.covariance_ok) {
     const Eigen::VectorXd inv2 = s.array().inverse().square();
     const Matrix V = svd.matrixV();

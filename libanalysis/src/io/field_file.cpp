@@ -7,14 +7,14 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/file.hpp"
 #include "shearzone/io/hdf5.hpp"
 
 namespace shearzone::io {
-namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+namespace {
 
 class H5Reader final : public FieldReader {
  public:
@@ -65,12 +65,12 @@ class H5Reader final : public FieldReader {
     dt = dt_[k];
   }
   double attribute(const std::string& name) const override {
-    if (!h5_.has_attribute("/", name)) return kNaN;
+    if (!h5_.has_attribute("/", name)) return core::kUnset;
     try {
       return h5_.attribute_double("/", name);
     } catch (const InputError&) {
       double v = 0;
-      return parse_number(h5_.attribute_string("/", name), false, v) ? v : kNaN;
+      return parse_number(h5_.attribute_string("/", name), false, v) ? v : core::kUnset;
     }
   }
   std::string text_attribute(const std::string& name) const override {
@@ -138,7 +138,7 @@ class CsvReader final : public FieldReader {
   double attribute(const std::string& name) const override {
     auto it = meta_.find(name);
     double v = 0;
-    return it != meta_.end() && parse_number(it->second, false, v) ? v : kNaN;
+    return it != meta_.end() && parse_number(it->second, false, v) ? v : core::kUnset;
   }
   std::string text_attribute(const std::string& name) const override {
     auto it = meta_.find(name);

@@ -6,6 +6,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/csv.hpp"
 
 namespace shearzone::io {
@@ -15,7 +16,7 @@ std::string ProfileCsv::meta(const std::string& key) const { return core::metada
 double ProfileCsv::meta_number(const std::string& key) const {
   double v = 0;
   const std::string s = meta(key);
-  return !s.empty() && parse_number(s, false, v) ? v : std::numeric_limits<double>::quiet_NaN();
+  return !s.empty() && parse_number(s, false, v) ? v : core::kUnset;
 }
 
 std::filesystem::path profile_groups_path(const std::filesystem::path& profile) {
@@ -72,7 +73,7 @@ ProfileCsv read_profile_csv(const std::filesystem::path& path) {
   // v_abs is empty in bins without vectors; a bin with vectors must carry a number.
   const std::size_t cv = t.column_index("v_abs_m_per_s");
   for (std::size_t k = 0; k < t.num_rows(); ++k)
-    p.rows[k].v_abs = p.rows[k].n_vectors == 0 && t.cell_empty(k, cv) ? std::numeric_limits<double>::quiet_NaN()
+    p.rows[k].v_abs = p.rows[k].n_vectors == 0 && t.cell_empty(k, cv) ? core::kUnset
                                                                        : t.number(k, cv);
   return p;
 }

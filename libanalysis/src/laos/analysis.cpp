@@ -234,7 +234,8 @@ namespace {
 
 /// Analyses samples [i0, i1] of the record. Returns nullopt (and the θ span) when
 /// there is no complete cycle.
-std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, std::size_t i1,
+std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::string& context,
+                                             std::size_t i0, std::size_t i1,
                                              const AnalysisOptions& o, double& theta_span) {
   AmplitudeResult A;
   A.first_sample = i0;
@@ -243,7 +244,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
     A.first_line = w.line[i0];
     A.last_line = w.line[i1];
   }
-  const std::string where = fmt::format("{}: {}", w.context, lines_text(w, i0, i1));
+  const std::string where = fmt::format("{}: {}", context, lines_text(w, i0, i1));
   const auto first = static_cast<std::ptrdiff_t>(i0), last = static_cast<std::ptrdiff_t>(i1) + 1;
   std::vector<double> x(w.drive.begin() + first, w.drive.begin() + last);
   std::vector<double> r(w.response.begin() + first, w.response.begin() + last);
@@ -439,20 +440,21 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, std::size_t i0, 
 
 }  // namespace
 
-RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o) {
+RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o,
+                            const std::string& context) {
   o.validate();
   const std::size_t n = w.drive.size();
   SHEARZONE_CHECK(w.response.size() == n);
   SHEARZONE_CHECK(w.time_s.empty() || w.time_s.size() == n);
   if (n < 4)
     throw InputError(fmt::format("{}: {} samples; expected at least one complete drive cycle",
-                                 w.context, n));
+                                 context, n));
   const auto [mn, mx] = std::minmax_element(w.drive.begin(), w.drive.end());
   const double level = 0.5 * (*mn + *mx), half = 0.5 * (*mx - *mn);
   if (!(half > 1e-12 * std::max(std::abs(*mx), std::abs(*mn))) || !(half > 0))
     throw InputError(fmt::format("{}: {}: drive amplitude is zero (all drive values {}); expected "
                                  "an oscillating drive",
-                                 w.context, lines_text(w, 0, n - 1), *mx));
+                                 context, lines_text(w, 0, n - 1), *mx));
   // Amplitude blocks from raw cycles.
   std::vector<std::size_t> up;
   if (o.split_amplitudes) up = upward_crossings(w.drive, level, kHysteresis * half);
@@ -488,12 +490,12 @@ RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o) {
       continue;
     }
     double span = 0;
-    auto A = analyse_block(w, blocks[bi].first, blocks[bi].second, o, span);
+    auto A = analyse_block(w, context, blocks[bi].first, blocks[bi].second, o, span);
     if (!A) {
       if (blocks.size() == 1)
         throw InputError(fmt::format("{}: {}: less than one complete drive cycle (phase spans {:.4g} "
                                      "rad); expected at least 2π between two upward zero crossings",
-                                     w.context, lines_text(w, blocks[bi].first, blocks[bi].second),
+                                     context, lines_text(w, blocks[bi].first, blocks[bi].second),
                                      span));
       ++out.skipped_blocks;
       last_span = span;
@@ -504,7 +506,7 @@ RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o) {
   if (out.amplitudes.empty())
     throw InputError(fmt::format("{}: {}: no amplitude with a complete drive cycle (last phase span "
                                  "{:.4g} rad); expected at least one complete cycle",
-                                 w.context, lines_text(w, 0, n - 1), last_span));
+                                 context, lines_text(w, 0, n - 1), last_span));
   return out;
 }
 

@@ -15,6 +15,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/sim/builder.hpp"
+#include "shearzone/sim/scenario.hpp"
 #include "shearzone/sim/world.hpp"
 
 namespace shearzone::pipeline {
@@ -49,8 +50,6 @@ std::string cpu_model() {
   return "unknown CPU";
 }
 
-double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
-
 struct Packing {
   sim::WorldState state;           // after the relaxation
   std::int64_t relax_steps = 0;
@@ -64,34 +63,23 @@ struct Packing {
 
 /// Jittered-lattice placement in a box sized for `count`, dropped with the cheap solver.
 Packing pour(int count, std::uint64_t seed, std::int64_t max_steps) {
-  const double d = kDiameter, a = kPitch * d;
-  const int n = std::max(2, static_cast<int>(std::ceil(std::cbrt(static_cast<double>(count)))));
-  const double side = n * a;
+  const double d = kDiameter;
   sim::Options o;
   o.time_step = kSettleStep;
   o.friction = kFriction;
   o.tolerance = kSettleTolerance;
   o.max_iterations = kSettleIterations;
   sim::World w(o);
-  std::mt19937_64 rng(seed);
-  int placed = 0, layer = 0;
-  double top = 0.0;
-  while (placed < count) {
-    const bool shifted = layer % 2 == 1;
-    const int m = shifted ? n - 1 : n;
-    const double off = shifted ? a : 0.5 * a;
-    const double z = 0.5 * d + 0.1 * d + layer * a;
-    for (int iy = 0; iy < m && placed < count; ++iy)
-      for (int ix = 0; ix < m && placed < count; ++ix) {
-        const double jx = kJitter * d * (2.0 * uniform(rng) - 1.0);
-        const double jy = kJitter * d * (2.0 * uniform(rng) - 1.0);
-        w.add_sphere(sim::Vec3(off + ix * a + jx, off + iy * a + jy, z), d, kDensity);
-        ++placed;
-      }
-    top = z + 0.5 * d;
-    ++layer;
-  }
-  sim::add_box_walls(w, sim::BoxRegion{sim::Vec3::Zero(), sim::Vec3(side, side, top + d)}, kFriction);
+  sim::LatticePour lp;
+  lp.count = count;
+  lp.diameter = d;
+  lp.density = kDensity;
+  lp.pitch = kPitch;
+  lp.jitter = kJitter;
+  lp.wall_friction = kFriction;
+  lp.seed = seed;
+  const sim::LatticePourLayout layout = sim::add_lattice_pour(w, lp);
+  const int n = layout.floor_side, layer = layout.layers;
   // At least the free fall of the gaps the lattice leaves in its column, plus one d.
   const double drop = layer * (kPitch - 1.0) * d + d;
   const auto min_steps = static_cast<std::int64_t>(std::ceil(2.0 * std::sqrt(2.0 * drop / 9.81) / kSettleStep));

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 
@@ -112,18 +113,15 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     if (log.segments.empty())
       throw InputError(fmt::format("{}: no data rows; expected an oscillation log", log.source));
     for (const auto& seg : log.segments) {
-      laos::Waveform w;
-      w.time_s = seg.time_s;
-      w.drive = seg.drive;
-      w.response = seg.response;
-      w.line = seg.line;
+      core::Waveform w = seg;  // a copy: the conversion below scales it
       if (convert) {
         for (auto& v : w.drive) v *= Cg;
         for (auto& v : w.response) v *= Cs;
       }
-      w.context = log.segments.size() > 1 ? fmt::format("{}: segment \"{}\"", log.source, seg.label)
-                                          : log.source;
-      auto rec = laos::analyse_record(w, ao);
+      const std::string context = log.segments.size() > 1
+                                      ? fmt::format("{}: segment \"{}\"", log.source, seg.label)
+                                      : log.source;
+      auto rec = laos::analyse_record(w, ao, context);
       sum.skipped_blocks += static_cast<std::size_t>(rec.skipped_blocks);
       for (auto& A : rec.amplitudes) items.push_back({log.source, seg.label, N, std::move(A)});
     }
@@ -200,7 +198,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
           static_cast<double>(A.first_line), static_cast<double>(A.last_line), A.x0,
           nominal(A.x0), A.omega,
           A.r_max, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
-          A.M >= 3 ? m.Phi[3] : laos::kNaN, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
+          A.M >= 3 ? m.Phi[3] : core::kUnset, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
           m.K_L, m.eta_M, m.eta_L, m.S, m.T, A.E_d, A.E_d_ratio, A.phi_d,
           static_cast<double>(used), static_cast<double>(A.cycles.size()),
           static_cast<double>(A.partial_cycles), static_cast<double>(A.first_steady_cycle),

@@ -9,17 +9,19 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/stats.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
-#include "shearzone/io/frames.hpp"
 #include "shearzone/io/field_file.hpp"
+#include "shearzone/io/frames.hpp"
 #include "shearzone/io/profile_csv.hpp"
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
 #include "shearzone/profile/width.hpp"
 
 namespace shearzone::pipeline {
+
 namespace {
 
 static_assert(profile::PairSeries::kNoCycle == io::ProfileGroupRow::kNoCycle);
@@ -124,7 +126,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   if (set(file_scale))
     scales.push_back({"file", file_scale,
                       fmt::format("m_per_px = {} in {}", format_number(file_scale), o.input.string())});
-  double m_per_px = kUnset;
+  double m_per_px = core::kUnset;
   if (!o.scale_from.empty()) {
     for (const auto& sc : scales)
       if (o.scale_from == sc.name) {
@@ -203,7 +205,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     src->read(k, field, t_a, dt);
     ++sum.pairs_read;
     int cycle = profile::PairSeries::kNoCycle;
-    double phase = kUnset;
+    double phase = core::kUnset;
     std::size_t ph = 0;
     if (f > 0) {
       const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, o.t0_s);

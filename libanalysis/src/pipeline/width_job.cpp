@@ -6,15 +6,16 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/profile_csv.hpp"
 
 namespace shearzone::pipeline {
+
 namespace {
 
 using io::format_number;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// The width input of one profile file and its groups file.
 profile::WidthInput width_input(const io::ProfileCsv& p) {
@@ -45,7 +46,7 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
   in.pairs.n_bins = in.r_m.size();
   for (const auto& g : io::read_profile_groups_csv(gpath)) {
     if (g.pair == in.pairs.num_pairs())
-      in.pairs.add_pair(g.cycle, g.cycle != io::ProfileGroupRow::kNoCycle ? g.phase_deg / 360.0 : kNaN);
+      in.pairs.add_pair(g.cycle, g.cycle != io::ProfileGroupRow::kNoCycle ? g.phase_deg / 360.0 : core::kUnset);
     // Bin index from the radius (same bins as the profile, ascending): the nearest
     // of the two bracketing centres, found by bisection (rows x log bins).
     auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), g.r_m);
@@ -101,7 +102,7 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     wr.rc_m = row.res.rc_m;
     if (row.res.status == profile::WidthStatus::kNoiseLimited) {
       // An r_c that cannot be trusted is not reported.
-      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = kNaN;
+      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = core::kUnset;
       // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
       const double sigma = p.meta_number("noise_sigma_m_per_s");
       const double dt = p.meta_number("dt_s"), fps = p.meta_number("fps");

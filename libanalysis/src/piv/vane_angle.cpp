@@ -6,9 +6,11 @@
 #include <numbers>
 
 #include "shearzone/core/check.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/piv/piv.hpp"
 
 namespace shearzone::piv {
+
 namespace {
 
 /// Variance of the frame under the blade template at angle a.
@@ -72,7 +74,7 @@ double best_log_offset(const std::vector<double>& ft, const std::vector<double>&
                        const std::vector<double>& lt, const std::vector<double>& la, double step_s) {
   SHEARZONE_CHECK(ft.size() == va.size() && lt.size() == la.size() && !ft.empty() && lt.size() >= 2);
   const double lo = lt.front() - ft.front(), hi = lt.back() - ft.back();
-  if (hi < lo) return std::numeric_limits<double>::quiet_NaN();
+  if (hi < lo) return core::kUnset;
   auto cost = [&](double o) {
     double s = 0;
     for (std::size_t k = 0; k < ft.size(); ++k) {

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::profile {
 
@@ -105,7 +106,7 @@ BinMeanBootstrap::BinMeanBootstrap(const PairSeries& s, Grouping g) : g_(g), nb_
   const std::size_t np = s.num_pairs();
   if (s.v_abs.size() != np * nb_ || s.n_vectors.size() != np * nb_ || s.phase.size() != np)
     throw InternalError("BinMeanBootstrap: series arrays do not match");
-  mean_.assign(nb_, std::numeric_limits<double>::quiet_NaN());
+  mean_.assign(nb_, core::kUnset);
   count_.assign(nb_, 0.0);
   std::vector<double> sum(nb_, 0.0);
   for (std::size_t k = 0; k < np; ++k)
@@ -274,7 +275,7 @@ BinMeanBootstrap::BinMeanBootstrap(const PairSeries& s, Grouping g) : g_(g), nb_
 }
 
 void BinMeanBootstrap::draw(std::mt19937_64& rng, std::vector<double>& v, std::vector<double>& n) const {
-  v.assign(nb_, std::numeric_limits<double>::quiet_NaN());
+  v.assign(nb_, core::kUnset);
   n.assign(nb_, 0.0);
   if (g_ == Grouping::kNone) {
     v = mean_;
@@ -317,7 +318,7 @@ void BinMeanBootstrap::draw(std::mt19937_64& rng, std::vector<double>& v, std::v
 }
 
 std::vector<double> BinMeanBootstrap::standard_errors(int replicates, std::uint64_t seed) const {
-  std::vector<double> se(nb_, std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> se(nb_, core::kUnset);
   if (g_ == Grouping::kNone || replicates < 2) return se;
   std::mt19937_64 rng(seed);
   std::vector<double> s(nb_, 0.0), s2(nb_, 0.0), v, n;

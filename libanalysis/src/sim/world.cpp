@@ -16,6 +16,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "local_solve.hpp"
 #include "solver_rows.hpp"
 
 namespace shearzone::sim {

@@ -36,6 +36,8 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/core/unset.hpp"
+
 namespace shearzone::fit {
 
 /// One system size: points sorted by x (ascending; ties keep input order).
@@ -70,7 +72,7 @@ struct FssWindow {
 };
 
 struct FssQuality {
-  double S = std::numeric_limits<double>::quiet_NaN();  ///< NaN when n_terms == 0
+  double S = core::kUnset;  ///< NaN when n_terms == 0
   std::size_t n_terms = 0;
 };
 
@@ -90,9 +92,9 @@ struct FssPoint {
   double x_scaled = 0, y_scaled = 0, dy_scaled = 0;
   bool in_window = false;
   bool has_master = false;  ///< Y defined (at least one other size brackets x_scaled)
-  double Y = std::numeric_limits<double>::quiet_NaN();
-  double dY = std::numeric_limits<double>::quiet_NaN();
-  double term = std::numeric_limits<double>::quiet_NaN();  ///< (y~-Y)^2/(dy~^2+dY^2)
+  double Y = core::kUnset;
+  double dY = core::kUnset;
+  double term = core::kUnset;  ///< (y~-Y)^2/(dy~^2+dY^2)
 };
 
 /// Every point (curve by curve, x ascending) at `p`.
@@ -108,9 +110,9 @@ struct FssFitOptions {
   FssParams start{0.0, 1.0, 0.0};
   /// Initial simplex step per parameter; NaN: x_c 1 % of the x range of the data,
   /// a and b 0.01. The simplex works in units of these steps.
-  FssParams step{std::numeric_limits<double>::quiet_NaN(),
-                 std::numeric_limits<double>::quiet_NaN(),
-                 std::numeric_limits<double>::quiet_NaN()};
+  FssParams step{core::kUnset,
+                 core::kUnset,
+                 core::kUnset};
   std::array<bool, 3> fixed{false, false, false};  ///< fixed parameters keep `start`
   FssWindow window;
   double tolerance = 1e-6;     ///< stop when the simplex size < tolerance (step units)

@@ -23,6 +23,8 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
+#include "shearzone/core/waveform.hpp"
 
 namespace shearzone::io {
 
@@ -49,12 +51,11 @@ struct LogReadOptions {
   std::string time_unit, angle_unit, torque_unit;
 };
 
-struct LogSegment {
+/// One segment of a log: its samples (drive: angle in rad or strain; response:
+/// torque in N m or stress in Pa; time empty when the log has none; line: 1-based
+/// source line of each sample) and the interval or step name.
+struct LogSegment : core::Waveform {
   std::string label;               ///< interval / step name, or "1", "2", ...
-  std::vector<double> time_s;      ///< empty when the log has no time
-  std::vector<double> drive;       ///< angle, rad (or strain, dimensionless)
-  std::vector<double> response;    ///< torque, N m (or stress, Pa)
-  std::vector<std::size_t> line;   ///< 1-based source line of each sample
 };
 
 struct OscillationLog {
@@ -70,9 +71,9 @@ struct OscillationLog {
   /// ("omega_rad_per_s", "gamma0"), the export's own header lines.
   core::Metadata parameters;
   /// Convenience lookups of `parameters` (NaN when absent).
-  double omega_rad_per_s = std::numeric_limits<double>::quiet_NaN();
-  double stress_constant_Pa_per_N_m = std::numeric_limits<double>::quiet_NaN();
-  double strain_constant_per_rad = std::numeric_limits<double>::quiet_NaN();
+  double omega_rad_per_s = core::kUnset;
+  double stress_constant_Pa_per_N_m = core::kUnset;
+  double strain_constant_per_rad = core::kUnset;
 };
 
 /// Reads a log. Throws InputError (file, line, bad value, what was expected) or

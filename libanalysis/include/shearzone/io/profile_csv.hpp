@@ -34,17 +34,18 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::io {
 
 /// One bin of a profile. NaN velocities are written as empty cells.
 struct ProfileCsvRow {
   double r_m = 0;
-  double v_abs = std::numeric_limits<double>::quiet_NaN();
-  double v_theta = std::numeric_limits<double>::quiet_NaN();
-  double v_r = std::numeric_limits<double>::quiet_NaN();
-  double v_abs_rms = std::numeric_limits<double>::quiet_NaN();
-  double v_abs_sem = std::numeric_limits<double>::quiet_NaN();
+  double v_abs = core::kUnset;
+  double v_theta = core::kUnset;
+  double v_r = core::kUnset;
+  double v_abs_rms = core::kUnset;
+  double v_abs_sem = core::kUnset;
   double v_noise = 0;
   std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
 };
@@ -54,7 +55,7 @@ struct ProfileGroupRow {
   static constexpr int kNoCycle = std::numeric_limits<int>::min();  ///< f unknown
   std::size_t pair = 0;
   int cycle = kNoCycle;
-  double phase_deg = std::numeric_limits<double>::quiet_NaN();  ///< NaN when f is unknown
+  double phase_deg = core::kUnset;  ///< NaN when f is unknown
   double r_m = 0, v_abs = 0, n_vectors = 0;
   std::size_t line = 0;  ///< source line (reading only)
 };

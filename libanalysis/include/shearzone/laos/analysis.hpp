@@ -26,29 +26,28 @@
 //     for timed ones.
 //  5. Optional inertia subtraction r − I ẍ, ẍ = −x0 ω² sin θ from the fitted drive.
 //
-// Errors: InputError, prefixed with `context` and naming sample lines when known.
+// Errors: InputError, prefixed with the caller's `context` and naming sample lines
+// when known.
 #pragma once
 
 #include <cstddef>
 #include <string>
 #include <vector>
 
+#include "shearzone/core/unset.hpp"
+#include "shearzone/core/waveform.hpp"
 #include "shearzone/laos/harmonics.hpp"
 
 namespace shearzone::laos {
 
-struct Waveform {
-  std::vector<double> time_s;      ///< empty when the record has no time
-  std::vector<double> drive;       ///< x: rad (or strain)
-  std::vector<double> response;    ///< r: N m (or Pa)
-  std::vector<std::size_t> line;   ///< source line per sample (optional, for messages)
-  std::string context;             ///< message prefix, e.g. `log.csv: segment "2"`
-};
+/// The record analysed: the readers' type (io::LogSegment is one, with a label).
+using Waveform = core::Waveform;
 
 struct AnalysisOptions {
   int max_harmonic = 9;              ///< requested M (capped by the sampling)
   bool drift = true;                 ///< linear-drift column in the fits
-  double omega_rad_per_s = kNaN;     ///< known ω: seeds the sine fit; required for rates without time
+  /// Known ω: seeds the sine fit; required for rates without time.
+  double omega_rad_per_s = core::kUnset;
   /// Inertia in response units per (drive unit / s²): I in kg m² for angle/torque.
   double inertia = 0.0;
   double amplitude_change = 0.05;    ///< relative change of raw-cycle amplitude -> new amplitude
@@ -61,7 +60,7 @@ struct AnalysisOptions {
 
 struct CycleResult {
   int cycle = 0;            ///< 1-based within the amplitude
-  double t_start_s = kNaN;  ///< time of θ = 2πk (NaN without time)
+  double t_start_s = core::kUnset;  ///< time of θ = 2πk (NaN without time)
   double x0 = 0;            ///< half range of the drive samples in the cycle
   double r_max = 0;         ///< max |r| over the cycle's samples
   double K1p = 0, K1pp = 0; ///< per-cycle first harmonic
@@ -81,7 +80,7 @@ struct AmplitudeResult {
   std::size_t first_line = 0, last_line = 0;      ///< source lines (0 if unknown)
   bool timed = false;
   std::string phase_method;     ///< "sine_fit" or "arcsin"
-  double omega = kNaN;          ///< rad/s used (NaN: unknown)
+  double omega = core::kUnset;          ///< rad/s used (NaN: unknown)
   double x0 = 0;                ///< drive amplitude (sine fit or half range)
   double x_offset = 0;          ///< drive mid level c
   double psi = 0;               ///< phase at t = 0 (sine fit), rad
@@ -122,7 +121,9 @@ struct SineFit {
 SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
                  const std::string& context);
 
-/// The whole analysis of one record.
-RecordResult analyse_record(const Waveform& w, const AnalysisOptions& options);
+/// The whole analysis of one record. `context` prefixes every message (e.g.
+/// `log.csv: segment "2"`).
+RecordResult analyse_record(const Waveform& w, const AnalysisOptions& options,
+                            const std::string& context);
 
 }  // namespace shearzone::laos

@@ -22,9 +22,9 @@
 #include <limits>
 #include <vector>
 
-namespace shearzone::laos {
+#include "shearzone/core/unset.hpp"
 
-inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+namespace shearzone::laos {
 
 struct HarmonicFitOptions {
   int max_harmonic = 9;  ///< M: sin nθ and cos nθ for n = 1..M (odd and even)
@@ -65,16 +65,18 @@ HarmonicFit fit_harmonics(const std::vector<double>& theta, const std::vector<do
 /// Quantities derived from the harmonics (odd n only for the Chebyshev/Ewoldt ones).
 struct Measures {
   int M = 0;
-  double omega = kNaN;                  ///< rad/s (NaN: unknown, rate measures NaN)
+  double omega = core::kUnset;          ///< rad/s (NaN: unknown, rate measures NaN)
   double K1p = 0, K1pp = 0, K1p_se = 0, K1pp_se = 0;
   double tan_delta = 0;                 ///< K''_1/K'_1
   std::vector<double> I_over_I1;        ///< |K*_n|/|K*_1|, index n
   std::vector<double> Phi;              ///< Φ_n = δ_n − n δ_1 mod 2π in [0, 2π), δ = atan2(K'', K')
   std::vector<double> e, v;             ///< Chebyshev e_n = K'_n(−1)^((n−1)/2), v_n = K''_n/ω (odd n; 0 for even)
   double K_M = 0, K_L = 0;              ///< Σ n K'_n, Σ e_n (odd n ≤ M)
-  double eta_M = kNaN, eta_L = kNaN;    ///< (1/ω)Σ n K''_n (−1)^((n−1)/2), (1/ω)Σ K''_n
+  /// (1/ω)Σ n K''_n (−1)^((n−1)/2), (1/ω)Σ K''_n
+  double eta_M = core::kUnset, eta_L = core::kUnset;
   double S = 0, T = 0;                  ///< (K_L − K_M)/K_L, (η_L − η_M)/η_L (T needs no ω)
-  double e3_over_e1 = kNaN, v3_over_v1 = kNaN, I3_over_I1 = kNaN, I2_over_I1 = kNaN;
+  double e3_over_e1 = core::kUnset, v3_over_v1 = core::kUnset;
+  double I3_over_I1 = core::kUnset, I2_over_I1 = core::kUnset;
 };
 Measures derive_measures(const HarmonicFit& fit, double omega_rad_per_s);
 

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/fit/least_squares.hpp"
 #include "shearzone/fit/models.hpp"
 
@@ -39,7 +40,7 @@ struct FitJobOptions {
   double group_rtol = 0.02;          ///< numeric group values within this are one group
   fit::FitOptions fit;
   fit::PowerSpace space = fit::PowerSpace::kLinear;  ///< power only
-  double subtract_at = std::numeric_limits<double>::quiet_NaN();  ///< power only; NaN: off
+  double subtract_at = core::kUnset;  ///< power only; NaN: off
   double subtract_rtol = 1e-9;       ///< x within this of subtract_at is the reference
   bool force = false;
 
@@ -51,7 +52,7 @@ struct FitGroupResult {
   fit::CurveFit fit;
   fit::CurveFit alternative;   ///< power: the other space's fit (report only)
   bool has_alternative = false;
-  double y0 = std::numeric_limits<double>::quiet_NaN();  ///< subtracted y(x0)
+  double y0 = core::kUnset;  ///< subtracted y(x0)
 };
 
 struct FitJobSummary {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/oscillation_log.hpp"
 #include "shearzone/laos/analysis.hpp"
 
@@ -30,12 +31,12 @@ struct LaosJobOptions {
   std::vector<std::pair<std::string, std::string>> tags;
   io::LogReadOptions read;
   laos::AnalysisOptions analysis;  ///< omega_rad_per_s and inertia are set from below
-  double f_Hz = std::numeric_limits<double>::quiet_NaN();  ///< drive frequency (else the log's)
+  double f_Hz = core::kUnset;  ///< drive frequency (else the log's)
   double inertia_kg_m2 = 0.0;      ///< instrument inertia: τ − I φ̈ (angle/torque logs)
   /// Vane constants: stress = C_s τ (Pa per N m), strain = C_γ φ (per rad). Both, or
   /// `log_constants` to take them from the log (TRIOS "Stress/Strain constant").
-  double stress_constant_Pa_per_N_m = std::numeric_limits<double>::quiet_NaN();
-  double strain_constant_per_rad = std::numeric_limits<double>::quiet_NaN();
+  double stress_constant_Pa_per_N_m = core::kUnset;
+  double strain_constant_per_rad = core::kUnset;
   bool log_constants = false;
   void validate() const;
 };

@@ -22,6 +22,7 @@
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/core/vane.hpp"
 #include "shearzone/io/image.hpp"
 #include "shearzone/piv/options.hpp"
@@ -61,8 +62,8 @@ struct PivJobOptions {
   int stride = 1;                   ///< step between pair starts
   double duplicate_tolerance = 0.0; ///< frames whose max |difference| <= this (grey levels) repeat
   /// Cup centre in px (NaN: unset). Needed by the annulus and vane masks.
-  double centre_x_px = std::numeric_limits<double>::quiet_NaN();
-  double centre_y_px = std::numeric_limits<double>::quiet_NaN();
+  double centre_x_px = core::kUnset;
+  double centre_y_px = core::kUnset;
   double annulus_inner_px = 0.0;    ///< static mask: r < inner is masked
   double annulus_outer_px = 0.0;    ///< static mask: r > outer is masked (0: no annulus)
   std::string mask_image;           ///< static mask image: non-zero = masked

@@ -15,10 +15,10 @@
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::pipeline {
 
-inline constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
 /// Relative disagreement between two scale sources above which profile refuses.
 inline constexpr double kScaleTolerance = 0.01;
 
@@ -27,26 +27,26 @@ struct ProfileJobOptions {
   std::filesystem::path output;  ///< profile .csv
   bool force = false;
   // Geometry (px). Priority: given here > field-file attributes > detection.
-  double centre_x_px = kUnset, centre_y_px = kUnset;
-  double vane_radius_px = kUnset;  ///< R_v: first bin edge (0 when unknown)
-  double cup_radius_px = kUnset;   ///< R: last bin edge
+  double centre_x_px = core::kUnset, centre_y_px = core::kUnset;
+  double vane_radius_px = core::kUnset;  ///< R_v: first bin edge (0 when unknown)
+  double cup_radius_px = core::kUnset;   ///< R: last bin edge
   std::string detect_cup_frame;    ///< image (or video: first frame) to find the rim in
-  double detect_min_radius_px = kUnset, detect_max_radius_px = kUnset;
+  double detect_min_radius_px = core::kUnset, detect_max_radius_px = core::kUnset;
   // Calibration. Up to three sources of the scale: m_per_px (--m-per-px), the cup
   // radius cup_radius_m / R_px (--cup-radius-m with R in px from --radii-px, the
   // file or the rim detection), and the field file's m_per_px attribute. One source:
   // it is used. Two or more that disagree by more than kScaleTolerance: ConfigError
   // naming both, unless scale_from names the one to use ("m-per-px", "cup-radius",
   // "file"); sources that agree: the first in that order.
-  double m_per_px = kUnset;
-  double cup_radius_m = kUnset;
+  double m_per_px = core::kUnset;
+  double cup_radius_m = core::kUnset;
   std::string scale_from;  ///< "", "m-per-px", "cup-radius" or "file"
   // Bins. Priority: bin_m > bin_px > bead_diameter_m / 2.
-  double bin_m = kUnset, bin_px = kUnset;
+  double bin_m = core::kUnset, bin_px = core::kUnset;
   double bead_diameter_m = 2.4e-3;  ///< the paper's steel beads
   bool exclude_replaced = false;
   // Pair selection (needs f: given or attribute f_Hz).
-  double f_Hz = kUnset;
+  double f_Hz = core::kUnset;
   double t0_s = 0.0;             ///< time of an upward zero crossing of phi(t)
   std::vector<int> cycles;       ///< empty: all
   double phase_min_deg = 0.0, phase_max_deg = 360.0;
@@ -56,11 +56,11 @@ struct ProfileJobOptions {
   /// What standard errors and the r_c bootstrap resample: "auto" (cycles when at
   /// least 8 hold data, else pairs), "cycles" or "pairs" (profile/resample.hpp).
   std::string groups = "auto";
-  double dt_s = kUnset;          ///< pair time step of a CSV field (required there)
+  double dt_s = core::kUnset;          ///< pair time step of a CSV field (required there)
   // Noise floor: a static reference field file, or a region (m); default: the
   // outer 15 % of the annulus.
   std::filesystem::path noise_ref;
-  double noise_min_m = kUnset, noise_max_m = kUnset;
+  double noise_min_m = core::kUnset, noise_max_m = core::kUnset;
   void validate() const;
 };
 

@@ -33,6 +33,7 @@
 #include <limits>
 #include <vector>
 
+#include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/profile/resample.hpp"
 
@@ -56,7 +57,7 @@ struct ProfileOptions {
   double bin_centre_m(std::size_t k) const;
 };
 
-inline constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kNoValue = core::kUnset;
 
 struct ProfileBin {
   double r_m = 0;

@@ -29,4 +29,27 @@ struct BoxPour {
 /// Adds the box's planes and the beads of `pour` to `world` (planes first).
 void add_box_pour(World& world, const BoxPour& pour);
 
+/// `count` beads on a staggered lattice in a square box sized for them (the packing of
+/// `shearzone bench sim`). With n = max(2, ⌈∛count⌉) and pitch a = pitch·d, layer k
+/// (centres at z = 0.6 d + k a) holds n × n beads at (a/2 + i a, a/2 + j a) when k is
+/// even and (n−1) × (n−1) beads shifted by a/2 when k is odd; each bead's x and y are
+/// jittered by ±jitter·d (std::mt19937_64 with `seed`, 53-bit uniform). Walls of fixed
+/// planes (add_box_walls) enclose [0, n a]² × [0, top + d].
+struct LatticePour {
+  int count = 100;
+  double diameter = 2e-3;        ///< d (m)
+  double density = 2500.0;       ///< kg/m³
+  double pitch = 1.2;            ///< lattice spacing (× d)
+  double jitter = 0.1;           ///< half-width of the x, y jitter (× d)
+  double wall_friction = 0.3;    ///< μ of the box planes
+  std::uint64_t seed = 1;
+};
+struct LatticePourLayout {
+  int floor_side = 0;  ///< n: beads along a floor edge
+  int layers = 0;      ///< layers placed
+  double top = 0.0;    ///< top of the highest layer's beads (m)
+};
+/// Adds the beads, then the walls, of `pour` to `world`.
+LatticePourLayout add_lattice_pour(World& world, const LatticePour& pour);
+
 }  // namespace shearzone::sim

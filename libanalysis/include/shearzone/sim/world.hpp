@@ -14,7 +14,7 @@
 //     pair, rope and angle rows by index) starts from its previous impulse (the
 //     tangential impulse projected on the new tangent plane) and applies it.
 //  4. Nonlinear Gauss–Seidel sweeps over all rows, alternately forward and backward:
-//     contacts by the exact closed form of local_solve.hpp, ropes (tension only,
+//     contacts by the exact closed form of src/sim/local_solve.hpp, ropes (tension only,
 //     |x_j − x_i| ≤ L_max through the centres) and turning-angle limits (exact three-body
 //     row). Each visit applies its impulse change at once.
 //     Stopping test (LMGC90's QuadDV in non-dimensional form): after a sweep
@@ -53,9 +53,12 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "shearzone/sim/local_solve.hpp"
-
 namespace shearzone::sim {
+
+using Vec3 = Eigen::Vector3d;
+
+/// State of a contact after its local solve (see ContactInfo).
+enum class ContactStatus : std::uint8_t { open, sticking, sliding };
 
 enum class BodyKind : std::uint8_t {
   mobile,     ///< integrated by the engine

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/unset.hpp"
 
 namespace shearzone::synth {
 
@@ -37,8 +38,8 @@ struct FieldOptions {
   double v_px = 0.0;
   /// rotation and shear-zone: centre in px. NaN means the image centre
   /// ((width - 1) / 2, (height - 1) / 2), resolved by resolve_centre().
-  double centre_x_px = std::numeric_limits<double>::quiet_NaN();
-  double centre_y_px = std::numeric_limits<double>::quiet_NaN();
+  double centre_x_px = core::kUnset;
+  double centre_y_px = core::kUnset;
   /// rotation: angle per frame, rad; > 0 is counter-clockwise as the camera sees it.
   double omega_rad = 0.01;
   /// shear-zone: radius of the rigid core, px (> 0).

@@ -1,4 +1,5 @@
-// shearzone/sim/local_solve.hpp: the exact per-contact Signorini–Coulomb solve for
+// Private to the contact-dynamics engine (world.cpp; unit-tested in
+// tests/sim/test_local_solve.cpp): the exact per-contact Signorini–Coulomb solve for
 // spheres (the contact model of docs/sim.md, "The model").
 //
 // For a sphere–sphere or sphere–plane contact the 3×3 Delassus block is diagonal in
@@ -13,16 +14,10 @@
 #pragma once
 
 #include <cmath>
-#include <cstdint>
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
+#include "shearzone/sim/world.hpp"
 
 namespace shearzone::sim {
-
-using Vec3 = Eigen::Vector3d;
-
-enum class ContactStatus : std::uint8_t { open, sticking, sliding };
 
 struct LocalContactResult {
   double normal_impulse = 0.0;  ///< P_n ≥ 0 (N s)
