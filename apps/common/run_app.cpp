@@ -97,6 +97,11 @@ void require_option(CLI::App& sub, const std::string& name) {
                              CLI::ExitCodes::RequiredError);
 }
 
+void configure(CLI::App& sub, const std::string& config, const std::vector<std::string>& required) {
+  if (!config.empty()) apply_toml_config(sub, config);
+  for (const auto& name : required) require_option(sub, name);
+}
+
 std::vector<std::pair<std::string, std::string>> parse_key_values(const std::vector<std::string>& items,
                                                                   const std::string& option) {
   std::vector<std::pair<std::string, std::string>> out;

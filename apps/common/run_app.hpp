@@ -47,4 +47,8 @@ std::vector<std::pair<std::string, std::string>> parse_key_values(const std::vec
 /// the command line nor in the config file.
 void require_option(CLI::App& sub, const std::string& name);
 
+/// The start of every subcommand: applies the `--config` file `config` when one was
+/// given (the command line wins), then require_option() for each of `required`.
+void configure(CLI::App& sub, const std::string& config, const std::vector<std::string>& required);
+
 }  // namespace shearzone::apps

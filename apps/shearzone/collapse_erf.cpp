@@ -18,11 +18,7 @@ struct CollapseErfCli {
 };
 
 int run_collapse_erf(CLI::App& c, CollapseErfCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
-  require_option(c, "x");
-  require_option(c, "y");
-  require_option(c, "group");
+  configure(c, s.config, {"output", "x", "y", "group"});
   auto& j = s.job;
   j.input = s.input;
   j.out_dir = s.output;

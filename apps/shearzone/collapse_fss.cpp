@@ -48,12 +48,7 @@ std::string err_text(double lo, double hi) {
 }
 
 int run_collapse_fss(CLI::App& c, CollapseFssCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
-  require_option(c, "x");
-  require_option(c, "y");
-  require_option(c, "L");
-  require_option(c, "start");
+  configure(c, s.config, {"output", "x", "y", "L", "start"});
   auto& j = s.job;
   auto& f = j.fit;
   j.out_dir = s.output;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/pipeline/fit_job.hpp"
 #include "subcommands.hpp"
 
@@ -18,14 +19,11 @@ struct FitCli {
   std::string input, output, config;
   std::string loss = "none";
   std::string space = "linear";
-  double subtract_at = std::nan("");
+  double subtract_at = core::kUnset;
 };
 
 int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
-  require_option(c, "x");
-  require_option(c, "y");
+  configure(c, s.config, {"output", "x", "y"});
   auto& j = s.job;
   j.input = s.input;
   j.output = s.output;
@@ -45,7 +43,7 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
       const auto& f = sum.groups[0].fit.result;
       for (std::size_t i = 0; i < f.names.size() && i < f.values.size(); ++i)
         params += fmt::format("{}{} = {:.4g} +/- {:.2g}", params.empty() ? ": " : ", ", f.names[i], f.values[i],
-                              i < f.std_errors.size() ? f.std_errors[i] : std::nan(""));
+                              i < f.std_errors.size() ? f.std_errors[i] : core::kUnset);
     }
     std::printf("fit: %zu of %zu group%s usable%s -> %s, %s, %s%s\n", sum.usable, sum.groups.size(),
                 sum.groups.size() == 1 ? "" : "s", params.c_str(), sum.long_csv.string().c_str(),

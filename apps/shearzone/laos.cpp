@@ -22,8 +22,7 @@ struct LaosCli {
 };
 
 int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
+  configure(c, s.config, {"output"});
   auto& j = s.job;
   for (const auto& p : s.inputs) j.inputs.emplace_back(p);
   j.output = s.output;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
 #include "subcommands.hpp"
 
@@ -23,12 +24,11 @@ struct PivCli {
   bool no_deform = false;
   std::vector<double> centre, annulus, vane;
   std::vector<std::string> attrs;
-  double m_per_px = std::nan(""), n_chain = std::nan("");
+  double m_per_px = core::kUnset, n_chain = core::kUnset;
 };
 
 int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
+  configure(c, s.config, {"output"});
   auto& j = s.job;
   j.output = s.output;
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);

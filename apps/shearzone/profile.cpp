@@ -21,8 +21,7 @@ struct ProfileCli {
 };
 
 int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
+  configure(c, s.config, {"output"});
   auto& j = s.job;
   j.input = s.input;
   j.output = s.output;

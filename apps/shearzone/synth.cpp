@@ -105,9 +105,7 @@ void add_common_options(CLI::App& c, SynthCli& s) {
 }
 
 int run_synth(CLI::App& c, SynthCli& s, const Context& ctx) {
-  // Config file first (the command line wins), then the required output.
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
+  configure(c, s.config, {"output"});
 
   auto& o = s.job.synth;
   o.field.kind = pipeline::synth_field_kind(s.field);

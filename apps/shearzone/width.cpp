@@ -19,8 +19,7 @@ struct WidthCli {
 };
 
 int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
-  if (!s.config.empty()) apply_toml_config(c, s.config);
-  require_option(c, "output");
+  configure(c, s.config, {"output"});
   auto& j = s.job;
   j.inputs.assign(s.inputs.begin(), s.inputs.end());
   j.output = s.output;
