@@ -1,6 +1,7 @@
 // Rheometer log readers: every sample format of tests/data/logs (written by
 // make_logs.py from the same waveforms) reads to the same numbers in SI units; the
 // units, encodings and errors behave as documented in oscillation_log.hpp.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -362,4 +363,58 @@ TEST_CASE("Anton Paar: an interval without data rows is noted, not a segment", "
   CHECK(log.segments[0].line == std::vector<std::size_t>{6, 7});
   CHECK_THAT(core::metadata_value(log.parameters, "empty_interval"), Contains("line 2"));
   CHECK(core::metadata_value(log.parameters, "Test") == "LAOS");
+}
+
+TEST_CASE("Anton Paar points: one closed period per point, strain/stress found without options",
+          "[io][log]") {
+  // make_logs.py: a French UTF-16 RheoCompass export whose "Flow Curve 1" table has one
+  // row per point (no waveform) and whose "LAOS 1" interval 3 stores 3 points of 65
+  // samples each (strain [1], stress [Pa]) with the point values on the first row.
+  const auto log = io::read_oscillation_log(kLogs / "anton_paar_fr_points_utf16.txt");
+  CHECK(log.format == io::LogFormat::kAntonPaar);
+  CHECK(log.quantity == io::LogQuantity::kStrainStress);
+  REQUIRE(log.segments.size() == 3);
+  const double amplitudes[3] = {0.01, 0.1, 1.0};
+  const double g_prime[3] = {50.0, 40.0, 20.0}, g_dprime[3] = {9.0, 10.0, 12.0};
+  for (std::size_t p = 0; p < 3; ++p) {
+    const auto& s = log.segments[p];
+    INFO("point " << p + 1);
+    CHECK(s.label == "LAOS 1 / interval 3 / point " + std::to_string(p + 1));
+    CHECK(s.closed_cycle);
+    REQUIRE(s.drive.size() == 65);
+    CHECK(s.time_s.empty());  // one period: no time needed
+    CHECK(s.drive.back() == s.drive.front());
+    const double amp = *std::max_element(s.drive.begin(), s.drive.end());
+    CHECK(amp == Approx(amplitudes[p]).epsilon(0.01));  // samples miss the crest by < 1 %
+    CHECK(s.instrument_frequency_Hz == Approx(0.3));
+    // The file's instrument moduli are 1.003 G' and 0.997 G'' (make_logs.py).
+    CHECK(s.instrument_G_prime_Pa == Approx(1.003 * g_prime[p]).epsilon(kRoundingRel));
+    CHECK(s.instrument_G_dprime_Pa == Approx(0.997 * g_dprime[p]).epsilon(kRoundingRel));
+    CHECK(s.instrument_torque_N_m > 0);
+  }
+  REQUIRE(log.skipped.size() == 1);
+  CHECK_THAT(log.skipped[0], Contains("Flow Curve 1 / interval 1 (line 8): no raw waveform"));
+}
+
+TEST_CASE("Anton Paar points: summary-only exports are refused naming what they hold", "[io][log]") {
+  shearzone::testing::TempDir dir("ap-summary");
+  const auto path = dir / "summary.txt";
+  shearzone::testing::write_file(
+      path,
+      "Result:\tAmplitude Sweep 1\n\nInterval and data points:\t1\t2\n"
+      "Interval data:\tPoint No.\tTime\tStrain\tStorage Modulus\tLoss Modulus\tTorque\n"
+      "\t\t[s]\t[%]\t[Pa]\t[Pa]\t[mN\xC2\xB7m]\n"
+      "\t1\t10\t1\t100\t10\t0,1\n\t2\t20\t2\t90\t12\t0,2\n"
+      "Result:\tFlow Curve 1\n\nInterval data:\tPoint No.\tTime\tShear Rate\tShear Stress\tViscosity\n"
+      "\t\t[s]\t[1/s]\t[Pa]\t[Pa\xC2\xB7s]\n\t1\t1\t1\t5\t5\n");
+  try {
+    io::read_oscillation_log(path);
+    FAIL("expected an InputError");
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    CHECK_THAT(m, Contains("no raw waveform in 2 tables"));
+    CHECK_THAT(m, Contains("Amplitude Sweep 1 / interval 1 (line 4)"));
+    CHECK_THAT(m, Contains("\"Storage Modulus\""));  // the columns found
+    CHECK(m.find('\n') == std::string::npos);
+  }
 }

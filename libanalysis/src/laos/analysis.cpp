@@ -510,6 +510,107 @@ RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o,
   return out;
 }
 
+AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& o, double omega,
+                                     const std::string& context) {
+  o.validate();
+  const std::size_t n_all = w.drive.size();
+  SHEARZONE_CHECK(w.response.size() == n_all);
+  constexpr std::size_t kMinSamples = 9;  // 8 distinct: M >= 3
+  if (n_all < kMinSamples)
+    throw InputError(fmt::format("{}: {} samples; a closed cycle needs at least {} (the last "
+                                 "equal to the first)",
+                                 context, n_all, kMinSamples));
+  const std::string where = fmt::format("{}: {}", context, lines_text(w, 0, n_all - 1));
+  const auto [xmn, xmx] = std::minmax_element(w.drive.begin(), w.drive.end());
+  const auto [rmn, rmx] = std::minmax_element(w.response.begin(), w.response.end());
+  constexpr double kClosure = 1e-6;  // relative to the range
+  if (!(std::abs(w.drive.back() - w.drive.front()) <= kClosure * (*xmx - *xmn)) ||
+      !(std::abs(w.response.back() - w.response.front()) <= kClosure * (*rmx - *rmn)))
+    throw InputError(fmt::format("{}: not a closed cycle (last sample {}, {} differs from the "
+                                 "first {}, {}); expected one stored period",
+                                 where, w.drive.back(), w.response.back(), w.drive.front(),
+                                 w.response.front()));
+  const std::size_t N = n_all - 1;  // the last sample closes the period
+  // Fundamental of the drive by its discrete Fourier coefficients: x ≈ c + X sin(2πk/N + ψ).
+  double a1 = 0, b1 = 0, c = 0;
+  for (std::size_t k = 0; k < N; ++k) {
+    const double ph = kTwoPi * static_cast<double>(k) / static_cast<double>(N);
+    a1 += w.drive[k] * std::sin(ph);
+    b1 += w.drive[k] * std::cos(ph);
+    c += w.drive[k];
+  }
+  a1 *= 2.0 / static_cast<double>(N);
+  b1 *= 2.0 / static_cast<double>(N);
+  c /= static_cast<double>(N);
+  AmplitudeResult A;
+  A.first_sample = 0;
+  A.last_sample = n_all - 1;
+  if (w.line.size() == n_all) {
+    A.first_line = w.line.front();
+    A.last_line = w.line.back();
+  }
+  A.timed = false;
+  A.phase_method = "closed_cycle_dft";
+  A.omega = omega;
+  A.x0 = std::hypot(a1, b1);
+  A.x_offset = c;
+  A.psi = std::atan2(b1, a1);
+  constexpr double kMinDriveAmplitude = 1e-12;  // as for analyse_record
+  if (!(A.x0 > kMinDriveAmplitude) || !std::isfinite(A.x0))
+    throw InputError(fmt::format("{}: drive amplitude {:.3g} (SI units): expected more than {:.0e}",
+                                 where, A.x0, kMinDriveAmplitude));
+  // Samples in the order of θ from 0: θ_k = 2πk/N + ψ, wrapped into one turn.
+  std::vector<std::pair<double, std::size_t>> order(N);
+  for (std::size_t k = 0; k < N; ++k) {
+    double th = kTwoPi * static_cast<double>(k) / static_cast<double>(N) + A.psi;
+    th -= kTwoPi * std::floor(th / kTwoPi);
+    order[k] = {th, k};
+  }
+  std::sort(order.begin(), order.end());
+  std::vector<double> theta(N), x(N), r(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    theta[i] = order[i].first;
+    x[i] = w.drive[order[i].second];
+    r[i] = w.response[order[i].second];
+  }
+  if (o.inertia > 0) {
+    if (std::isnan(A.omega))
+      throw ConfigError(fmt::format("{}: inertia subtraction needs ω; give --f-hz or a log with "
+                                    "the frequency",
+                                    where));
+    for (std::size_t i = 0; i < N; ++i) r[i] += o.inertia * A.x0 * A.omega * A.omega * std::sin(theta[i]);
+  }
+  A.M_requested = o.max_harmonic;
+  A.M_cap = static_cast<int>((N - 1) / 2);
+  A.M = std::min(A.M_requested, A.M_cap);
+  // Uniform samples over exactly one period: the least-squares fit of offset and
+  // harmonics n <= M < N/2 is the discrete Fourier transform (orthogonal columns).
+  HarmonicFitOptions fo;
+  fo.max_harmonic = A.M;
+  fo.drift = false;
+  A.fit = fit_harmonics(theta, r, std::vector<double>(N, 1.0), A.x0, fo);
+  A.measures = derive_measures(A.fit, A.omega);
+  CycleResult cr;
+  cr.cycle = 1;
+  cr.x0 = 0.5 * (*xmx - *xmn);
+  cr.r_max = std::max(std::abs(*rmn), std::abs(*rmx));
+  cr.E_d = loop_area(w.drive, w.response);  // the stored samples, closed
+  cr.K1p = A.fit.Kp[1];
+  cr.K1pp = A.fit.Kpp[1];
+  cr.used = true;
+  A.cycles.push_back(cr);
+  A.status = AmplitudeStatus::kClosedCycle;
+  A.E_d = cr.E_d;
+  A.r_max = cr.r_max;
+  A.E_d_ratio = A.E_d / (kPi * A.x0 * A.x0 * A.measures.K1pp);
+  A.phi_d = A.E_d / (4.0 * A.x0 * A.r_max);
+  A.sample_cycle.assign(N, 1);
+  A.theta = theta;
+  A.drive = x;
+  A.response = r;
+  return A;
+}
+
 const char* amplitude_status_name(AmplitudeStatus s) {
   switch (s) {
     case AmplitudeStatus::kOk: return "ok";
@@ -517,6 +618,7 @@ const char* amplitude_status_name(AmplitudeStatus s) {
     case AmplitudeStatus::kSingleCycle: return "single_cycle";
     case AmplitudeStatus::kAllCycles: return "all_cycles";
     case AmplitudeStatus::kCyclesSelected: return "cycles_selected";
+    case AmplitudeStatus::kClosedCycle: return "closed_cycle";
   }
   return "unknown";
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -45,9 +46,16 @@ double nominal(double x) {
   return k >= 0 ? std::round(x * p) / p : std::round(x / p) * p;
 }
 
+/// What the instrument reported for a segment (kUnset when absent).
+struct Instrument {
+  double f_Hz = core::kUnset, G_prime_Pa = core::kUnset, G_dprime_Pa = core::kUnset;
+  double torque_N_m = core::kUnset;
+};
+
 struct Item {
   std::string source, segment, N;
   laos::AmplitudeResult A;
+  Instrument instrument;
 };
 
 }  // namespace
@@ -75,13 +83,10 @@ void LaosJobOptions::validate() const {
 LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& header) {
   o.validate();
   const bool convert = !std::isnan(o.stress_constant_Pa_per_N_m) || o.log_constants;
-  const bool native_ss = o.read.quantity == io::LogQuantity::kStrainStress;
-  if (convert && native_ss)
+  if (convert && o.read.quantity == io::LogQuantity::kStrainStress)
     throw ConfigError("laos: vane constants convert angle/torque logs; this log is already strain/stress");
-  if (native_ss && o.inertia_kg_m2 > 0)
+  if (o.read.quantity == io::LogQuantity::kStrainStress && o.inertia_kg_m2 > 0)
     throw ConfigError("laos: --inertia-kg-m2 needs an angle/torque log (or vane constants)");
-  const bool ss = convert || native_ss;
-  const Names nm = names(ss);
   std::string tag_N;
   std::vector<std::pair<std::string, std::string>> extra_tags;
   for (const auto& kv : o.tags) {
@@ -92,11 +97,28 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   }
 
   LaosJobSummary sum;
-  sum.stress_strain = ss;
   std::vector<Item> items;
+  // The logs' own quantity (a RheoCompass waveform in strain/stress, a RepTate file) or
+  // the options'; all inputs must agree, since the output columns follow it.
+  std::optional<bool> native_ss;
   for (const auto& path : o.inputs) {
     const io::OscillationLog log = io::read_oscillation_log(path, o.read);
     ++sum.logs;
+    const bool log_ss = log.quantity == io::LogQuantity::kStrainStress;
+    if (native_ss && *native_ss != log_ss)
+      throw InputError(fmt::format("{}: holds {} while an earlier input holds {}; expected one "
+                                   "quantity for all inputs",
+                                   log.source, log_ss ? "strain/stress" : "angle/torque",
+                                   log_ss ? "angle/torque" : "strain/stress"));
+    native_ss = log_ss;
+    if (convert && log_ss)
+      throw ConfigError(fmt::format("laos: {}: vane constants convert angle/torque logs; this log "
+                                    "is already strain/stress",
+                                    log.source));
+    if (log_ss && o.inertia_kg_m2 > 0)
+      throw ConfigError(fmt::format("laos: {}: --inertia-kg-m2 needs an angle/torque log (or vane "
+                                    "constants); this log is strain/stress",
+                                    log.source));
     laos::AnalysisOptions ao = o.analysis;
     ao.omega_rad_per_s = !std::isnan(o.f_Hz) ? 2 * std::numbers::pi * o.f_Hz : log.omega_rad_per_s;
     double Cs = 1, Cg = 1;
@@ -121,11 +143,24 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       const std::string context = log.segments.size() > 1
                                       ? fmt::format("{}: segment \"{}\"", log.source, seg.label)
                                       : log.source;
+      const Instrument ins{seg.instrument_frequency_Hz, seg.instrument_G_prime_Pa,
+                           seg.instrument_G_dprime_Pa, seg.instrument_torque_N_m};
+      if (seg.closed_cycle) {
+        // One stored period: ω from the option, else the instrument's frequency of the point.
+        double omega = ao.omega_rad_per_s;
+        if (std::isnan(o.f_Hz) && !std::isnan(seg.instrument_frequency_Hz))
+          omega = 2 * std::numbers::pi * seg.instrument_frequency_Hz;
+        items.push_back({log.source, seg.label, N, laos::analyse_closed_cycle(w, ao, omega, context), ins});
+        continue;
+      }
       auto rec = laos::analyse_record(w, ao, context);
       sum.skipped_blocks += static_cast<std::size_t>(rec.skipped_blocks);
-      for (auto& A : rec.amplitudes) items.push_back({log.source, seg.label, N, std::move(A)});
+      for (auto& A : rec.amplitudes) items.push_back({log.source, seg.label, N, std::move(A), ins});
     }
   }
+  const bool ss = convert || native_ss.value_or(false);
+  const Names nm = names(ss);
+  sum.stress_strain = ss;
 
   // Header: conventions, options, model.
   core::Metadata meta = header;
@@ -134,7 +169,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   for (const auto& p : o.inputs) ins += (ins.empty() ? "" : " ") + p.string();
   add("inputs", ins);
   add("format", io::log_format_name(o.read.format));
-  add("quantity", ss ? (native_ss ? "strain_stress" : "strain_stress_from_vane_constants") : "angle_torque");
+  add("quantity", ss ? (convert ? "strain_stress_from_vane_constants" : "strain_stress") : "angle_torque");
   add("harmonics_requested_M", std::to_string(o.analysis.max_harmonic));
   add("harmonic_cap", "M = min(requested, cap); cap = floor(pi/sqrt(2 dphi/phi0)) angle-sampled, "
                       "floor((samples per cycle - 1)/2) timed; M used per amplitude in column M");
@@ -153,7 +188,11 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
                     "drift; drive x = x0 sin(theta) + c; quadrature-weighted least squares in theta");
   add("laos_phase", "theta = omega t + psi from a 4-parameter sine fit of the drive (timed logs), "
                     "else arcsin(x/x0) / pi - arcsin by the sign of dx; Phi_n = delta_n - n delta_1 "
-                    "mod 2 pi, delta_n = atan2(K''_n, K'_n)");
+                    "mod 2 pi, delta_n = atan2(K''_n, K'_n); a closed cycle (one stored period of N "
+                    "samples, phase_method closed_cycle_dft): theta_k = 2 pi k/N + psi, harmonics "
+                    "by the discrete Fourier transform of the period, no drift column");
+  add("instrument_columns", "instrument_*: what the instrument itself reported for the segment "
+                            "(frequency, G', G'', torque amplitude); empty when the log has none");
   add("laos_sign", "phi > 0 counter-clockwise as the camera sees it; tau > 0 when the motor drives "
                    "towards +phi; an elastic sample has K' > 0");
   add("laos_chebyshev", "e_n = K'_n (-1)^((n-1)/2), v_n = K''_n/omega, K_M = sum n K'_n, K_L = sum e_n, "
@@ -179,7 +218,9 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
         std::string("E_d_ratio"), std::string("phi_d"), std::string("n_cycles"),
         std::string("n_cycles_complete"), std::string("n_partial_cycles"),
         std::string("first_steady_cycle"), std::string("M"), std::string("M_cap"),
-        std::string("phase_method"), std::string("drive_offset"), std::string("status")})
+        std::string("phase_method"), std::string("drive_offset"), std::string("status"),
+        std::string("instrument_f_Hz"), std::string("instrument_G_prime_Pa"),
+        std::string("instrument_G_dprime_Pa"), std::string("instrument_torque_N_m")})
     cols.push_back(c);
 
   io::AtomicOutputSet set(o.output, o.force);
@@ -209,6 +250,9 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       row.push_back(A.phase_method);
       row.push_back(format_number_nan_empty(A.x_offset));
       row.push_back(laos::amplitude_status_name(A.status));
+      for (double v : {it.instrument.f_Hz, it.instrument.G_prime_Pa, it.instrument.G_dprime_Pa,
+                       it.instrument.torque_N_m})
+        row.push_back(format_number_nan_empty(v));
       w.row(row);
       sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
                           m.tan_delta, m.I3_over_I1, A.phi_d, A.M, used,

@@ -143,6 +143,57 @@ def anton_paar_fr():
     write("anton_paar_fr.txt", "\ufeff" + "\n".join(lines) + "\n", "utf-8", "\r\n")
 
 
+# Closed-cycle points (RheoCompass "one period per measuring point"): strain amplitude,
+# G'_1, G''_1, G'_3, G''_3 (Pa) per point; N_PER_PERIOD samples plus the closing one.
+POINTS_FR = [(0.01, 50.0, 9.0, 0.0, 0.0), (0.1, 40.0, 10.0, 0.5, 0.2), (1.0, 20.0, 12.0, 2.0, -1.0)]
+N_PER_PERIOD = 64
+PSI_RAD = -0.3        # phase of the stored period's first sample
+F_POINTS_HZ = 0.3
+
+
+def point_samples(g0, g1p, g1pp, g3p, g3pp):
+    """[(strain, stress_Pa)] of one closed period: N_PER_PERIOD + 1 samples."""
+    out = []
+    for k in range(N_PER_PERIOD + 1):
+        th = 2 * math.pi * (k % N_PER_PERIOD) / N_PER_PERIOD + PSI_RAD
+        out.append((g0 * math.sin(th),
+                    g0 * (g1p * math.sin(th) + g1pp * math.cos(th) +
+                          g3p * math.sin(3 * th) + g3pp * math.cos(3 * th))))
+    return out
+
+
+def anton_paar_fr_points():
+    head = ("\tPoint No.\tTemps\tIntervalle Temps\tContrainte de Cisaillement\tFr\u00e9quence"
+            "\tD\u00e9formation de Cisaillement\tModule de Stockage\tModule de Perte\tCouple"
+            "\tEtat\tD\u00e9formation de Cisaillement (pour d\u00e9formation sinuso\u00efdale)"
+            "\tContrainte de Cisaillement (pour d\u00e9formation sinuso\u00efdale)")
+    names2 = "\t" * 11 + "Sinuso\u00efdes\tSinuso\u00efdes"
+    units = "\t\t[s]\t[s]\t[Pa]\t[Hz]\t[%]\t[Pa]\t[Pa]\t[mN\u00b7m]\t\t[1]\t[Pa]"
+    lines = ["Projet:\tshearzone exemples", "", "Test:\tLAOS par points (synth\u00e9tique)", "",
+             "R\u00e9sultat:\tFlow Curve 1", "",
+             "Intervalle et points de donn\u00e9es:\t1\t3",
+             "Interval donn\u00e9es:" + head, names2, units]
+    for i in range(3):  # a flow curve: one row per point, no waveform (skipped)
+        lines.append("\t%d\t%d\t%d\t%s\t\t%s\t\t\t%s\tDy_auto\t\t" % (
+            i + 1, i + 1, i + 1, g6(70.0 - i, True), g6(2e4 * (i + 1), True), g6(2.4 - 0.01 * i, True)))
+    lines += ["", "R\u00e9sultat:\tLAOS 1", "",
+              "Intervalle et points de donn\u00e9es:\t3\t%d" % len(POINTS_FR),
+              "Interval donn\u00e9es:" + head, names2, units]
+    for p, (g0, g1p, g1pp, g3p, g3pp) in enumerate(POINTS_FR):
+        wave = point_samples(g0, g1p, g1pp, g3p, g3pp)
+        # The instrument's own moduli differ slightly from the harmonic ones (its method).
+        point = "\t%d\t%d\t%d\t%s\t%s\t%s\t%s\t%s\t%s\tTruStrain\u2122" % (
+            p + 1, 250 + 20 * p, 20 * (p + 1), g6(g0 * math.hypot(g1p, g1pp), True),
+            g6(F_POINTS_HZ, True), g6(100 * g0, True), g6(1.003 * g1p, True),
+            g6(0.997 * g1pp, True), g6(0.0327 * g0 * math.hypot(g1p, g1pp), True))
+        for k, (g, sig) in enumerate(wave):
+            cells = "\t%s\t%s" % (g6(g, True), g6(sig, True))
+            lines.append((point if k == 0 else "\t" * 10) + cells)
+    lines.append("")
+    write("anton_paar_fr_points_utf16.txt", "\ufeff" + "\n".join(lines) + "\n", "utf-16-le",
+          "\r\n")
+
+
 def trios():
     lines = ["Filename\tsample.tri", "Instrument name\tsynthetic", "",
              "[Geometry]", "Geometry name\t40 mm parallel plate (synthetic)",
@@ -180,3 +231,4 @@ if __name__ == "__main__":
     anton_paar_fr()
     trios()
     reptate()
+    anton_paar_fr_points()

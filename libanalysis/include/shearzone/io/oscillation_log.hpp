@@ -56,6 +56,15 @@ struct LogReadOptions {
 /// source line of each sample) and the interval or step name.
 struct LogSegment : core::Waveform {
   std::string label;               ///< interval / step name, or "1", "2", ...
+  /// The samples are exactly one closed drive period, the last sample equal to the
+  /// first (an Anton Paar measuring point with a stored waveform): analysed as one
+  /// exact period (laos::analyse_closed_cycle), not cut into cycles.
+  bool closed_cycle = false;
+  /// What the instrument itself reported for this segment (kUnset when absent): its
+  /// frequency, its storage and loss moduli G', G'' and its torque amplitude.
+  double instrument_frequency_Hz = core::kUnset;
+  double instrument_G_prime_Pa = core::kUnset, instrument_G_dprime_Pa = core::kUnset;
+  double instrument_torque_N_m = core::kUnset;
 };
 
 struct OscillationLog {
@@ -65,6 +74,9 @@ struct OscillationLog {
   /// and torque when the drive is in rad, as in SlugSlime; else strain and stress).
   LogQuantity quantity = LogQuantity::kAngleTorque;
   std::vector<LogSegment> segments;
+  /// Blocks of the file that hold no raw waveform (summary tables, rests), each as
+  /// "<label> (line L): <why>": skipped, not fatal, and listed by `laos --inspect`.
+  std::vector<std::string> skipped;
   /// Parameters found in the file: TRIOS `[Section]` entries (e.g. "Stress constant"
   /// in Pa/(N m) as "stress_constant_Pa_per_N_m", "Strain constant" in 1/rad as
   /// "strain_constant_per_rad"), a RepTate header's omega and gamma

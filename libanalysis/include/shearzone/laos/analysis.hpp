@@ -70,8 +70,9 @@ struct CycleResult {
 
 /// Which cycles an amplitude's harmonics come from: ok (the steady cycles), not_steady
 /// (no steady cycle: the last one), single_cycle (only one complete cycle), all_cycles
-/// (--all-cycles) or cycles_selected (--cycles).
-enum class AmplitudeStatus { kOk, kNotSteady, kSingleCycle, kAllCycles, kCyclesSelected };
+/// (--all-cycles), cycles_selected (--cycles) or closed_cycle (one stored period,
+/// analyse_closed_cycle).
+enum class AmplitudeStatus { kOk, kNotSteady, kSingleCycle, kAllCycles, kCyclesSelected, kClosedCycle };
 /// The name written in the outputs ("ok", "not_steady", ...).
 const char* amplitude_status_name(AmplitudeStatus s);
 
@@ -120,6 +121,16 @@ struct SineFit {
 /// Throws InputError (with `context`) when ω cannot be estimated.
 SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
                  const std::string& context);
+
+/// One stored period (an Anton Paar measuring point): samples k = 0..N of exactly one
+/// drive period, the last equal to the first (InputError otherwise). The drive's
+/// fundamental from its discrete Fourier coefficients gives x0, the offset and the
+/// phase ψ (x ≈ c + x0 sin(2πk/N + ψ), θ_k = 2πk/N + ψ); the response's harmonics
+/// n <= M = min(requested, (N − 1)/2) are its discrete Fourier coefficients (uniform
+/// least squares over the period, no drift column). One cycle, status closed_cycle.
+/// `omega` (rad/s, kUnset when unknown) is used for the rate measures only.
+AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& options,
+                                     double omega, const std::string& context);
 
 /// The whole analysis of one record. `context` prefixes every message (e.g.
 /// `log.csv: segment "2"`).
