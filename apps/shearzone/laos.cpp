@@ -121,6 +121,17 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
                 "New amplitude when a cycle's phi0 changes by more than this fraction; range: 0 < x < 1")
       ->capture_default_str();
   c->add_flag("--no-split", s->no_split, "Treat each segment as one amplitude");
+  c->add_option("--max-drive-misfit", j.analysis.max_drive_misfit,
+                "Largest rms misfit of the drive's sine fit, fraction of its amplitude, for a "
+                "steady oscillation (above: exit 3); range: > 0")
+      ->capture_default_str();
+  c->add_option("--max-amplitude-spread", j.analysis.max_amplitude_spread,
+                "Largest spread max/min - 1 of the used cycles' drive amplitudes (above: exit "
+                "3); range: > 0")
+      ->capture_default_str();
+  c->add_flag("--force-one-amplitude", j.analysis.force_one_amplitude,
+              "With --no-split: analyse even when the raw cycles' amplitudes differ by more "
+              "than --amplitude-change");
   c->add_flag("--no-drift", s->no_drift, "No linear-drift column in the harmonic fit");
   c->add_option("--f-hz", j.f_Hz,
                 "Drive frequency, Hz (default: the log's; fitted when time is logged); "

@@ -1,5 +1,6 @@
 // Amplitudes, cycles, steady state, M cap, noise standard errors and bad input.
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -149,4 +150,49 @@ TEST_CASE("bad records: zero amplitude and less than one cycle name the lines", 
   for (int i = 0; i < 50; ++i) w.drive[static_cast<std::size_t>(i)] = std::sin(0.1 * i);  // 0.8 cycle
   CHECK_THROWS_AS(analyse_record(w, {}, ctx), InputError);
   CHECK_THROWS_WITH(analyse_record(w, {}, ctx), Catch::Contains("lines 3-52"));
+}
+
+TEST_CASE("guards: a drive that is no steady oscillation, or a meaningless fit, is exit 3",
+          "[laos]") {
+  // A chirp (0.5 Hz to 2 Hz): one amplitude, but no single frequency.
+  Waveform chirp;
+  for (int i = 0; i < 1200; ++i) {
+    const double t = i * 0.005;
+    chirp.time_s.push_back(t);
+    chirp.drive.push_back(0.1 * std::sin(2 * std::numbers::pi * (0.5 * t + 0.125 * t * t)));
+    chirp.response.push_back(2.0 * chirp.drive.back());
+  }
+  CHECK_THROWS_WITH(analyse_record(chirp, {}, "chirp"), Catch::Contains("not a steady oscillation"));
+  CHECK_THROWS_AS(analyse_record(chirp, {}, "chirp"), NoResultError);
+  AnalysisOptions loose;
+  loose.max_drive_misfit = 10;  // the limit is an option
+  CHECK_NOTHROW(analyse_record(chirp, loose, "chirp"));
+
+  // A response that does not follow the drive: noise 100x the elastic part.
+  Waveform noisy =
+      testutil::timed(0.1, 2 * std::numbers::pi, 100, 4, [](double th, double) { return 1e-4 * std::sin(th); });
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (auto& r : noisy.response) r += 10.0 * noise(rng);
+  CHECK_THROWS_WITH(analyse_record(noisy, {}, "noisy"), Catch::Contains("harmonic fit is meaningless"));
+}
+
+TEST_CASE("guards: --no-split over several amplitudes is refused unless forced", "[laos]") {
+  auto kelvin = [](double x0) {
+    return [x0](double th, double) { return x0 * (std::sin(th) + 0.1 * std::cos(th)); };
+  };
+  Waveform a = testutil::timed(0.05, 2 * std::numbers::pi, 100, 3, kelvin(0.05));
+  const Waveform b = testutil::timed(0.1, 2 * std::numbers::pi, 100, 3, kelvin(0.1));
+  const double t_end = a.time_s.back();
+  for (std::size_t i = 1; i < b.drive.size(); ++i) {
+    a.time_s.push_back(t_end + b.time_s[i]);
+    a.drive.push_back(b.drive[i]);
+    a.response.push_back(b.response[i]);
+  }
+  AnalysisOptions o;
+  o.split_amplitudes = false;
+  CHECK_THROWS_WITH(analyse_record(a, o, "two"), Catch::Contains("--no-split over several amplitudes"));
+  CHECK_THROWS_AS(analyse_record(a, o, "two"), NoResultError);
+  o.split_amplitudes = true;
+  CHECK(analyse_record(a, o, "two").amplitudes.size() == 2);
 }

@@ -74,6 +74,7 @@ AmplitudeResult run(const std::string& rel, bool rheojax, bool last_only, const 
   o.max_harmonic = 15;
   o.all_cycles = true;
   o.split_amplitudes = split;
+  o.force_one_amplitude = !split;  // the reference estimators take the record as one
   auto A = analyse_record(w, o, rel).amplitudes.at(0);
   if (last_only) {
     o.all_cycles = false;

@@ -110,6 +110,10 @@ void AnalysisOptions::validate() const {
     throw ConfigError(fmt::format("laos: inertia {}; expected >= 0", inertia));
   for (int c : cycles)
     if (c < 1) throw ConfigError(fmt::format("laos: cycle {}; expected cycle numbers >= 1", c));
+  if (!(max_drive_misfit > 0))
+    throw ConfigError(fmt::format("laos: drive misfit limit {}; expected > 0", max_drive_misfit));
+  if (!(max_amplitude_spread > 0))
+    throw ConfigError(fmt::format("laos: amplitude spread limit {}; expected > 0", max_amplitude_spread));
 }
 
 int harmonic_cap(const std::vector<double>& drive, double x0, bool timed, double samples_per_cycle) {
@@ -232,6 +236,20 @@ SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, dou
 
 namespace {
 
+/// NoResultError when the first harmonic is not resolved by the data: |K*_1| below
+/// kMinResolved standard errors (noise alone gives |K*_1|/SE with the χ²₂ law of
+/// a two-component estimate: P(> 5) = exp(−12.5) ≈ 4e-6; real logs give thousands).
+void check_fit_meaningful(const AmplitudeResult& A, const std::string& where) {
+  constexpr double kMinResolved = 5.0;
+  const double K1 = std::hypot(A.fit.Kp[1], A.fit.Kpp[1]);
+  const double se = std::max(A.fit.Kp_se[1], A.fit.Kpp_se[1]);
+  if (!(K1 >= kMinResolved * se))
+    throw NoResultError(fmt::format("{}: the harmonic fit is meaningless: |K*_1| = {:.3g} is {:.3g} "
+                                    "standard errors; expected at least {:g} (a response that "
+                                    "follows the drive)",
+                                    where, K1, K1 / se, kMinResolved));
+}
+
 /// Analyses samples [i0, i1] of the record. Returns nullopt (and the θ span) when
 /// there is no complete cycle.
 std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::string& context,
@@ -261,6 +279,12 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
   std::vector<double> theta;
   if (A.timed) {
     const SineFit sf = fit_sine(t, x, o.omega_rad_per_s, where);
+    if (!(sf.rms <= o.max_drive_misfit * sf.x0))
+      throw NoResultError(fmt::format(
+          "{}: the drive is not a steady oscillation: its sine fit misses by {:.3g} % of the "
+          "amplitude (rms); expected below {:.3g} % (a ramp, a rotation or a changing frequency "
+          "has no moduli)",
+          where, 100 * sf.rms / sf.x0, 100 * o.max_drive_misfit));
     A.phase_method = "sine_fit";
     A.omega = sf.omega;
     A.x0 = sf.x0;
@@ -420,8 +444,19 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
     rsum += cr.r_max;
     ++nused;
   }
+  {
+    double lo = 1e300, hi = 0;
+    for (const auto& cr : A.cycles)
+      if (cr.used) lo = std::min(lo, cr.x0), hi = std::max(hi, cr.x0);
+    if (!o.force_one_amplitude && !(hi <= (1 + o.max_amplitude_spread) * lo))
+      throw NoResultError(fmt::format(
+          "{}: the drive amplitude drifts: the used cycles span {:.4g} to {:.4g} ({:.3g} %); "
+          "expected within {:.3g} % (one steady amplitude)",
+          where, lo, hi, 100 * (hi / lo - 1), 100 * o.max_amplitude_spread));
+  }
   A.fit = fit_harmonics(theta, r, wsum, A.x0, fo);
   A.measures = derive_measures(A.fit, A.omega);
+  check_fit_meaningful(A, where);
   A.E_d = Esum / nused;
   A.r_max = rsum / nused;
   A.E_d_ratio = A.E_d / (kPi * A.x0 * A.x0 * A.measures.K1pp);
@@ -458,6 +493,24 @@ RecordResult analyse_record(const Waveform& w, const AnalysisOptions& o,
   // Amplitude blocks from raw cycles.
   std::vector<std::size_t> up;
   if (o.split_amplitudes) up = upward_crossings(w.drive, level, kHysteresis * half);
+  if (!o.split_amplitudes && !o.force_one_amplitude) {
+    // One amplitude asked for: the raw cycles must agree by the splitting rule.
+    const auto raw = upward_crossings(w.drive, level, kHysteresis * half);
+    double lo = 1e300, hi = 0;
+    for (std::size_t j = 0; j + 1 < raw.size(); ++j) {
+      const auto b = w.drive.begin();
+      const auto [l, h] = std::minmax_element(b + static_cast<std::ptrdiff_t>(raw[j]),
+                                              b + static_cast<std::ptrdiff_t>(raw[j + 1]));
+      lo = std::min(lo, 0.5 * (*h - *l));
+      hi = std::max(hi, 0.5 * (*h - *l));
+    }
+    if (hi > 0 && hi > (1 + o.amplitude_change) * lo)
+      throw NoResultError(fmt::format(
+          "{}: {}: --no-split over several amplitudes: raw cycles span {:.4g} to {:.4g} (more "
+          "than the {:.3g} % rule); analyse them split, or force one amplitude "
+          "(--force-one-amplitude)",
+          context, lines_text(w, 0, n - 1), lo, hi, 100 * o.amplitude_change));
+  }
   std::vector<std::pair<std::size_t, std::size_t>> blocks;
   std::vector<int> raw_cycles;
   {
@@ -590,6 +643,7 @@ AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& o
   fo.drift = false;
   A.fit = fit_harmonics(theta, r, std::vector<double>(N, 1.0), A.x0, fo);
   A.measures = derive_measures(A.fit, A.omega);
+  check_fit_meaningful(A, where);
   CycleResult cr;
   cr.cycle = 1;
   cr.x0 = 0.5 * (*xmx - *xmn);

@@ -26,6 +26,14 @@
 //     for timed ones.
 //  5. Optional inertia subtraction r − I ẍ, ẍ = −x0 ω² sin θ from the fitted drive.
 //
+// Guards (NoResultError, exit 3, never a plausible number from a meaningless fit):
+//  - --no-split over raw cycles whose amplitudes differ by more than amplitude_change
+//    (unless force_one_amplitude);
+//  - a drive that is not a steady oscillation: rms misfit of its sine fit above
+//    max_drive_misfit of the amplitude (a ramp, a pre-shear rotation, a changing
+//    frequency), or used cycles whose amplitudes spread by more than max_amplitude_spread;
+//  - a harmonic fit whose |K*_1| is below 5 standard errors (the fit says nothing
+//    about the moduli).
 // Errors: InputError, prefixed with the caller's `context` and naming sample lines
 // when known.
 #pragma once
@@ -52,6 +60,15 @@ struct AnalysisOptions {
   double inertia = 0.0;
   double amplitude_change = 0.05;    ///< relative change of raw-cycle amplitude -> new amplitude
   bool split_amplitudes = true;      ///< false: the record is one amplitude
+  /// Analyse the record as one amplitude even when its raw cycles' amplitudes differ by
+  /// more than amplitude_change (with split_amplitudes false) or its used cycles spread
+  /// by more than max_amplitude_spread; otherwise both are NoResultError.
+  bool force_one_amplitude = false;
+  /// Largest rms misfit of the drive's sine fit, relative to its amplitude, for which
+  /// the drive counts as a steady oscillation (timed records); above it NoResultError.
+  double max_drive_misfit = 0.1;
+  /// Largest spread (max/min − 1) of the used cycles' drive amplitudes.
+  double max_amplitude_spread = 0.1;
   double steady_tolerance = 0.02;    ///< relative cycle-to-cycle change of K'_1, K''_1
   std::vector<int> cycles;           ///< 1-based cycles to analyse (empty: the steady ones)
   bool all_cycles = false;           ///< analyse every complete cycle (overrides the steady rule)
