@@ -18,11 +18,11 @@ struct LaosCli {
   pipeline::LaosJobOptions job;
   std::vector<std::string> inputs, tags, cycles;
   std::string output, config, format = "auto", strain_col, stress_col;
-  bool no_drift = false, no_split = false;
+  bool no_drift = false, no_split = false, inspect = false;
 };
 
 int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
-  configure(c, s.config, {"output"});
+  configure(c, s.config, {});
   auto& j = s.job;
   for (const auto& p : s.inputs) j.inputs.emplace_back(p);
   j.output = s.output;
@@ -53,6 +53,11 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
       throw ConfigError(fmt::format("--cycles \"{}\": expected cycle numbers >= 1 or \"all\"", cy));
     j.analysis.cycles.push_back(v);
   }
+  if (s.inspect) {
+    std::fputs(pipeline::inspect_laos_logs(j).c_str(), stdout);
+    return kExitOk;
+  }
+  require_option(c, "output");
   const auto sum = pipeline::run_laos_job(j, ctx.header());
   if (ctx.level != core::LogLevel::kQuiet) {
     const bool ss = sum.stress_strain;
@@ -121,6 +126,9 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
                 "New amplitude when a cycle's phi0 changes by more than this fraction; range: 0 < x < 1")
       ->capture_default_str();
   c->add_flag("--no-split", s->no_split, "Treat each segment as one amplitude");
+  c->add_flag("--inspect", s->inspect,
+              "Print what each log holds (format, segments with lines and samples, skipped "
+              "blocks and why) and write nothing; -o is not needed");
   c->add_option("--max-drive-misfit", j.analysis.max_drive_misfit,
                 "Largest rms misfit of the drive's sine fit, fraction of its amplitude, for a "
                 "steady oscillation (above: exit 3); range: > 0")

@@ -50,18 +50,6 @@ bool key_is(std::string_view key, std::initializer_list<std::string_view> names)
   return std::any_of(names.begin(), names.end(), [&](std::string_view n) { return k == n; });
 }
 
-bool is_table_header(const std::vector<std::string_view>& cells, std::size_t first) {
-  if (is_interval_marker(cells[first])) return true;
-  if (cells[first].empty() || cells[first].back() != ':') return false;
-  std::size_t names = 0;
-  for (std::size_t k = first + 1; k < cells.size(); ++k) {
-    if (cells[k].empty()) continue;
-    if (is_number(cells[k])) return false;
-    ++names;
-  }
-  return names >= 3;
-}
-
 /// "Shear Strain (for sinusoidal strain)" -> "Shear Strain"; "" when nothing to strip.
 std::string strip_parenthesis(const std::string& name) {
   if (name.empty() || name.back() != ')') return "";
@@ -386,7 +374,7 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
       log.segments.push_back(std::move(seg));
     }
   }
-  if (log.segments.empty()) {
+  if (log.segments.empty() && !o.inspect) {
     // One table: its own message (it names the columns looked for and those found).
     if (tables == 1 && log.skipped.size() == 1 && !first_error.empty()) throw InputError(first_error);
     if (tables == 0) return;  // finish() reports "no data rows"

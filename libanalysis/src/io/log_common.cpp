@@ -249,7 +249,7 @@ void require_units(const LogReadOptions& o, const std::vector<UnitNeed>& needs, 
 
 
 /// Fills the convenience lookups from `parameters`.
-void finish(OscillationLog& log) {
+void finish(OscillationLog& log, bool allow_empty) {
   auto lookup = [&](const char* key, double& out) {
     const std::string v = core::metadata_value(log.parameters, key);
     double x = 0;
@@ -258,7 +258,7 @@ void finish(OscillationLog& log) {
   lookup("omega_rad_per_s", log.omega_rad_per_s);
   lookup("stress_constant_Pa_per_N_m", log.stress_constant_Pa_per_N_m);
   lookup("strain_constant_per_rad", log.strain_constant_per_rad);
-  if (log.segments.empty())
+  if (log.segments.empty() && !allow_empty)
     throw InputError(fmt::format("{}: no data rows found; expected at least one sample",
                                  log.source));
   for (const auto& s : log.segments)
@@ -275,6 +275,19 @@ std::string list_names(const std::vector<std::string>& names) {
 
 // ---- Localised column names (Anton Paar, TRIOS) -----------------------------------
 
+
+bool is_table_header(const std::vector<std::string_view>& cells, std::size_t first) {
+  if (first >= cells.size()) return false;
+  if (is_interval_marker(cells[first])) return true;
+  if (cells[first].empty() || cells[first].back() != ':') return false;
+  std::size_t names = 0;
+  for (std::size_t k = first + 1; k < cells.size(); ++k) {
+    if (cells[k].empty()) continue;
+    if (is_number(cells[k])) return false;
+    ++names;
+  }
+  return names >= 3;
+}
 
 bool is_interval_marker(std::string_view first_cell) {
   const std::string f = fold(first_cell);

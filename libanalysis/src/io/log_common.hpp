@@ -89,13 +89,18 @@ struct UnitNeed {
 };
 void require_units(const LogReadOptions& o, const std::vector<UnitNeed>& needs, const std::string& where);
 
-/// Fills the convenience lookups from `parameters` and checks that there is data.
-void finish(OscillationLog& log);
+/// Fills the convenience lookups from `parameters` and checks that there is data
+/// (unless `allow_empty`: inspection).
+void finish(OscillationLog& log, bool allow_empty = false);
 
 // ---- Localised column names (Anton Paar, TRIOS) -----------------------------------
 
 /// "Interval data:" in English, German or French.
 bool is_interval_marker(std::string_view first_cell);
+/// A RheoCompass table header in any language: TAB cells whose first non-empty one
+/// (index `first`) is an interval marker, or ends with ':' and is followed by at least
+/// three column names (no numbers).
+bool is_table_header(const std::vector<std::string_view>& cells, std::size_t first);
 const std::vector<std::string>& time_names();
 const std::vector<std::string>& angle_names();
 const std::vector<std::string>& torque_names();

@@ -175,7 +175,7 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
       const auto cells = split_cells(l.text, '\t');
       std::size_t f = 0;
       while (f < cells.size() && cells[f].empty()) ++f;
-      if (f < cells.size() && is_interval_marker(cells[f])) interval_marker = true;
+      if (f < cells.size() && is_table_header(cells, f)) interval_marker = true;
       if (is_section_header(l.text)) section = true;
       if (cells.size() >= 2 && !cells[0].empty() && !is_number(cells[0])) tab_pairs = true;
     }
@@ -205,7 +205,7 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
     case LogFormat::kCsv:
     case LogFormat::kAuto: read_generic(text, options, log); break;
   }
-  finish(log);
+  finish(log, options.inspect);
   return log;
 }
 

@@ -325,4 +325,46 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   return sum;
 }
 
+std::string inspect_laos_logs(const LaosJobOptions& o) {
+  if (o.inputs.empty()) throw ConfigError("laos: no input log given");
+  io::LogReadOptions ro = o.read;
+  ro.inspect = true;
+  std::string out;
+  for (const auto& path : o.inputs) {
+    const io::OscillationLog log = io::read_oscillation_log(path, ro);
+    const bool ss = log.quantity == io::LogQuantity::kStrainStress;
+    std::size_t closed = 0;
+    for (const auto& s : log.segments) closed += s.closed_cycle ? 1 : 0;
+    out += fmt::format("{}: format {}, {} ({})\n", log.source, io::log_format_name(log.format),
+                       ss ? "strain and stress" : "angle and torque",
+                       ss ? "moduli G in Pa" : "K in N m/rad");
+    out += fmt::format("  {} analysable segment{}{}\n", log.segments.size(),
+                       log.segments.size() == 1 ? "" : "s",
+                       closed > 0 ? fmt::format(" ({} one stored period each)", closed) : "");
+    for (const auto& s : log.segments) {
+      std::string what = s.closed_cycle ? "closed cycle" : (s.time_s.empty() ? "no time" : "timed");
+      std::string ins;
+      auto add = [&](const char* name, double v, const char* unit) {
+        if (!std::isnan(v)) ins += fmt::format("{}{} {:.4g} {}", ins.empty() ? "; instrument: " : ", ", name, v, unit);
+      };
+      add("f", s.instrument_frequency_Hz, "Hz");
+      add("G'", s.instrument_G_prime_Pa, "Pa");
+      add("G''", s.instrument_G_dprime_Pa, "Pa");
+      add("torque", s.instrument_torque_N_m, "N m");
+      out += fmt::format("    {}: lines {}-{}, {} samples, {}{}\n", s.label,
+                         s.line.empty() ? 0 : s.line.front(), s.line.empty() ? 0 : s.line.back(),
+                         s.drive.size(), what, ins);
+    }
+    if (!log.skipped.empty()) {
+      out += fmt::format("  {} skipped block{} (no raw waveform to analyse)\n", log.skipped.size(),
+                         log.skipped.size() == 1 ? "" : "s");
+      for (const auto& s : log.skipped) out += "    " + s + "\n";
+    }
+    out += log.segments.empty()
+               ? "  nothing to analyse: shearzone laos needs the raw drive and response samples\n"
+               : fmt::format("  analyse with: shearzone laos {} -o OUT\n", log.source);
+  }
+  return out;
+}
+
 }  // namespace shearzone::pipeline

@@ -49,6 +49,9 @@ struct LogReadOptions {
   /// units row). Accepted: time s, ms; angle rad, mrad, deg; torque N m, mN m, uN m
   /// (also written N·m, Nm, µN·m, mNm ...); strain 1 (dimensionless), %; stress Pa.
   std::string time_unit, angle_unit, torque_unit;
+  /// Inspection (`laos --inspect`): a file without any analysable segment is returned
+  /// with its skipped blocks instead of being refused.
+  bool inspect = false;
 };
 
 /// One segment of a log: its samples (drive: angle in rad or strain; response:
@@ -99,8 +102,9 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
 /// bytes that are not valid UTF-8, read as Latin-1.
 ///
 /// Format auto-detection (read_oscillation_log, format kAuto), in this order: a line
-/// whose first cell is "Interval data:" / "Intervalldaten:" / "Données d'intervalle:"
-/// -> Anton Paar; a "[...]" section line and TAB name/value lines -> TRIOS; any other
+/// whose first cell is "Interval data:" / "Intervalldaten:" / "Données d'intervalle:",
+/// or any TAB line whose first cell ends with ':' and names three or more columns
+/// (a RheoCompass table in any language) -> Anton Paar; a "[...]" section line and TAB name/value lines -> TRIOS; any other
 /// UTF-16 file (BOM) -> Anton Paar; extension .laos or a first line "key=value;" ->
 /// RepTate; else generic CSV/TSV. Units: shearzone/io/units.hpp.
 std::string decode_text(const std::string& bytes, const std::string& source);

@@ -58,4 +58,11 @@ struct LaosJobSummary {
 
 LaosJobSummary run_laos_job(const LaosJobOptions& options, const core::Metadata& header);
 
+/// `laos --inspect`: for each input, the detected format and quantity, the analysable
+/// segments (label, source lines, samples, time or closed cycle, the instrument's own
+/// values) and the skipped blocks with the reason (their columns), as plain text. Reads
+/// with options.read (inspect on); writes nothing. InputError for a file that cannot be
+/// read at all.
+std::string inspect_laos_logs(const LaosJobOptions& options);
+
 }  // namespace shearzone::pipeline
