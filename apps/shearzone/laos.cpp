@@ -99,7 +99,7 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
   c->add_flag("--force", j.force, "Replace existing outputs");
   c->add_option("--tag", s->tags, "KEY=VALUE for every summary row (N=45: chain length)");
   // Reading
-  c->add_option("--format", s->format, "auto, csv, anton-paar, trios, reptate")->capture_default_str();
+  c->add_option("--format", s->format, "auto, csv, anton-paar, trios, reptate, malvern")->capture_default_str();
   c->add_option("--time-col", j.read.time_column, "Time column of a CSV log (empty: none)")
       ->capture_default_str();
   c->add_option("--angle-col", j.read.angle_column, "Angle column of a CSV log")->capture_default_str();

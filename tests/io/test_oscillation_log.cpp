@@ -10,6 +10,7 @@
 #include <catch2/catch.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/metadata.hpp"
 #include "shearzone/io/oscillation_log.hpp"
 #include "shearzone/io/units.hpp"
 #include "support/temp_dir.hpp"
@@ -417,4 +418,26 @@ TEST_CASE("Anton Paar points: summary-only exports are refused naming what they 
     CHECK_THAT(m, Contains("\"Storage Modulus\""));  // the columns found
     CHECK(m.find('\n') == std::string::npos);
   }
+}
+
+TEST_CASE("Malvern rSpace: actions, summary rows skipped, tied 4-digit times rebuilt", "[io][log]") {
+  // make_logs.py malvern(): a pre-shear (no frequency), an amplitude table (summary rows
+  // only) and one oscillation action of 1440 raw samples at dt = 0.078125 s whose times,
+  // printed with 4 significant digits, tie above 100 s; 5 summary rows follow it.
+  const auto log = io::read_oscillation_log(kLogs / "malvern_rspace.csv");
+  CHECK(log.format == io::LogFormat::kMalvern);
+  REQUIRE(log.segments.size() == 1);
+  const auto& s = log.segments[0];
+  CHECK(s.label == "Oscillation Single Frequency");
+  REQUIRE(s.time_s.size() == 1440);
+  // Rebuilt t_k = (k + 1) dt; the fit to printed times leaves < 1e-5 s (1e-4 of dt).
+  constexpr double kRebuiltTime = 1e-5;
+  for (std::size_t k = 0; k < s.time_s.size(); ++k)
+    REQUIRE(s.time_s[k] == Approx(0.078125 * static_cast<double>(k + 1)).margin(kRebuiltTime));
+  CHECK_THAT(core::metadata_value(log.parameters, "time_rebuilt"), Contains("Oscillation Single Frequency"));
+  CHECK(s.instrument_frequency_Hz == Approx(0.04));
+  CHECK(s.instrument_G_prime_Pa == Approx(60.6));
+  REQUIRE(log.skipped.size() == 2);
+  CHECK_THAT(log.skipped[0], Contains("Pre Shear (line 2): not an oscillation"));
+  CHECK_THAT(log.skipped[1], Contains("Oscillation Amplitude Table (line 22): no raw waveform"));
 }

@@ -106,3 +106,21 @@ TEST_CASE("laos job: a RheoCompass export with one period per point needs no opt
     CHECK(std::abs(h.number(row, h.column_index("G_dprime_n_Pa")) - pts[p][4]) <= kRoundingRel * pts[p][1]);
   }
 }
+
+TEST_CASE("laos job: a Malvern rSpace export with a creeping angle gives K' and K''", "[laos]") {
+  // make_logs.py malvern(): torque-controlled, K' = 0.06, K'' = 0.005 N m/rad, the angle
+  // creeping by 3 % of phi0 per cycle (removed by the drift term of the drive's sine fit).
+  TempDir dir("laos-malvern");
+  pipeline::LaosJobOptions o;
+  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / "malvern_rspace.csv"};
+  o.output = dir / "out";
+  pipeline::run_laos_job(o, core::standard_metadata("test"));
+  const auto t = io::read_csv(dir / "out" / "summary.csv");
+  REQUIRE(t.num_rows() == 1);
+  // Samples printed with 4 significant digits: 5e-4 per sample, averaged over 1440.
+  constexpr double kFourDigits = 1e-3;
+  CHECK(t.number(0, t.column_index("K1_prime_N_m_per_rad")) == Approx(0.06).epsilon(kFourDigits));
+  CHECK(std::abs(t.number(0, t.column_index("K1_dprime_N_m_per_rad")) - 0.005) <= kFourDigits * 0.06);
+  CHECK(t.number(0, t.column_index("instrument_f_Hz")) == Approx(0.04));
+  CHECK(t.rows[0][t.column_index("segment")] == "Oscillation Single Frequency");
+}

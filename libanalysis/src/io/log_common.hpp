@@ -140,5 +140,8 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
 void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& log);       // log_trios.cpp
 void read_reptate(std::string_view text, const LogReadOptions& o, OscillationLog& log);     // log_reptate.cpp
 void read_generic(std::string_view text, const LogReadOptions& o, OscillationLog& log);     // log_generic.cpp
+void read_malvern(std::string_view text, const LogReadOptions& o, OscillationLog& log);     // log_malvern.cpp
+/// The first line of a Malvern rSpace CSV: ';' cells starting with "Action Name".
+bool looks_like_malvern(std::string_view first_line);
 
 }  // namespace shearzone::io::log_detail

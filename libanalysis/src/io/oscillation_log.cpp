@@ -61,16 +61,17 @@ const char* log_format_name(LogFormat f) {
     case LogFormat::kAntonPaar: return "anton-paar";
     case LogFormat::kTrios: return "trios";
     case LogFormat::kRepTate: return "reptate";
+    case LogFormat::kMalvern: return "malvern";
   }
   return "?";
 }
 
 LogFormat log_format_from_name(const std::string& name) {
   for (LogFormat f : {LogFormat::kAuto, LogFormat::kCsv, LogFormat::kAntonPaar, LogFormat::kTrios,
-                      LogFormat::kRepTate})
+                      LogFormat::kRepTate, LogFormat::kMalvern})
     if (name == log_format_name(f)) return f;
   throw ConfigError(fmt::format("unknown log format \"{}\"; expected one of: auto, csv, "
-                                "anton-paar, trios, reptate",
+                                "anton-paar, trios, reptate, malvern",
                                 name));
 }
 
@@ -191,6 +192,8 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
       format = LogFormat::kTrios;
     } else if (has_utf16_bom(bytes)) {
       format = LogFormat::kAntonPaar;
+    } else if (looks_like_malvern(first_line)) {
+      format = LogFormat::kMalvern;
     } else if (path.extension() == ".laos" || looks_like_reptate_header(first_line)) {
       format = LogFormat::kRepTate;
     } else {
@@ -202,6 +205,7 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
     case LogFormat::kAntonPaar: read_anton_paar(text, options, log); break;
     case LogFormat::kTrios: read_trios(text, options, log); break;
     case LogFormat::kRepTate: read_reptate(text, options, log); break;
+    case LogFormat::kMalvern: read_malvern(text, options, log); break;
     case LogFormat::kCsv:
     case LogFormat::kAuto: read_generic(text, options, log); break;
   }

@@ -194,6 +194,63 @@ def anton_paar_fr_points():
           "\r\n")
 
 
+# Malvern rSpace look-alike: torque-controlled oscillation, tau = T0 sin(w t), the angle
+# lagging by delta with |K*| = hypot(K', K'') and creeping linearly; times printed with
+# 4 significant digits (ties above 100 s).
+MALVERN_K = (0.06, 0.005)       # K', K'' in N m/rad
+MALVERN_T0 = 2e-5               # N m
+MALVERN_F = 0.04                # Hz
+MALVERN_DT = 0.078125           # s
+MALVERN_CYCLES = 4.5
+MALVERN_CREEP = 0.03            # of phi0 per cycle
+
+
+def sig4(x):
+    """A number as rSpace prints it: 4 significant digits, decimal comma."""
+    if x == 0:
+        return "0,000"
+    e = math.floor(math.log10(abs(x)))
+    if -2 <= e <= 3:
+        return ("%.*f" % (max(0, 3 - e), x)).replace(".", ",")
+    return ("%.3E" % x).replace(".", ",").replace("E-0", "E-00").replace("E+0", "E+00")
+
+
+def malvern():
+    cols = ["Action Name", "Time (sequence)(s)", "Time (action)(s)", "Shear stress(Pa)",
+            "Shear rate(s-\u00b9)", "Frequency(Hz)", "Shear modulus (elastic component)(Pa)",
+            "Shear modulus (viscous component)(Pa)", "Torque(N m)", "Angular displacement(rad)",
+            "Temperature(\u00b0C)"]
+    lines = [";".join(cols)]
+    seq = 100.0
+    for k in range(20):  # pre-shear: a steady rotation, no frequency
+        t = 1.0 * (k + 1)
+        lines.append("Pre Shear;%s;%s;30,00;47,00;;;;%s;%s;21,00" % (
+            sig4(seq + t), sig4(t), sig4(1.2e-3), sig4(4.5 * t)))
+    seq += 20
+    for k in range(5):  # an amplitude table: summary rows only
+        lines.append("Oscillation Amplitude Table;%s;%s;;;1,000;150,0;1,000;%s;%s;21,00" % (
+            sig4(seq + 10 * k), sig4(10.0 * (k + 1)), sig4(5e-7 * (k + 1)), sig4(8e-6 * (k + 1))))
+    seq += 50
+    kp, kpp = MALVERN_K
+    kabs = math.hypot(kp, kpp)
+    delta = math.atan2(kpp, kp)
+    phi0 = MALVERN_T0 / kabs
+    w = 2 * math.pi * MALVERN_F
+    n = int(round(MALVERN_CYCLES / MALVERN_F / MALVERN_DT))
+    for k in range(1, n + 1):
+        t = k * MALVERN_DT
+        tau = MALVERN_T0 * math.sin(w * t)
+        phi = phi0 * math.sin(w * t - delta) + MALVERN_CREEP * phi0 * MALVERN_F * t
+        lines.append("Oscillation Single Frequency;%s;%s;;;;;;%s;%s;21,00" % (
+            sig4(seq + t), sig4(t), sig4(tau), sig4(phi)))
+    for k in range(1, 6):  # the summary rows appended after the action: time restarts
+        t = 20.0 * k
+        lines.append("Oscillation Single Frequency;%s;%s;;;%s;%s;%s;%s;%s;21,00" % (
+            sig4(seq + t), sig4(t), sig4(MALVERN_F), sig4(1000 * kp * 1.01), sig4(1000 * kpp * 0.98),
+            sig4(MALVERN_T0), sig4(phi0)))
+    write("malvern_rspace.csv", "\n".join(lines) + "\n")
+
+
 def trios():
     lines = ["Filename\tsample.tri", "Instrument name\tsynthetic", "",
              "[Geometry]", "Geometry name\t40 mm parallel plate (synthetic)",
@@ -232,3 +289,4 @@ if __name__ == "__main__":
     trios()
     reptate()
     anton_paar_fr_points()
+    malvern()

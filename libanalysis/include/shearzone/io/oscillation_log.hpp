@@ -28,8 +28,8 @@
 
 namespace shearzone::io {
 
-enum class LogFormat { kAuto, kCsv, kAntonPaar, kTrios, kRepTate };
-/// "auto", "csv", "anton-paar", "trios", "reptate".
+enum class LogFormat { kAuto, kCsv, kAntonPaar, kTrios, kRepTate, kMalvern };
+/// "auto", "csv", "anton-paar", "trios", "reptate", "malvern".
 const char* log_format_name(LogFormat f);
 LogFormat log_format_from_name(const std::string& name);
 
@@ -105,7 +105,8 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
 /// whose first cell is "Interval data:" / "Intervalldaten:" / "Données d'intervalle:",
 /// or any TAB line whose first cell ends with ':' and names three or more columns
 /// (a RheoCompass table in any language) -> Anton Paar; a "[...]" section line and TAB name/value lines -> TRIOS; any other
-/// UTF-16 file (BOM) -> Anton Paar; extension .laos or a first line "key=value;" ->
+/// UTF-16 file (BOM) -> Anton Paar; a first line of ';' cells starting with "Action Name"
+/// -> Malvern rSpace; extension .laos or a first line "key=value;" ->
 /// RepTate; else generic CSV/TSV. Units: shearzone/io/units.hpp.
 std::string decode_text(const std::string& bytes, const std::string& source);
 

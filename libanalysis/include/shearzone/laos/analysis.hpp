@@ -10,7 +10,8 @@
 //     skipped (counted) when the record holds several blocks.
 //  2. Phase θ, per amplitude: with time, a 4-parameter sine fit of x(t) (IEEE-1057
 //     style: linear least squares for fixed ω, golden-section search of ω, then
-//     Gauss-Newton polishing) and θ = ω t + ψ; the record's ω (log or option) only
+//     Gauss-Newton polishing; with `drift` also a linear drift of the drive, as a creeping
+//     angle under torque control has) and θ = ω t + ψ; the record's ω (log or option) only
 //     seeds the search. Without time: θ = arcsin(x̂) on the rising branch and
 //     π − arcsin(x̂) on the falling one (branch from the sign of Δx), unwrapped, with
 //     x̂ = (x − c)/x0, c the mid level and x0 the half range; ω then comes from the
@@ -133,11 +134,14 @@ std::vector<double> phase_from_drive(const std::vector<double>& drive, double of
 
 struct SineFit {
   double omega = 0, x0 = 0, psi = 0, offset = 0, rms = 0;
+  double drift_per_s = 0;  ///< d of the drift term (0 without `drift`)
 };
-/// 4-parameter sine fit x(t) ≈ x0 sin(ω t + ψ) + c. `omega_guess` NaN: from crossings.
-/// Throws InputError (with `context`) when ω cannot be estimated.
+/// 4-parameter sine fit x(t) ≈ x0 sin(ω t + ψ) + c, with `drift` a 5th parameter, a
+/// linear drift d (t − t_mid) (a creeping angle under torque control would otherwise
+/// bias ψ and x0). `omega_guess` NaN: from crossings. Throws InputError (with
+/// `context`) when ω cannot be estimated.
 SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
-                 const std::string& context);
+                 const std::string& context, bool drift = false);
 
 /// One stored period (an Anton Paar measuring point): samples k = 0..N of exactly one
 /// drive period, the last equal to the first (InputError otherwise). The drive's
