@@ -134,6 +134,26 @@ TEST_CASE("Every sample log format reads to the same waveforms in SI units", "[i
     CHECK(log.stress_constant_Pa_per_N_m == kStressConstant);
     CHECK(log.strain_constant_per_rad == kStrainConstant);
   }
+  SECTION("TRIOS CSV export: ',' cells, steps without a waveform skipped and listed") {
+    const auto log = io::read_oscillation_log(kLogs / "trios_export.csv", o);
+    CHECK(log.format == io::LogFormat::kTrios);
+    check_waveforms(log, 2, true);
+    CHECK(log.segments[0].label == "Oscillation amplitude - 2");
+    CHECK(log.stress_constant_Pa_per_N_m == kStressConstant);
+    REQUIRE(log.skipped.size() == 2);
+    CHECK_THAT(log.skipped[0], Contains("Peak hold - 1 (line 9): no drive and response columns"));
+    CHECK_THAT(log.skipped[1], Contains("Amplitude sweep - 4 (line 176): no raw waveform"));
+  }
+  SECTION("TRIOS LIMS export: key rows, a constant in Pa/g.cm, a summary step skipped") {
+    const auto log = io::read_oscillation_log(kLogs / "trios_lims.txt", o);
+    CHECK(log.format == io::LogFormat::kTrios);
+    check_waveforms(log, 1, true);
+    CHECK(log.segments[0].label == "Oscillation amplitude (raw)");
+    // 1.17680 Pa/g.cm with 1 g.cm = 9.80665e-5 N m (6 printed digits).
+    CHECK(log.stress_constant_Pa_per_N_m == Approx(kStressConstant).epsilon(kRoundingRel));
+    REQUIRE(log.skipped.size() == 1);
+    CHECK_THAT(log.skipped[0], Contains("Frequency sweep (25.0 \xC2\xB0" "C) (line 87): no raw waveform"));
+  }
   SECTION("RepTate .laos: one amplitude, angle and torque from the units row") {
     const auto log = io::read_oscillation_log(kLogs / "sample.laos", o);
     CHECK(log.format == io::LogFormat::kRepTate);
@@ -303,10 +323,16 @@ TEST_CASE("Bad logs are InputErrors naming file, line and column", "[io][log]") 
     testing::write_file(p, "time_s,phi_rad,torque_N_m\n0,0,0\n");
     expect_input_error(p, o, {"cols.csv:1", "angle_rad", "phi_rad"});
   }
-  SECTION("TRIOS stress constant that is not a number") {
+  SECTION("TRIOS stress constant that is not a number: kept as text, fatal only when used") {
     const auto p = dir / "const.txt";
     testing::write_file(p, "[Geometry]\nStress constant\tabc Pa/N.m\n[step]\nTime\tTorque\n");
-    expect_input_error(p, o, {"const.txt:2", "Stress constant", "abc"});
+    expect_input_error(p, o, {"const.txt:4", "no deflection angle column"});
+    testing::write_file(p, "[Geometry]\nStress constant\tabc Pa/N.m\n[step]\n"
+                           "Time\tOscillation displacement\tTorque\ns\trad\tN.m\n0\t0\t0\n1\t1\t1\n");
+    const auto log = io::read_oscillation_log(p, o);
+    CHECK(std::isnan(log.stress_constant_Pa_per_N_m));
+    CHECK_THAT(core::metadata_value(log.parameters, "stress_constant_Pa_per_N_m_unparsed"),
+               Contains("const.txt:2") && Contains("abc"));
   }
   SECTION("invalid UTF-16") {
     const auto p = dir / "bad16.txt";

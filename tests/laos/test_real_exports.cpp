@@ -140,7 +140,7 @@ TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with cre
   }
 }
 
-TEST_CASE("real exports without an analysable waveform are refused, never answered", "[laos][real]") {
+TEST_CASE("real summary-only exports are refused as such, never answered", "[laos][real]") {
   for (const char* name : {"ap_rheoplus_excel_pxp.csv", "trios_hr30_sediment.csv", "trios_hr3_saos.txt",
                            "trios_lims_aresg2_freqsweep.txt"}) {
     if (!available(name)) continue;
@@ -149,6 +149,9 @@ TEST_CASE("real exports without an analysable waveform are refused, never answer
     pipeline::LaosJobOptions o;
     o.inputs = {kExports / name};
     o.output = dir / "out";
+    // Summary-only exports (G', G'' per point): refused, saying so.
+    CHECK_THROWS_WITH(pipeline::run_laos_job(o, core::standard_metadata("test")),
+                      Catch::Contains("no raw waveform"));
     CHECK_THROWS_AS(pipeline::run_laos_job(o, core::standard_metadata("test")), InputError);
     CHECK_FALSE(std::filesystem::exists(dir / "out" / "summary.csv"));
   }

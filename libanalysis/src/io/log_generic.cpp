@@ -87,6 +87,14 @@ void read_generic(std::string_view text, const LogReadOptions& o, OscillationLog
   auto missing = [&](const std::string& what, const std::string& option) {
     std::string have;
     for (const auto& c : t.columns) have += (have.empty() ? "\"" : ", \"") + c + "\"";
+    // A table of results per point (storage and loss moduli): say so.
+    std::vector<std::vector<std::string>> alts;
+    for (const auto& c : t.columns) alts.push_back({split_bracketed_unit(c).first});
+    if (find_localised(alts, {"storage modulus", "loss modulus", "speichermodul", "verlustmodul",
+                              "module de stockage", "module de perte"}))
+      return InputError(fmt::format("{}:{}: results per point (storage and loss moduli), no raw "
+                                    "waveform: no {} column \"{}\"; the header has: {}",
+                                    t.source, t.header_line, what, option, excerpt(have, 300)));
     return InputError(fmt::format("{}:{}: missing {} column \"{}\"; the header has: {}",
                                   t.source, t.header_line, what, option, have));
   };

@@ -56,7 +56,9 @@ double trios_constant(const std::vector<std::string_view>& cells, bool stress,
     const char* unit;
     double scale;
   };
-  static const std::array<Entry, 9> kStress{{{"", 1},
+  constexpr double kGramCentimetre = 9.80665e-5;  // N m (gram-force centimetre)
+  static const std::array<Entry, 10> kStress{{{"", 1},
+                                             {"Pa/gcm", 1 / kGramCentimetre},
                                              {"Pa/Nm", 1},
                                              {"1/m^3", 1},
                                              {"m^-3", 1},
@@ -71,7 +73,7 @@ double trios_constant(const std::vector<std::string_view>& cells, bool stress,
     for (const auto& e : kStress)
       if (nu == e.unit) return x * e.scale;
     throw InputError(fmt::format("{}:{}: \"{}\": unknown unit \"{}\"; accepted: Pa/N.m (also "
-                                 "Pa/(N·m), 1/m^3), Pa/mN.m, Pa/µN.m, kPa/N.m, MPa/N.m",
+                                 "Pa/(N·m), 1/m^3), Pa/mN.m, Pa/µN.m, kPa/N.m, MPa/N.m, Pa/g.cm",
                                  src, line, bare_name, unit));
   }
   for (const auto& e : kStrain)
@@ -87,6 +89,21 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
   no_interval_column(o, "TRIOS");
   const auto lines = split_lines(text);
   const std::string& src = log.source;
+  // The text export separates cells by TAB, its CSV twin by ','.
+  char sep = '\t';
+  {
+    std::size_t tabs = 0, commas = 0;
+    for (std::size_t k = 0; k < std::min<std::size_t>(lines.size(), 50); ++k) {
+      tabs += lines[k].text.find('\t') != std::string_view::npos ? 1 : 0;
+      commas += lines[k].text.find(',') != std::string_view::npos ? 1 : 0;
+    }
+    if (tabs == 0 && commas > 0) sep = ',';
+  }
+  const bool decimal_comma = sep != ',';
+  auto cells_of = [&](std::string_view line) { return split_cells(line, sep); };
+  auto has_sep = [&](std::string_view line) { return line.find(sep) != std::string_view::npos; };
+  std::size_t steps = 0;
+  std::string first_error;
   std::size_t i = 0;
   while (i < lines.size()) {
     const std::string_view l = trim(lines[i].text);
@@ -94,21 +111,24 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
       ++i;
       continue;
     }
-    const bool section = is_section_header(l);
+    const bool section = is_section_header(l) && !has_sep(l);
     if (!section || fold(l.substr(1, l.size() - 2)) != "step") {
       if (!section) {
         // A name/value line (of a [Section] or before the first one).
-        const auto cells = split_cells(lines[i].text, '\t');
+        const auto cells = cells_of(lines[i].text);
         if (!cells.empty() && !cells[0].empty()) {
           const std::string f = fold(split_bracketed_unit(cells[0]).first);
-          if (f == "stress constant")
-            log.parameters.emplace_back(
-                "stress_constant_Pa_per_N_m",
-                format_number(trios_constant(cells, true, src, lines[i].number)));
-          if (f == "strain constant")
-            log.parameters.emplace_back(
-                "strain_constant_per_rad",
-                format_number(trios_constant(cells, false, src, lines[i].number)));
+          // A constant in a unit not known here is kept as text: it matters only with
+          // --log-constants (which then says that the log gives no usable constant).
+          auto constant = [&](bool stress, const char* key) {
+            try {
+              log.parameters.emplace_back(key, format_number(trios_constant(cells, stress, src, lines[i].number)));
+            } catch (const InputError& e) {
+              log.parameters.emplace_back(std::string(key) + "_unparsed", e.what());
+            }
+          };
+          if (f == "stress constant") constant(true, "stress_constant_Pa_per_N_m");
+          if (f == "strain constant") constant(false, "strain_constant_per_rad");
           std::string value;
           for (std::size_t k = 1; k < cells.size(); ++k)
             if (!cells[k].empty()) value += (value.empty() ? "" : " ") + std::string(cells[k]);
@@ -118,7 +138,10 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
       ++i;
       continue;
     }
-    // A step: optional name line, header row, units row, data rows.
+    // A step: optional name line, header row, units row, data rows. The "LIMS export
+    // format" writes them as key rows: "Step name", "Number of points", "Variables",
+    // "Units", "Data point".
+    ++steps;
     const std::size_t step_line = lines[i].number;
     ++i;
     auto skip_blank = [&] {
@@ -126,28 +149,48 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
     };
     skip_blank();
     LogSegment seg;
-    seg.label = std::to_string(log.segments.size() + 1);
-    if (i < lines.size() && lines[i].text.find('\t') == std::string_view::npos &&
-        !is_section_header(lines[i].text)) {
+    seg.label = std::to_string(steps);
+    auto first_key = [&](std::size_t k) {
+      return k < lines.size() ? fold(cells_of(lines[k].text)[0]) : std::string();
+    };
+    if (i < lines.size() && !has_sep(lines[i].text) && !is_section_header(lines[i].text)) {
       seg.label = std::string(trim(lines[i].text));
       ++i;
       skip_blank();
     }
-    if (i >= lines.size() || is_section_header(lines[i].text))
-      throw InputError(fmt::format("{}:{}: [step] block without a header row", src, step_line));
-    const auto header = split_cells(lines[i].text, '\t');
+    while (i < lines.size() && (first_key(i) == "step name" || first_key(i) == "number of points")) {
+      if (first_key(i) == "step name") {
+        const auto c = cells_of(lines[i].text);
+        if (c.size() > 1 && !c[1].empty()) seg.label = std::string(c[1]);
+      }
+      ++i;
+    }
+    auto skip = [&](const std::string& why, const std::string& error) {
+      log.skipped.push_back(fmt::format("{} (line {}): {}", seg.label, step_line, why));
+      if (first_error.empty()) first_error = error;
+      while (i < lines.size() && !is_section_header(lines[i].text)) ++i;
+    };
+    if (i >= lines.size() || is_section_header(lines[i].text)) {
+      skip("no header row", fmt::format("{}:{}: [step] block without a header row", src, step_line));
+      continue;
+    }
+    auto header = cells_of(lines[i].text);
+    const bool lims = fold(header[0]) == "variables";
+    if (lims) header.erase(header.begin());
     std::size_t header_line = lines[i].number;
     std::vector<std::vector<std::string>> alts;
-    std::vector<std::string> units(header.size());
+    std::vector<std::string> units(header.size()), shown;
     for (std::size_t k = 0; k < header.size(); ++k) {
       auto [n, u] = split_bracketed_unit(header[k]);
       alts.push_back({n});
+      shown.push_back(n);
       units[k] = u;
     }
     ++i;
     skip_blank();
     if (i < lines.size()) {
-      const auto row = split_cells(lines[i].text, '\t');
+      auto row = cells_of(lines[i].text);
+      if (lims && fold(row[0]) == "units") row.erase(row.begin());
       if (!std::any_of(row.begin(), row.end(), is_number) && !is_section_header(lines[i].text)) {
         for (std::size_t k = 0; k < row.size() && k < units.size(); ++k)
           if (!row[k].empty()) units[k] = std::string(row[k]);
@@ -155,23 +198,56 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
         ++i;
       }
     }
-    const VendorColumns vc = resolve_vendor_columns(alts, units, o, src, header_line);
+    // A step of results per point (G', G'') holds amplitudes, not a waveform.
+    if (find_localised(alts, {"storage modulus", "loss modulus"})) {
+      skip("no raw waveform, one row per point (storage and loss moduli) with columns " +
+               list_names(shown),
+           fmt::format("{}:{}: step \"{}\" holds results per point (columns {}), no raw "
+                       "waveform; shearzone laos needs the drive and response samples",
+                       src, header_line, seg.label, list_names(shown)));
+      continue;
+    }
+    std::optional<VendorColumns> vc;
+    try {
+      vc = resolve_vendor_columns(alts, units, o, src, header_line);
+    } catch (const InputError& e) {
+      skip("no drive and response columns among " + list_names(shown), e.what());
+      continue;
+    }
+    bool bad = false;
     while (i < lines.size()) {
       if (is_section_header(lines[i].text)) break;
-      const auto row = split_cells(lines[i].text, '\t');
+      auto row = cells_of(lines[i].text);
       if (all_empty(row)) {
         ++i;
         continue;
       }
-      append_sample(seg, row, vc.time, vc.drive, vc.response, true, src, lines[i].number);
+      if (lims && fold(row[0]) == "data point") row.erase(row.begin());
+      try {
+        append_sample(seg, row, vc->time, vc->drive, vc->response, decimal_comma, src, lines[i].number);
+      } catch (const InputError& e) {
+        skip(std::string("unreadable samples: ") + e.what(), e.what());
+        bad = true;
+        break;
+      }
       ++i;
     }
-    if (seg.drive.empty())
-      throw InputError(fmt::format("{}:{}: step \"{}\" has no data rows", src, step_line,
-                                   seg.label));
-    if (!vc.time) note_no_time(log);
-    if (vc.time) check_time(seg, src, vc.time->name);
+    if (bad) continue;
+    if (seg.drive.empty()) {
+      skip("no data rows", fmt::format("{}:{}: step \"{}\" has no data rows", src, step_line, seg.label));
+      continue;
+    }
+    if (!vc->time) note_no_time(log);
+    if (vc->time) check_time(seg, src, vc->time->name);
     log.segments.push_back(std::move(seg));
+  }
+  if (log.segments.empty() && !o.inspect && steps > 0) {
+    if (steps == 1 && !first_error.empty()) throw InputError(first_error);
+    throw InputError(fmt::format(
+        "{}: no raw waveform in {} steps ({}{}); shearzone laos needs the drive and response "
+        "samples",
+        src, steps, excerpt(log.skipped.front(), 300),
+        log.skipped.size() > 1 ? fmt::format("; {} more", log.skipped.size() - 1) : ""));
   }
 }
 

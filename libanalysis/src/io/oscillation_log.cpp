@@ -179,6 +179,11 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
       if (f < cells.size() && is_table_header(cells, f)) interval_marker = true;
       if (is_section_header(l.text)) section = true;
       if (cells.size() >= 2 && !cells[0].empty() && !is_number(cells[0])) tab_pairs = true;
+      // TRIOS's CSV export: the same name/value lines, comma-separated.
+      if (l.text.find('\t') == std::string_view::npos) {
+        const auto cc = split_cells(l.text, ',');
+        if (cc.size() == 2 && !cc[0].empty() && !is_number(cc[0])) tab_pairs = true;
+      }
     }
     std::string_view first_line;
     for (const auto& l : lines)

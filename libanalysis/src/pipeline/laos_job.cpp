@@ -125,10 +125,13 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
     if (convert) {
       Cs = o.log_constants ? log.stress_constant_Pa_per_N_m : o.stress_constant_Pa_per_N_m;
       Cg = o.log_constants ? log.strain_constant_per_rad : o.strain_constant_per_rad;
-      if (!(Cs > 0) || !(Cg > 0))
+      if (!(Cs > 0) || !(Cg > 0)) {
+        std::string why = core::metadata_value(log.parameters, "stress_constant_Pa_per_N_m_unparsed");
+        if (why.empty()) why = core::metadata_value(log.parameters, "strain_constant_per_rad_unparsed");
         throw InputError(fmt::format("{}: --log-constants: the log gives no usable stress and strain "
-                                     "constants (found {} Pa/(N m), {} 1/rad); expected both > 0",
-                                     log.source, Cs, Cg));
+                                     "constants (found {} Pa/(N m), {} 1/rad){}; expected both > 0",
+                                     log.source, Cs, Cg, why.empty() ? "" : " (" + why + ")"));
+      }
     }
     ao.inertia = o.inertia_kg_m2 * Cs / Cg;
     const std::string N = !tag_N.empty() ? tag_N : core::metadata_value(log.parameters, "N");

@@ -269,6 +269,45 @@ def trios():
     write("trios.txt", "\n".join(lines), "utf-8", "\r\n")
 
 
+def trios_csv():
+    """TRIOS's CSV export: the text export's twin with ',' cells, plus a step without a
+    drive (peak hold) and a summary step (amplitude sweep), both skipped."""
+    lines = ["Filename,sample.tri", "Instrument name,synthetic", "",
+             "[Geometry Parameters]", "Name,40 mm parallel plate (synthetic)",
+             "Stress constant,%g Pa/N.m" % STRESS_CONSTANT_PA_PER_N_M,
+             "Strain constant,%g 1/rad" % STRAIN_CONSTANT_PER_RAD, "",
+             "[step]", "Peak hold - 1", "Stress,Shear rate,Viscosity,Step time",
+             "Pa,1/s,Pa.s,s", "10.0,1.0,10.0,1.0", "10.0,1.0,10.0,2.0", ""]
+    for k in (1, 2):
+        rows = [s for s in samples() if s[0] == k]
+        lines += ["[step]", "Oscillation amplitude - %d" % (k + 1),
+                  "Time,Oscillation displacement,Torque", "s,rad,\u00b5N.m"]
+        for _, t, phi, tau in rows:
+            lines.append("%s,%s,%s" % (t1(t), g6(phi), g6(tau * 1e6)))
+        lines.append("")
+    lines += ["[step]", "Amplitude sweep - 4",
+              "Storage modulus,Loss modulus,Oscillation torque,Oscillation displacement",
+              "Pa,Pa,\u00b5N.m,rad", "100,10,1.0,0.001", "90,12,2.0,0.002", ""]
+    write("trios_export.csv", "\n".join(lines), "utf-8", "\r\n")
+
+
+def trios_lims():
+    """TRIOS "LIMS export format": key rows per [Step]; a constant in g.cm; one step of
+    raw samples (the first interval of the common waveforms) and a summary step."""
+    lines = ["[Version]", "TA Instruments LIMS export format version\t0", "[Geometry: Standard]",
+             "Name\tsynthetic", "Stress constant\t1.17680 Pa/g.cm", "Strain constant\t1.5 1/rad",
+             "[Step]", "Step name\tOscillation amplitude (raw)", "Number of points\t%d" % POINTS,
+             "Variables\tStep time\tOscillation displacement\tOscillation torque",
+             "Units\ts\trad\t\u00b5N.m"]
+    for k, t, phi, tau in samples():
+        if k == 1:
+            lines.append("Data point\t%s\t%s\t%s" % (t1(t), g6(phi), g6(tau * 1e6)))
+    lines += ["[Step]", "Step name\tFrequency sweep (25.0 \u00b0C)", "Number of points\t2",
+              "Variables\tAngular frequency\tStorage modulus\tLoss modulus",
+              "Units\trad/s\tPa\tPa", "Data point\t1.0\t100\t10", "Data point\t2.0\t110\t12"]
+    write("trios_lims.txt", "\n".join(lines) + "\n", "utf-8", "\r\n")
+
+
 def reptate():
     # RepTate .laos: one amplitude per file (interval 1 only).
     lines = ["omega=%r;gamma=%r;" % (W, AMPLITUDES_RAD[0]), "#time\tq\tTorque", "#s\trad\tN-m"]
@@ -290,3 +329,5 @@ if __name__ == "__main__":
     reptate()
     anton_paar_fr_points()
     malvern()
+    trios_csv()
+    trios_lims()

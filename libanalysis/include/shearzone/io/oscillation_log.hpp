@@ -104,7 +104,8 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
 /// Format auto-detection (read_oscillation_log, format kAuto), in this order: a line
 /// whose first cell is "Interval data:" / "Intervalldaten:" / "Données d'intervalle:",
 /// or any TAB line whose first cell ends with ':' and names three or more columns
-/// (a RheoCompass table in any language) -> Anton Paar; a "[...]" section line and TAB name/value lines -> TRIOS; any other
+/// (a RheoCompass table in any language) -> Anton Paar; a "[...]" section line and
+/// name/value lines (TAB, or two ',' cells: the CSV export) -> TRIOS; any other
 /// UTF-16 file (BOM) -> Anton Paar; a first line of ';' cells starting with "Action Name"
 /// -> Malvern rSpace; extension .laos or a first line "key=value;" ->
 /// RepTate; else generic CSV/TSV. Units: shearzone/io/units.hpp.
