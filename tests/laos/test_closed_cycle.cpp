@@ -124,3 +124,28 @@ TEST_CASE("laos job: a Malvern rSpace export with a creeping angle gives K' and 
   CHECK(t.number(0, t.column_index("instrument_f_Hz")) == Approx(0.04));
   CHECK(t.rows[0][t.column_index("segment")] == "Oscillation Single Frequency");
 }
+
+TEST_CASE("laos job: German RheoCompass angle/torque points, a closed period and a timed one",
+          "[laos]") {
+  // make_logs.py anton_paar_de_points(): the first interval's waveform (phi0 = 0.05 rad,
+  // torque = K phi + C dphi/dt at 0.1 Hz); point 1 one closed period, point 2 two periods
+  // with its own "Periodenzeit" from 0; two columns named "Drehmoment".
+  TempDir dir("laos-ap-de-points");
+  pipeline::LaosJobOptions o;
+  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / "anton_paar_de_points.txt"};
+  o.output = dir / "out";
+  const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
+  CHECK_FALSE(sum.stress_strain);
+  const auto t = io::read_csv(dir / "out" / "summary.csv");
+  REQUIRE(t.num_rows() == 2);
+  constexpr double kK = 4e-3, kC = 2e-3, kOmega = 2 * std::numbers::pi * 0.1;
+  for (std::size_t p = 0; p < 2; ++p) {
+    INFO("point " << p + 1);
+    CHECK(t.rows[p][t.column_index("segment")] == "LAOS 1 / interval 2 / point " + std::to_string(p + 1));
+    CHECK(t.number(p, t.column_index("phi0_rad")) == Approx(0.05).epsilon(kRoundingRel));
+    CHECK(t.number(p, t.column_index("K1_prime_N_m_per_rad")) == Approx(kK).epsilon(kRoundingRel * 10));
+    CHECK(t.number(p, t.column_index("K1_dprime_N_m_per_rad")) == Approx(kC * kOmega).epsilon(kRoundingRel * 10));
+  }
+  CHECK(t.rows[0][t.column_index("status")] == "closed_cycle");
+  CHECK(t.rows[1][t.column_index("phase_method")] == "sine_fit");  // timed by Periodenzeit
+}

@@ -299,7 +299,8 @@ bool is_interval_marker(std::string_view first_cell) {
 const std::vector<std::string>& time_names() {
   static const std::vector<std::string> v{
       "time", "zeit", "temps", "interval time", "intervallzeit", "temps d'intervalle",
-      "temps de l'intervalle", "step time", "test time", "versuchszeit", "temps d'essai"};
+      "temps de l'intervalle", "step time", "test time", "versuchszeit", "temps d'essai",
+      "period time", "periodenzeit", "temps de p\xC3\xA9riode"};
   return v;
 }
 const std::vector<std::string>& angle_names() {

@@ -251,6 +251,32 @@ def malvern():
     write("malvern_rspace.csv", "\n".join(lines) + "\n")
 
 
+def anton_paar_de_points():
+    """German RheoCompass, angle and torque waveform points: two columns named
+    "Drehmoment" (the point's amplitude and the waveform), a "Periodenzeit" restarting at
+    0 on each point; point 1 one closed period (64 + 1 samples), point 2 two periods of
+    the first interval's waveform (not closed: timed)."""
+    head = ("\tMesspunkt\tZeit\tFrequenz\tSpeichermodul\tVerlustmodul\tDrehmoment"
+            "\tPeriodenzeit\tAuslenkwinkel\tDrehmoment")
+    lines = ["Projekt:\tshearzone Beispiele", "", "Ergebnis:\tLAOS 1", "",
+             "Intervall und Datenpunkte:\t2\t2", "Intervalldaten:" + head,
+             "\t" * 7 + "Schwingungsverlauf\tSchwingungsverlauf\tSchwingungsverlauf",
+             "\t\t[s]\t[Hz]\t[Pa]\t[Pa]\t[mN\u00b7m]\t[s]\t[mrad]\t[mN\u00b7m]"]
+    phi0 = AMPLITUDES_RAD[0]
+    amp = phi0 * math.hypot(K_N_M_PER_RAD, C_N_M_S_PER_RAD * W)
+    for p, (n, periods) in enumerate([(N_PER_PERIOD, 1), (50, 2)]):
+        point = "\t%d\t%d\t%s\t%s\t%s\t%s" % (p + 1, 100 + 50 * p, g6(F_HZ, True), g6(123.0, True),
+                                              g6(45.6, True), g6(amp * 1e3, True))
+        for k in range(n * periods + (1 if periods == 1 else 0)):
+            t = k / (n * F_HZ)
+            phi = phi0 * math.sin(W * t)
+            tau = K_N_M_PER_RAD * phi + C_N_M_S_PER_RAD * phi0 * W * math.cos(W * t)
+            cells = "\t%s\t%s\t%s" % (g6(t, True), g6(phi * 1e3, True), g6(tau * 1e3, True))
+            lines.append((point if k == 0 else "\t" * 6) + cells)
+    lines.append("")
+    write("anton_paar_de_points.txt", "\n".join(lines) + "\n", "utf-8", "\r\n")
+
+
 def trios():
     lines = ["Filename\tsample.tri", "Instrument name\tsynthetic", "",
              "[Geometry]", "Geometry name\t40 mm parallel plate (synthetic)",
@@ -331,3 +357,4 @@ if __name__ == "__main__":
     malvern()
     trios_csv()
     trios_lims()
+    anton_paar_de_points()
