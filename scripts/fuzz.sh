@@ -32,7 +32,7 @@ C="$BUILD_DIR/corpus"
 seed "$C/csv" data-samples/widths/*.csv data-samples/laos/*.csv tests/data/logs/*.csv \
   tests/data/piv-synthetic-vane/*.csv
 seed "$C/toml" data-samples/synth/*.toml data-samples/sim/*.toml tests/data/regressions/*.toml
-seed "$C/log" data-samples/laos/*.csv tests/data/logs/*
+seed "$C/log" data-samples/laos/*.csv tests/data/logs/* tests/data/rheometer-exports/*
 seed "$C/image" data-samples/pivlab-sand/*.jpeg tests/data/openpiv-test1/*.bmp \
   tests/data/fluidimage-oseen/*.tif tests/data/regressions/*.png
 seed "$C/video" tests/data/regressions/*.mp4

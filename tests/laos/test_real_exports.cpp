@@ -140,6 +140,21 @@ TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with cre
   }
 }
 
+TEST_CASE("real summary-only exports shipped in tests/data are refused as such", "[laos][real]") {
+  const auto dir_in = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "rheometer-exports";
+  for (const char* name :
+       {"ap_rheoplus_excel_pxp.csv", "trios_hr3_saos.txt", "trios_lims_aresg2_freqsweep.txt"}) {
+    INFO(name);
+    TempDir dir("real-shipped");
+    pipeline::LaosJobOptions o;
+    o.inputs = {dir_in / name};
+    o.output = dir / "out";
+    CHECK_THROWS_WITH(pipeline::run_laos_job(o, core::standard_metadata("test")),
+                      Catch::Contains("no raw waveform"));
+    CHECK_FALSE(std::filesystem::exists(dir / "out"));
+  }
+}
+
 TEST_CASE("real summary-only exports are refused as such, never answered", "[laos][real]") {
   for (const char* name : {"ap_rheoplus_excel_pxp.csv", "trios_hr30_sediment.csv", "trios_hr3_saos.txt",
                            "trios_lims_aresg2_freqsweep.txt"}) {
