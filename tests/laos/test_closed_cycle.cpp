@@ -35,6 +35,13 @@ core::Waveform period(int N, double x0, double c, double psi, double K1p, double
   }
   return w;
 }
+/// Runs the laos job with default options on tests/data/logs/<name> into <dir>/out.
+pipeline::LaosJobSummary run_sample_log(const std::string& name, const TempDir& dir) {
+  pipeline::LaosJobOptions o;
+  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / name};
+  o.output = dir / "out";
+  return pipeline::run_laos_job(o, core::standard_metadata("test"));
+}
 }  // namespace
 
 TEST_CASE("closed cycle: the DFT of one period gives the harmonics exactly", "[laos]") {
@@ -79,10 +86,7 @@ TEST_CASE("closed cycle: an open record, too few samples and a flat drive are re
 
 TEST_CASE("laos job: a RheoCompass export with one period per point needs no options", "[laos]") {
   TempDir dir("laos-ap-points");
-  pipeline::LaosJobOptions o;
-  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / "anton_paar_fr_points_utf16.txt"};
-  o.output = dir / "out";
-  const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
+  const auto sum = run_sample_log("anton_paar_fr_points_utf16.txt", dir);
   CHECK(sum.stress_strain);
   REQUIRE(sum.rows.size() == 3);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
@@ -111,10 +115,7 @@ TEST_CASE("laos job: a Malvern rSpace export with a creeping angle gives K' and 
   // make_logs.py malvern(): torque-controlled, K' = 0.06, K'' = 0.005 N m/rad, the angle
   // creeping by 3 % of phi0 per cycle (removed by the drift term of the drive's sine fit).
   TempDir dir("laos-malvern");
-  pipeline::LaosJobOptions o;
-  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / "malvern_rspace.csv"};
-  o.output = dir / "out";
-  pipeline::run_laos_job(o, core::standard_metadata("test"));
+  run_sample_log("malvern_rspace.csv", dir);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
   REQUIRE(t.num_rows() == 1);
   // Samples printed with 4 significant digits: 5e-4 per sample, averaged over 1440.
@@ -131,10 +132,7 @@ TEST_CASE("laos job: German RheoCompass angle/torque points, a closed period and
   // torque = K phi + C dphi/dt at 0.1 Hz); point 1 one closed period, point 2 two periods
   // with its own "Periodenzeit" from 0; two columns named "Drehmoment".
   TempDir dir("laos-ap-de-points");
-  pipeline::LaosJobOptions o;
-  o.inputs = {std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "logs" / "anton_paar_de_points.txt"};
-  o.output = dir / "out";
-  const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
+  const auto sum = run_sample_log("anton_paar_de_points.txt", dir);
   CHECK_FALSE(sum.stress_strain);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
   REQUIRE(t.num_rows() == 2);

@@ -140,34 +140,29 @@ TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with cre
   }
 }
 
+/// A summary-only export (G', G'' per point): refused (InputError, exit 2) saying it
+/// holds no raw waveform, and nothing written.
+void check_refused(const std::filesystem::path& path) {
+  INFO(path.string());
+  TempDir dir("real-refused");
+  pipeline::LaosJobOptions o;
+  o.inputs = {path};
+  o.output = dir / "out";
+  CHECK_THROWS_WITH(pipeline::run_laos_job(o, core::standard_metadata("test")),
+                    Catch::Contains("no raw waveform"));
+  CHECK_THROWS_AS(pipeline::run_laos_job(o, core::standard_metadata("test")), InputError);
+  CHECK_FALSE(std::filesystem::exists(dir / "out"));
+}
+
 TEST_CASE("real summary-only exports shipped in tests/data are refused as such", "[laos][real]") {
-  const auto dir_in = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "rheometer-exports";
+  const auto shipped = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "rheometer-exports";
   for (const char* name :
-       {"ap_rheoplus_excel_pxp.csv", "trios_hr3_saos.txt", "trios_lims_aresg2_freqsweep.txt"}) {
-    INFO(name);
-    TempDir dir("real-shipped");
-    pipeline::LaosJobOptions o;
-    o.inputs = {dir_in / name};
-    o.output = dir / "out";
-    CHECK_THROWS_WITH(pipeline::run_laos_job(o, core::standard_metadata("test")),
-                      Catch::Contains("no raw waveform"));
-    CHECK_FALSE(std::filesystem::exists(dir / "out"));
-  }
+       {"ap_rheoplus_excel_pxp.csv", "trios_hr3_saos.txt", "trios_lims_aresg2_freqsweep.txt"})
+    check_refused(shipped / name);
 }
 
 TEST_CASE("real summary-only exports are refused as such, never answered", "[laos][real]") {
-  for (const char* name : {"ap_rheoplus_excel_pxp.csv", "trios_hr30_sediment.csv", "trios_hr3_saos.txt",
-                           "trios_lims_aresg2_freqsweep.txt"}) {
-    if (!available(name)) continue;
-    INFO(name);
-    TempDir dir("real-refused");
-    pipeline::LaosJobOptions o;
-    o.inputs = {kExports / name};
-    o.output = dir / "out";
-    // Summary-only exports (G', G'' per point): refused, saying so.
-    CHECK_THROWS_WITH(pipeline::run_laos_job(o, core::standard_metadata("test")),
-                      Catch::Contains("no raw waveform"));
-    CHECK_THROWS_AS(pipeline::run_laos_job(o, core::standard_metadata("test")), InputError);
-    CHECK_FALSE(std::filesystem::exists(dir / "out" / "summary.csv"));
-  }
+  for (const char* name : {"ap_rheoplus_excel_pxp.csv", "trios_hr30_sediment.csv",
+                           "trios_hr3_saos.txt", "trios_lims_aresg2_freqsweep.txt"})
+    if (available(name)) check_refused(kExports / name);
 }
