@@ -24,7 +24,7 @@ constexpr double kFloor = 1e-3;
 /// recorded when the test was written; they guard against unnoticed changes.
 constexpr double kRegression = 1e-6;
 /// SlugSlime's v3/v1 (a small viscous harmonic of a record holding four amplitudes)
-/// differs from C by 3.7 %, 1.2x the floor: a known, documented deviation.
+/// differs from C by 4.5 %, 1.5x the floor: a known, documented deviation.
 constexpr double kSlugV3 = 0.05;
 
 struct Ref {
@@ -124,7 +124,7 @@ void regression(const AmplitudeResult& A, double KM, double etaM, double S, doub
 TEST_CASE("external: RepTate CPyCL (measured, non-uniform dt)", "[laos][external]") {
   const auto A = run("reptate/CPyCL-omega00p30-gam03p1600.laos", false, false,
                      {0.6375, 3.975, 6.235, 0.03246, 0.1822, -0.01506, 123.6});
-  regression(A, 0.3601126007, 7.795239353, 0.4846237392, 0.4020567978);
+  regression(A, 0.3601421837, 7.795254003, 0.4845886949, 0.4020542924);
 }
 
 TEST_CASE("external: RepTate SlugSlime (angle and torque)", "[laos][external]") {
@@ -139,10 +139,11 @@ TEST_CASE("external: RepTate SlugSlime (angle and torque)", "[laos][external]") 
                      {1.316e-4, 2.02e-5, 0.1535, 0.2028, 0.2019, -0.2362, 6.607e-6}, false,
                      0.3202, kSlugV3);
   // With four amplitudes in one record "the" amplitude is a matter of definition: the
-  // sine fit gives 0.3229 rad, C's strain fundamental 0.3202 rad. The torque
-  // coefficients x0 K are compared (run() rescales), ratios and E_d need no rescaling.
-  CHECK(A.x0 == Approx(0.3229).epsilon(1e-3));
-  regression(A, 7.184660208e-05, 1.189990289e-05, 0.5572056716, -1.294580801);
+  // sine fit over the used cycles gives 0.3202 rad, as C's strain fundamental (the fit
+  // over the whole record gave 0.3229). The torque coefficients x0 K are compared
+  // (run() rescales), ratios and E_d need no rescaling.
+  CHECK(A.x0 == Approx(0.3202).epsilon(1e-3));
+  regression(A, 7.244093377e-05, 1.213173855e-05, 0.5572140457, -1.312987985);
   (void)A;
 }
 

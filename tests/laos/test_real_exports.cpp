@@ -100,10 +100,10 @@ std::complex<double> lockin_modulus(const io::LogSegment& s, double omega, doubl
   return std::complex<double>(q[0], q[1]) / std::complex<double>(x[0], x[1]);
 }
 
-// Malvern: the lock-in estimate over the same cycles; |K*| agrees to 0.3 % (measured),
-// K'' alone, a tenth of K', to 2.2 %: the estimators treat the creep differently.
-constexpr double kLockinModulus = 0.01;
-constexpr double kLockinStorage = 0.01;
+// Malvern: the lock-in estimate over the same cycles (no harmonics, uniform
+// weights) against the harmonic fit; the issue's bound, 1 %, on K' and K'' each
+// (measured: 1e-4 on K*, 5e-4 on K'').
+constexpr double kLockin = 0.01;
 
 TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with creep", "[laos][real]") {
   const std::string name = "malvern_kinexus_carbopol.csv";
@@ -134,8 +134,8 @@ TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with cre
     const auto ref = lockin_modulus(log.segments[a], omega, ta, tb);
     const std::complex<double> ours(t.number(a, t.column_index("K1_prime_N_m_per_rad")),
                                     t.number(a, t.column_index("K1_dprime_N_m_per_rad")));
-    CHECK(std::abs(ours - ref) <= kLockinModulus * std::abs(ref));
-    CHECK(std::abs(ours.real() - ref.real()) <= kLockinStorage * std::abs(ref.real()));
+    CHECK(std::abs(ours.real() - ref.real()) <= kLockin * std::abs(ref.real()));
+    CHECK(std::abs(ours.imag() - ref.imag()) <= kLockin * std::abs(ref.imag()));
     CHECK(t.number(a, t.column_index("instrument_f_Hz")) > 0);
   }
 }

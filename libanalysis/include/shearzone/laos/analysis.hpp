@@ -11,7 +11,9 @@
 //  2. Phase θ, per amplitude: with time, a 4-parameter sine fit of x(t) (IEEE-1057
 //     style: linear least squares for fixed ω, golden-section search of ω, then
 //     Gauss-Newton polishing; with `drift` also a linear drift of the drive, as a creeping
-//     angle under torque control has) and θ = ω t + ψ; the record's ω (log or option) only
+//     angle under torque control has) and θ = ω t + ψ; with `drift` and two or more used
+//     cycles (step 3), the drive is refitted over the used cycles only and the amplitude
+//     analysed again with that phase; the record's ω (log or option) only
 //     seeds the search. Without time: θ = arcsin(x̂) on the rising branch and
 //     π − arcsin(x̂) on the falling one (branch from the sign of Δx), unwrapped, with
 //     x̂ = (x − c)/x0, c the mid level and x0 the half range; ω then comes from the
