@@ -45,6 +45,14 @@ std::complex<double> dft_modulus(const io::LogSegment& s) {
   return S / D;
 }
 
+/// Runs the laos job with default options on `path` into <dir>/out.
+void run_export(const std::filesystem::path& path, const TempDir& dir) {
+  pipeline::LaosJobOptions o;
+  o.inputs = {path};
+  o.output = dir / "out";
+  pipeline::run_laos_job(o, core::standard_metadata("test"));
+}
+
 // The two computations differ only in round-off.
 constexpr double kSameTransform = 1e-9;
 // The instrument computes |G*| its own way (its correlation over the period, its
@@ -60,10 +68,7 @@ TEST_CASE("real export: Anton Paar RheoCompass, French, one period per point", "
   CHECK(log.quantity == io::LogQuantity::kStrainStress);
   CHECK(log.skipped.size() == 9);     // flow curves, other intervals, "Oscillations 1"
   TempDir dir("real-ap-fr");
-  pipeline::LaosJobOptions o;
-  o.inputs = {kExports / name};
-  o.output = dir / "out";
-  pipeline::run_laos_job(o, core::standard_metadata("test"));
+  run_export(kExports / name, dir);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
   REQUIRE(t.num_rows() == 8);
   for (std::size_t p = 0; p < 8; ++p) {
@@ -113,10 +118,7 @@ TEST_CASE("real export: Malvern Kinexus rSpace, six oscillation actions with cre
   REQUIRE(log.segments.size() == 6);
   CHECK(log.skipped.size() == 11);  // pre-shears, rests, flow curves, tables
   TempDir dir("real-malvern");
-  pipeline::LaosJobOptions o;
-  o.inputs = {kExports / name};
-  o.output = dir / "out";
-  pipeline::run_laos_job(o, core::standard_metadata("test"));
+  run_export(kExports / name, dir);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
   const auto c = io::read_csv(dir / "out" / "cycles.csv");
   REQUIRE(t.num_rows() == 6);
