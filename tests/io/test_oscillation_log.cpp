@@ -334,6 +334,17 @@ TEST_CASE("Bad logs are InputErrors naming file, line and column", "[io][log]") 
     CHECK_THAT(core::metadata_value(log.parameters, "stress_constant_Pa_per_N_m_unparsed"),
                Contains("const.txt:2") && Contains("abc"));
   }
+  SECTION("Malvern: tied times that are not evenly spaced, a missing torque column") {
+    const auto p = dir / "malvern.csv";
+    testing::write_file(p, "Action Name;Time (action)(s);Frequency(Hz);Torque(N m);Angular displacement(rad)\n"
+                           "Osc;1,000;;1,0E-005;1,0E-004\nOsc;2,000;;2,0E-005;2,0E-004\n"
+                           "Osc;3,000;;3,0E-005;3,0E-004\nOsc;3,000;;4,0E-005;4,0E-004\n"
+                           "Osc;3,000;;5,0E-005;5,0E-004\nOsc;10,00;;6,0E-005;6,0E-004\n"
+                           "Osc;1,000;0,1000;;\n");
+    expect_input_error(p, o, {"malvern.csv:", "action \"Osc\"", "not evenly spaced"});
+    testing::write_file(p, "Action Name;Time (action)(s);Angular displacement(rad)\nOsc;1,000;0,1\n");
+    expect_input_error(p, o, {"malvern.csv:1", "no torque column", "\"Angular displacement\""});
+  }
   SECTION("invalid UTF-16") {
     const auto p = dir / "bad16.txt";
     testing::write_file(p, std::string("\xFF\xFE" "a\0\x00\xDC", 6));

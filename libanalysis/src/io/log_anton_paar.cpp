@@ -69,18 +69,6 @@ std::optional<std::size_t> find_point_column(const Table& t, const std::set<std:
   return std::nullopt;
 }
 
-double point_value(const Row& r, std::optional<std::size_t> col, double scale) {
-  if (!col || *col >= r.cells.size()) return core::kUnset;
-  double v = 0;
-  if (!parse_number(r.cells[*col], true, v) || !std::isfinite(v)) return core::kUnset;
-  return v * scale;
-}
-
-double unit_scale_or_unset(const std::string& unit, UnitKind kind) {
-  const auto s = find_unit_scale(unit, kind);
-  return s ? *s : core::kUnset;
-}
-
 bool has_cell(const Row& r, std::size_t k) { return k < r.cells.size() && !r.cells[k].empty(); }
 
 /// Reads the names, further name rows and units of a table starting at lines[i] (the
@@ -332,12 +320,12 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
       seg.label = fmt::format("{} / point {}", label,
                               has_cell(head, t.point_column) ? std::string(head.cells[t.point_column])
                                                              : std::to_string(r + 1));
-      seg.instrument_frequency_Hz = point_value(head, fcol, fscale);
+      seg.instrument_frequency_Hz = cell_or_unset(head.cells, fcol, fscale);
       if (std::isnan(seg.instrument_frequency_Hz))
-        seg.instrument_frequency_Hz = point_value(head, wcol, wscale);
-      seg.instrument_G_prime_Pa = point_value(head, gpcol, gpscale);
-      seg.instrument_G_dprime_Pa = point_value(head, gppcol, gppscale);
-      seg.instrument_torque_N_m = point_value(head, tqcol, tqscale);
+        seg.instrument_frequency_Hz = cell_or_unset(head.cells, wcol, wscale);
+      seg.instrument_G_prime_Pa = cell_or_unset(head.cells, gpcol, gpscale);
+      seg.instrument_G_dprime_Pa = cell_or_unset(head.cells, gppcol, gppscale);
+      seg.instrument_torque_N_m = cell_or_unset(head.cells, tqcol, tqscale);
       bool has_time = vc->time.has_value();
       bool complete = true;
       for (std::size_t k = r; k < end; ++k) {
@@ -374,16 +362,10 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
       log.segments.push_back(std::move(seg));
     }
   }
-  if (log.segments.empty() && !o.inspect) {
-    // One table: its own message (it names the columns looked for and those found).
-    if (tables == 1 && log.skipped.size() == 1 && !first_error.empty()) throw InputError(first_error);
-    if (tables == 0) return;  // finish() reports "no data rows"
-    throw InputError(fmt::format(
-        "{}: no raw waveform in {} table{} ({}{}); shearzone laos needs the drive and response "
-        "samples (RheoCompass: export the raw data / waveform columns)",
-        src, tables, tables == 1 ? "" : "s", excerpt(log.skipped.front(), 300),
-        log.skipped.size() > 1 ? fmt::format("; {} more", log.skipped.size() - 1) : ""));
-  }
+  // No table at all: finish() reports "no data rows".
+  if (log.segments.empty() && !o.inspect && tables > 0)
+    refuse_without_waveform(log, tables, "table", first_error,
+                            " (RheoCompass: export the raw data / waveform columns)");
 }
 
 }  // namespace shearzone::io::log_detail

@@ -429,6 +429,31 @@ VendorColumns resolve_vendor_columns(const std::vector<std::vector<std::string>>
   return vc;
 }
 
+double cell_or_unset(const std::vector<std::string_view>& cells, std::optional<std::size_t> col,
+                     double scale) {
+  double v = 0;
+  if (!col || *col >= cells.size() || cells[*col].empty() || !parse_number(cells[*col], true, v) ||
+      !std::isfinite(v))
+    return core::kUnset;
+  return v * scale;
+}
+
+double unit_scale_or_unset(const std::string& unit, UnitKind kind) {
+  return find_unit_scale(unit, kind).value_or(core::kUnset);
+}
+
+void refuse_without_waveform(const OscillationLog& log, std::size_t blocks, const char* block_word,
+                             const std::string& first_error, const std::string& hint) {
+  // One block: its own message (it names the columns looked for and those found).
+  if (blocks == 1 && log.skipped.size() == 1 && !first_error.empty()) throw InputError(first_error);
+  throw InputError(fmt::format(
+      "{}: no raw waveform in {} {}{} ({}{}); shearzone laos needs the drive and response "
+      "samples{}",
+      log.source, blocks, block_word, blocks == 1 ? "" : "s",
+      log.skipped.empty() ? std::string("none listed") : excerpt(log.skipped.front(), 300),
+      log.skipped.size() > 1 ? fmt::format("; {} more", log.skipped.size() - 1) : "", hint));
+}
+
 /// Records, once, that the log has no time column.
 void note_no_time(OscillationLog& log) {
   if (core::metadata_value(log.parameters, "time_column").empty())

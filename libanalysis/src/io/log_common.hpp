@@ -129,6 +129,20 @@ VendorColumns resolve_vendor_columns(const std::vector<std::vector<std::string>>
                                      const LogReadOptions& o, const std::string& source,
                                      std::size_t header_line);
 
+/// A value the instrument reports beside the samples (frequency, G', torque): the
+/// finite number (decimal comma allowed) of `col` times `scale`, or kUnset when the
+/// column is absent, the cell empty or not a number, or the scale unset.
+double cell_or_unset(const std::vector<std::string_view>& cells, std::optional<std::size_t> col,
+                     double scale);
+/// Factor of `unit` to SI for `kind`, kUnset when the unit is not known.
+double unit_scale_or_unset(const std::string& unit, UnitKind kind);
+/// The refusal of a file none of whose `blocks` tables or steps (`block_word`) holds a
+/// waveform: with one block its own message `first_error`, else one line with the first
+/// of log.skipped, the count of the others and `hint`.
+[[noreturn]] void refuse_without_waveform(const OscillationLog& log, std::size_t blocks,
+                                          const char* block_word, const std::string& first_error,
+                                          const std::string& hint);
+
 /// Records, once, that the log has no time column.
 void note_no_time(OscillationLog& log);
 /// Refuses the interval_column option for a vendor format that has its own segments.

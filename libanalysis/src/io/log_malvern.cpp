@@ -43,13 +43,6 @@ bool filled(const std::vector<std::string_view>& row, std::optional<std::size_t>
   return k && *k < row.size() && !row[*k].empty();
 }
 
-double number_or_unset(const std::vector<std::string_view>& row, std::optional<std::size_t> k,
-                       double scale) {
-  double v = 0;
-  if (!filled(row, k) || !parse_number(row[*k], true, v) || !std::isfinite(v)) return core::kUnset;
-  return v * scale;
-}
-
 }  // namespace
 
 bool looks_like_malvern(std::string_view first_line) {
@@ -99,8 +92,8 @@ void read_malvern(std::string_view text, const LogReadOptions& o, OscillationLog
     time = {*tcol, names[*tcol],
             column_scale(o, UnitKind::kTime, units[*tcol], !units[*tcol].empty(), where, names[*tcol])};
   const double fscale = fcol && fold(units[*fcol]) == "hz" ? 1.0 : core::kUnset;
-  const double gpscale = gpcol ? find_unit_scale(units[*gpcol], UnitKind::kStress).value_or(core::kUnset) : core::kUnset;
-  const double gppscale = gppcol ? find_unit_scale(units[*gppcol], UnitKind::kStress).value_or(core::kUnset) : core::kUnset;
+  const double gpscale = gpcol ? unit_scale_or_unset(units[*gpcol], UnitKind::kStress) : core::kUnset;
+  const double gppscale = gppcol ? unit_scale_or_unset(units[*gppcol], UnitKind::kStress) : core::kUnset;
 
   // Rows grouped into consecutive runs of one action.
   std::vector<Action> actions;
@@ -127,7 +120,7 @@ void read_malvern(std::string_view text, const LogReadOptions& o, OscillationLog
     // Oscillatory: the instrument reports a frequency for it.
     double f_Hz = core::kUnset;
     for (const auto& r : a.summary) {
-      const double f = number_or_unset(r, fcol, fscale);
+      const double f = cell_or_unset(r, fcol, fscale);
       if (f > 0) f_Hz = f;
     }
     if (!(f_Hz > 0)) {
@@ -144,8 +137,8 @@ void read_malvern(std::string_view text, const LogReadOptions& o, OscillationLog
     seg.label = a.name;
     seg.instrument_frequency_Hz = f_Hz;
     if (!a.summary.empty()) {  // the last summary row: the end of the action
-      seg.instrument_G_prime_Pa = number_or_unset(a.summary.back(), gpcol, gpscale);
-      seg.instrument_G_dprime_Pa = number_or_unset(a.summary.back(), gppcol, gppscale);
+      seg.instrument_G_prime_Pa = cell_or_unset(a.summary.back(), gpcol, gpscale);
+      seg.instrument_G_dprime_Pa = cell_or_unset(a.summary.back(), gppcol, gppscale);
     }
     const std::optional<Column> tc = tcol ? std::optional<Column>(time) : std::nullopt;
     for (std::size_t k = 0; k < a.raw.size(); ++k)

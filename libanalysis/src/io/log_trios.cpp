@@ -241,14 +241,8 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
     if (vc->time) check_time(seg, src, vc->time->name);
     log.segments.push_back(std::move(seg));
   }
-  if (log.segments.empty() && !o.inspect && steps > 0) {
-    if (steps == 1 && !first_error.empty()) throw InputError(first_error);
-    throw InputError(fmt::format(
-        "{}: no raw waveform in {} steps ({}{}); shearzone laos needs the drive and response "
-        "samples",
-        src, steps, excerpt(log.skipped.front(), 300),
-        log.skipped.size() > 1 ? fmt::format("; {} more", log.skipped.size() - 1) : ""));
-  }
+  if (log.segments.empty() && !o.inspect && steps > 0)
+    refuse_without_waveform(log, steps, "step", first_error, "");
 }
 
 }  // namespace shearzone::io::log_detail
