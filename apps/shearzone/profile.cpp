@@ -61,6 +61,9 @@ int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
                 "errors from %s\n",
                 sum.centre_x_px, sum.centre_y_px, sum.geometry_source.c_str(), sum.m_per_px,
                 sum.scale_source.c_str(), sum.noise_floor_m_per_s, sum.grouping.c_str());
+    if (!sum.drive_phase_source.empty())
+      std::printf("profile: drive phase t0 = %.6g s [%s]; lock-in %s\n", sum.t0_s, sum.drive_phase_source.c_str(),
+                  sum.lockin ? "columns written" : "not run");
   }
   return kExitOk;
 }
@@ -106,7 +109,15 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
   // Selection
   c->add_option("--f-hz", j.f_Hz,
                 "Oscillation frequency, Hz (default: the file's f_Hz); range: 0 < f <= 1e6");
-  c->add_option("--t0-s", j.t0_s, "Time of an upward zero crossing of phi(t), s; range: any finite number")
+  c->add_option("--t0-s", j.t0_s,
+                "Time of an upward zero crossing of phi(t), s (default: from --log, the file's vane_phase_rad, "
+                "else 0); range: any finite number");
+  c->add_option("--log", j.log_path,
+                "Vane angle log CSV (time_s, angle_rad): the drive's frequency and phase for the lock-in");
+  c->add_option("--log-offset-s", j.log_offset_s,
+                "Log time = field time + this, s (default: the file's vane_log_offset_s, else 0); range: finite");
+  c->add_option("--lockin-harmonics", j.lockin_harmonics,
+                "Lock-in estimator: highest odd harmonic of v_theta fitted (0: off); range: 0 or odd 1..31")
       ->capture_default_str();
   c->add_option("--cycles", j.cycles,
                 "Cycles to average, e.g. 5,7,9 (default: all); "

@@ -15,7 +15,7 @@ namespace {
 struct WidthCli {
   pipeline::WidthJobOptions job;
   std::vector<std::string> inputs, tags;
-  std::string output, config;
+  std::string output, config, estimator = "auto";
 };
 
 int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
@@ -24,6 +24,8 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   j.inputs.assign(s.inputs.begin(), s.inputs.end());
   j.output = s.output;
   j.tags = parse_key_values(s.tags, "--tag");
+  if (!profile::parse_estimator(s.estimator, j.width.estimator))
+    throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
   const auto rows = pipeline::run_width_job(j, ctx.header());
   int usable = 0;
   for (const auto& r : rows) {
@@ -35,9 +37,10 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
                                                                           : "=";
       const char* status = profile::width_status_name(r.status);
       if (std::isfinite(r.rc_m))
-        std::printf("width: %s: r_c %s %.5g m (%s)\n", r.label.c_str(), rel, r.rc_m, status);
+        std::printf("width: %s: r_c %s %.5g m (%s, %s)\n", r.label.c_str(), rel, r.rc_m, status,
+                    profile::estimator_name(r.estimator));
       else
-        std::printf("width: %s: no r_c (%s)\n", r.label.c_str(), status);
+        std::printf("width: %s: no r_c (%s, %s)\n", r.label.c_str(), status, profile::estimator_name(r.estimator));
     }
   }
   if (ctx.level != core::LogLevel::kQuiet)
@@ -73,6 +76,10 @@ std::vector<Subcommand> add_width(CLI::App& root, Context& ctx) {
   c->add_flag("--force", j.force, "Replace an existing output");
   c->add_option("--tag", s->tags, "N=VALUE or phi0_rad=VALUE for every row (default: from the profile)");
   c->add_option("--vc", j.width.v_c_m_per_s, "Threshold velocity v_c, m/s; range: > 0, finite")
+      ->capture_default_str();
+  c->add_option("--estimator", s->estimator,
+                 "mean-abs (the paper's mean |v|), lockin (phase-locked v_theta amplitude) or auto (lockin where "
+                 "mean-abs is noise_limited)")
       ->capture_default_str();
   c->add_option("--noise-factor", j.width.noise_factor, "noise_limited when v_c < this x noise floor; range: >= 0")
       ->capture_default_str();

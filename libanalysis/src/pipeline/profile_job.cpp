@@ -5,6 +5,7 @@
 #include <memory>
 #include <numbers>
 
+#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
@@ -38,6 +39,100 @@ std::unique_ptr<io::FieldReader> open_fields(const std::filesystem::path& path, 
   return io::open_field_file(path, dt_s);
 }
 
+/// phi(t) = c + A sin(2 pi f t) + B cos(2 pi f t) fitted to an angle log.
+struct DriveFit {
+  double f_Hz = 0, t0_s = 0, amplitude_rad = 0, r2 = 0;
+};
+
+/// Residual sum of squares of the linear fit at frequency f (and the fit).
+double drive_rss(const std::vector<double>& t, const std::vector<double>& y, double f, DriveFit* out) {
+  const double w = 2.0 * std::numbers::pi * f;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const Eigen::Vector3d x(1.0, std::sin(w * t[i]), std::cos(w * t[i]));
+    A += x * x.transpose();
+    r += y[i] * x;
+  }
+  const Eigen::Vector3d b = A.ldlt().solve(r);
+  double rss = 0, mean = 0, tss = 0;
+  for (double v : y) mean += v;
+  mean /= static_cast<double>(y.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const double e = y[i] - (b(0) + b(1) * std::sin(w * t[i]) + b(2) * std::cos(w * t[i]));
+    rss += e * e;
+    tss += (y[i] - mean) * (y[i] - mean);
+  }
+  if (out) {
+    out->f_Hz = f;
+    out->amplitude_rad = std::hypot(b(1), b(2));
+    // A sin(wt) + B cos(wt) = R sin(w t + psi): upward zero crossing at w t = -psi.
+    const double psi = std::atan2(b(2), b(1));
+    const double T = 1.0 / f;
+    out->t0_s = std::fmod(-psi / w, T);
+    if (out->t0_s < 0) out->t0_s += T;
+    out->r2 = tss > 0 ? 1.0 - rss / tss : 0.0;
+  }
+  return rss;
+}
+
+/// The drive sinusoid of an angle log (columns time_s, angle_rad), the frequency refined
+/// around f_hint (or found from the log's upward zero crossings when f_hint is unset).
+DriveFit fit_drive_log(const std::string& path, double f_hint) {
+  const io::CsvTable tab = io::read_csv(path);
+  const std::vector<double> t = tab.numeric_column("time_s"), y = tab.numeric_column("angle_rad");
+  if (t.size() < 8) throw InputError(fmt::format("{}: the angle log has {} rows; expected at least 8", path, t.size()));
+  for (std::size_t r = 1; r < t.size(); ++r)
+    if (!(t[r] > t[r - 1]))
+      throw InputError(fmt::format("{}:{}: column \"time_s\": {} does not increase (previous row has {}); "
+                                   "expected strictly increasing times",
+                                   path, tab.row_lines[r], format_number(t[r]), format_number(t[r - 1])));
+  const double span = t.back() - t.front();
+  double f0 = f_hint;
+  if (!set(f0)) {
+    double mean = 0;
+    for (double v : y) mean += v;
+    mean /= static_cast<double>(y.size());
+    std::vector<double> up;
+    for (std::size_t i = 1; i < t.size(); ++i)
+      if (y[i - 1] - mean < 0 && y[i] - mean >= 0) up.push_back(t[i]);
+    if (up.size() < 2)
+      throw InputError(fmt::format("{}: the angle log holds fewer than two oscillation cycles; give --f-hz", path));
+    f0 = static_cast<double>(up.size() - 1) / (up.back() - up.front());
+  }
+  if (!(f0 * span >= 1.0))
+    throw InputError(fmt::format("{}: the angle log spans {} s, less than one cycle of {} Hz; expected at least one",
+                                 path, format_number(span), format_number(f0)));
+  // Golden-section search of the RSS over f0 (1 +- 2 / (f0 span)) (a band of about two
+  // spectral resolutions), then the linear fit there.
+  double lo = f0 * (1.0 - std::min(0.2, 2.0 / (f0 * span))), hi = f0 * (1.0 + std::min(0.2, 2.0 / (f0 * span)));
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
+  double fa = drive_rss(t, y, a, nullptr), fb = drive_rss(t, y, b, nullptr);
+  for (int it = 0; it < 80; ++it) {
+    if (fa < fb) {
+      hi = b;
+      b = a;
+      fb = fa;
+      a = hi - g * (hi - lo);
+      fa = drive_rss(t, y, a, nullptr);
+    } else {
+      lo = a;
+      a = b;
+      fa = fb;
+      b = lo + g * (hi - lo);
+      fb = drive_rss(t, y, b, nullptr);
+    }
+  }
+  DriveFit d;
+  drive_rss(t, y, 0.5 * (lo + hi), &d);
+  if (!(d.r2 >= 0.9))
+    throw InputError(fmt::format("{}: a sinusoid explains {:.3f} of the angle log's variance; expected at least 0.9 "
+                                 "(the lock-in needs a sinusoidal drive)",
+                                 path, d.r2));
+  return d;
+}
+
 cv::Mat first_frame(const std::string& path) {
   auto src = io::open_frames({path}, 25.0);
   io::Frame fr;
@@ -65,7 +160,11 @@ void ProfileJobOptions::validate() const {
     throw ConfigError(fmt::format("--groups {}: expected auto, cycles or pairs", groups));
   if (set(f_Hz) && !(f_Hz > 0 && f_Hz <= 1e6))
     throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1e6 Hz", f_Hz));
-  if (!std::isfinite(t0_s)) throw ConfigError(fmt::format("--t0-s {}: expected a finite time, s", t0_s));
+  if (set(t0_s) && !std::isfinite(t0_s)) throw ConfigError(fmt::format("--t0-s {}: expected a finite time, s", t0_s));
+  if (set(log_offset_s) && !std::isfinite(log_offset_s))
+    throw ConfigError(fmt::format("--log-offset-s {}: expected a finite time, s", log_offset_s));
+  if (!(lockin_harmonics == 0 || (lockin_harmonics >= 1 && lockin_harmonics <= 31 && lockin_harmonics % 2 == 1)))
+    throw ConfigError(fmt::format("--lockin-harmonics {}: expected 0 (off) or an odd number 1..31", lockin_harmonics));
   if (set(detect_min_radius_px) &&
       !(detect_min_radius_px > 0 && detect_max_radius_px > detect_min_radius_px && detect_max_radius_px <= 32768))
     throw ConfigError(fmt::format("--detect-radius-px {},{}: expected 0 < min < max <= 32768 px",
@@ -181,14 +280,44 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   po.grouping = o.groups == "cycles"  ? profile::Grouping::kCycles
                 : o.groups == "pairs" ? profile::Grouping::kPairsPhaseDetrended
                                       : profile::Grouping::kNone;
+  // The lock-in fits a whole cycle: not with a phase window or phase bins.
+  const bool phase_window = o.phase_min_deg > 0 || o.phase_max_deg < 360 || o.phase_bins > 0;
+  po.lockin_harmonics = phase_window ? 0 : o.lockin_harmonics;
   po.validate();
 
-  // Pair selection.
-  const double f = set(o.f_Hz) ? o.f_Hz : src->attribute("f_Hz");
+  // Pair selection and the drive phase.
+  double f = set(o.f_Hz) ? o.f_Hz : src->attribute("f_Hz");
   const bool selecting =
       !o.cycles.empty() || o.phase_min_deg > 0 || o.phase_max_deg < 360 || o.phase_bins > 0;
   if (set(f) && !(f > 0 && f <= 1e6))
     throw InputError(fmt::format("{}: attribute f_Hz = {}: expected 0 < f <= 1e6 Hz", o.input.string(), f));
+  double t0 = 0.0;
+  if (!o.log_path.empty()) {
+    const DriveFit d = fit_drive_log(o.log_path, f);
+    if (set(f) && std::abs(d.f_Hz - f) > kScaleTolerance * f)
+      throw ConfigError(fmt::format("{}: the angle log oscillates at {:.6g} Hz, the fields say f = {} Hz: the inputs "
+                                    "disagree by more than 1 %",
+                                    o.log_path, d.f_Hz, format_number(f)));
+    const double file_off = src->attribute("vane_log_offset_s");
+    const double off = set(o.log_offset_s) ? o.log_offset_s : (set(file_off) ? file_off : 0.0);
+    f = d.f_Hz;
+    t0 = d.t0_s - off;
+    sum.drive_phase_source = fmt::format(
+        "angle log {} (sinusoid fitted: f = {:.8g} Hz, amplitude {:.4g} rad, R^2 = {:.5f}; log time = field time + {} s{})",
+        o.log_path, d.f_Hz, d.amplitude_rad, d.r2, format_number(off),
+        set(o.log_offset_s) ? " (--log-offset-s)" : set(file_off) ? " (the file's vane_log_offset_s)" : " (assumed)");
+  } else if (set(o.t0_s)) {
+    t0 = o.t0_s;
+    sum.drive_phase_source = "--t0-s";
+  } else if (set(f) && set(src->attribute("vane_phase_rad"))) {
+    const double ph = src->attribute("vane_phase_rad");
+    t0 = -ph / (2.0 * std::numbers::pi * f);
+    sum.drive_phase_source = fmt::format("the file's vane_phase_rad = {} (phi = phi0 sin(2 pi f t + phase))",
+                                         format_number(ph));
+  } else if (set(f)) {
+    sum.drive_phase_source = "assumed: phi = phi0 sin(2 pi f t) (no --log, --t0-s or vane_phase_rad attribute)";
+  }
+  sum.t0_s = t0;
   if (selecting && !(f > 0))
     throw ConfigError("--cycles / --phase-range-deg / --phase-bins need the oscillation frequency: "
                       "give --f-hz (the field file has no f_Hz attribute)");
@@ -208,7 +337,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     double phase = core::kUnset;
     std::size_t ph = 0;
     if (f > 0) {
-      const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, o.t0_s);
+      const auto cp = profile::cycle_phase(t_a + 0.5 * dt, f, t0);
       if (!o.cycles.empty() && std::find(o.cycles.begin(), o.cycles.end(), cp.cycle) == o.cycles.end())
         continue;
       if (cp.phase_deg < o.phase_min_deg || cp.phase_deg >= o.phase_max_deg) continue;
@@ -220,7 +349,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     if (!(dt > 0))
       throw InputError(fmt::format("{}: pair {}: dt_s = {}: expected a positive time step",
                                    o.input.string(), k, dt));
-    accs[ph].add(field, dt, cycle, phase);
+    accs[ph].add(field, dt, cycle, phase, f > 0 ? f * dt : 0.0);
     dts.push_back(dt);
     ++sum.pairs_used;
     if (progress) progress(k + 1, n);
@@ -230,6 +359,13 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
                                     "--phase-range-deg, --t0-s and f",
                                     o.input.string(), sum.pairs_read));
   const double dt_median = core::upper_median_inplace(dts);  // dts: all > 0, at least one
+  int lockin_h = po.lockin_harmonics;
+  if (lockin_h > 0 && f > 0) {
+    while (lockin_h >= 1 && (4 * (lockin_h + 2) > static_cast<int>(sum.pairs_used) || lockin_h * f * dt_median > 0.25))
+      lockin_h -= 2;
+    lockin_h = std::max(lockin_h, 0);
+    for (auto& acc : accs) acc.set_lockin_harmonics(lockin_h);
+  }
 
   // Noise floor: a static reference, or a region of each profile.
   std::unique_ptr<profile::ProfileAccumulator> racc;
@@ -274,7 +410,8 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   meta.emplace_back("r_m", "bin centre; bin k covers [Rv + k bin, Rv + (k+1) bin)");
   meta.emplace_back("replaced_vectors", o.exclude_replaced ? "excluded (counted as invalid)" : "used");
   meta.emplace_back("f_Hz", set(f) ? format_number(f) : "unknown");
-  meta.emplace_back("t0_s", format_number(o.t0_s));
+  meta.emplace_back("t0_s", format_number(t0));
+  meta.emplace_back("drive_phase_source", set(f) ? sum.drive_phase_source : "unknown (no frequency)");
   std::string cyc;
   for (int c : o.cycles) cyc += (cyc.empty() ? "" : ",") + std::to_string(c);
   meta.emplace_back("cycles", cyc.empty() ? "all" : cyc);
@@ -327,12 +464,51 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     m.emplace_back("n_groups", std::to_string(p.n_groups));
     m.emplace_back("noise_lag1_rho", p.grouping == profile::Grouping::kCycles || p.grouping == profile::Grouping::kNone ? "" : fmt::format("{:.3f}", p.rho));
     m.emplace_back("noise_sigma_m_per_s", format_number(p.noise_sigma_m_per_s));
+    if (p.lockin) {
+      sum.lockin = true;
+      m.emplace_back("lockin_harmonics", std::to_string(p.lockin_harmonics));
+      m.emplace_back("lockin_harmonics_requested", std::to_string(o.lockin_harmonics));
+      m.emplace_back(
+          "lockin",
+          fmt::format("per bin, weighted least squares of the pairs' mean v_theta on c0 + sum over odd h <= {} of "
+                      "a_h cos(h theta) + b_h sin(h theta), theta = 2 pi f (t - t0) (vane angle phi0 sin theta), "
+                      "regressors averaged over each pair's interval; standard errors clustered by {} ({} "
+                      "clusters{}; residual lag-1 correlation {:.3f})",
+                      p.lockin_harmonics, p.lockin_clusters, p.lockin_n_clusters,
+                      p.lockin_block_pairs ? fmt::format(" of {} pairs", p.lockin_block_pairs) : "",
+                      p.lockin_rho));
+      m.emplace_back("v_theta_lag_deg", "phase lag of v_theta's fundamental behind the vane's angular velocity; a "
+                                        "drive phase error adds to it and multiplies v_theta_inphase by its cosine");
+      m.emplace_back("v_abs_lockin_m_per_s", "mean |v_theta| over a cycle of the fitted waveform ((2/pi) amplitude for "
+                                             "a sinusoid); v_noise_lockin_m_per_s: its value for a zero waveform");
+    } else {
+      m.emplace_back("lockin", !set(f) ? "not run: the oscillation frequency is unknown"
+                               : phase_window ? "not run: a phase window or phase bins were selected"
+                               : o.lockin_harmonics == 0 ? "off (--lockin-harmonics 0)"
+                               : lockin_h == 0 ? "not run: too few pairs per cycle or in all for the fundamental "
+                                                 "(needs 12 pairs and f dt <= 1/4)"
+                                               : "not run");
+    }
     outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
     {
       std::vector<io::ProfileCsvRow> rows;
-      for (const auto& b : p.bins)
-        rows.push_back({b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise, b.n_vectors,
-                        b.n_masked, b.n_invalid});
+      for (const auto& b : p.bins) {
+        io::ProfileCsvRow r{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise, b.n_vectors,
+                            b.n_masked, b.n_invalid};
+        if (b.lockin.ok) {
+          r.amp = b.lockin.amplitude;
+          r.amp_se = b.lockin.amplitude_se;
+          r.lag_deg = b.lockin.lag_deg;
+          r.in_phase = b.lockin.in_phase;
+          r.v_abs_lockin = b.lockin.v_abs;
+          r.v_abs_lockin_se = b.lockin.v_abs_se;
+          r.v_noise_lockin = b.lockin.v_noise;
+          r.n_eff = b.lockin.n_eff;
+          // A value without a floor cannot be judged: both or neither.
+          if (!std::isfinite(r.v_noise_lockin)) r.v_abs_lockin = core::kUnset;
+        }
+        rows.push_back(r);
+      }
       io::write_profile_csv(outs.back()->stream(), m, rows);
     }
     outs.push_back(std::make_unique<io::AtomicOutput>(gpath, o.force));
@@ -349,8 +525,10 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
           g.pair = k;
           g.cycle = ps.cycle[k];
           g.phase_deg = 360.0 * ps.phase[k];
+          g.phase_span_deg = 360.0 * ps.phase_span[k];
           g.r_m = p.bins[b].r_m;
           g.v_abs = ps.v_abs[k * ps.n_bins + b];
+          g.v_theta = ps.v_theta[k * ps.n_bins + b];
           g.n_vectors = nv;
           rows.push_back(g);
         }

@@ -26,6 +26,18 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
     in.v_noise.push_back(row.v_noise);
     in.n_vectors.push_back(row.n_vectors);
     in.v_abs.push_back(row.v_abs);
+    if (p.has_lockin) {
+      in.v_abs_lockin.push_back(row.v_abs_lockin);
+      in.v_noise_lockin.push_back(row.v_noise_lockin);
+    }
+  }
+  if (p.has_lockin) {
+    const double H = p.meta_number("lockin_harmonics");
+    if (!(H >= 1 && H <= 31 && H == std::floor(H) && std::fmod(H, 2.0) == 1.0))
+      throw InputError(fmt::format("{}: header \"lockin_harmonics: {}\": expected an odd number 1..31 beside the "
+                                   "lock-in columns",
+                                   path, p.meta("lockin_harmonics")));
+    in.lockin_harmonics = static_cast<int>(H);
   }
   in.R_m = p.meta_number("R_m");
   if (std::isnan(in.R_m)) {
@@ -44,9 +56,12 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
                                  "by `shearzone profile`); the interval needs them",
                                  path, gpath.string()));
   in.pairs.n_bins = in.r_m.size();
+  bool theta = true;  // every row carries v_theta (older groups files do not)
   for (const auto& g : io::read_profile_groups_csv(gpath)) {
+    const bool known = g.cycle != io::ProfileGroupRow::kNoCycle;
     if (g.pair == in.pairs.num_pairs())
-      in.pairs.add_pair(g.cycle, g.cycle != io::ProfileGroupRow::kNoCycle ? g.phase_deg / 360.0 : core::kUnset);
+      in.pairs.add_pair(g.cycle, known ? g.phase_deg / 360.0 : core::kUnset, known ? g.phase_span_deg / 360.0 : 0.0);
+    theta = theta && std::isfinite(g.v_theta);
     // Bin index from the radius (same bins as the profile, ascending): the nearest
     // of the two bracketing centres, found by bisection (rows x log bins).
     auto it = std::lower_bound(in.r_m.begin(), in.r_m.end(), g.r_m);
@@ -56,8 +71,10 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
                                    format_number(g.r_m), path));
     const std::size_t idx = g.pair * in.pairs.n_bins + static_cast<std::size_t>(it - in.r_m.begin());
     in.pairs.v_abs[idx] = g.v_abs;
+    in.pairs.v_theta[idx] = g.v_theta;
     in.pairs.n_vectors[idx] = g.n_vectors;
   }
+  if (!theta) in.pairs.v_theta.clear();  // no lock-in interval without them
   return in;
 }
 
@@ -100,7 +117,15 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     wr.label = row.label;
     wr.status = row.res.status;
     wr.rc_m = row.res.rc_m;
-    if (row.res.status == profile::WidthStatus::kNoiseLimited) {
+    wr.estimator = row.res.estimator;
+    if (row.res.status == profile::WidthStatus::kNoiseLimited && row.res.estimator == profile::Estimator::kLockin) {
+      wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = core::kUnset;
+      wr.advice = fmt::format(
+          "{}: v_c = {} m/s is below {} x the lock-in floor {} m/s at the crossing: even the phase-locked amplitude "
+          "cannot resolve v_c; average more pairs or cycles (the floor falls like 1/sqrt(n))",
+          path.string(), format_number(wo.v_c_m_per_s), format_number(wo.noise_factor),
+          format_number(row.res.v_noise_m_per_s));
+    } else if (row.res.status == profile::WidthStatus::kNoiseLimited) {
       // An r_c that cannot be trusted is not reported.
       wr.rc_m = row.res.rc_m = row.res.ci_low_m = row.res.ci_high_m = core::kUnset;
       // v_c k / fps must exceed 5 x the PIV noise (px) in metres: sigma_px m_per_px.
@@ -115,9 +140,11 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
       }
       wr.advice = fmt::format(
           "{}: v_c = {} m/s is below {} x the noise floor {} m/s: r_c cannot be trusted; re-run "
-          "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS",
+          "`shearzone piv` with {} so that v_c k/fps exceeds 5x the PIV RMS{}",
           path.string(), format_number(wo.v_c_m_per_s), format_number(wo.noise_factor),
-          format_number(row.res.v_noise_m_per_s), k_text);
+          format_number(row.res.v_noise_m_per_s), k_text,
+          p.has_lockin ? "" : ", or give `shearzone profile` the drive frequency (--f-hz) so that the lock-in "
+                              "estimator can run");
     }
     report.push_back(wr);
     rows.push_back(std::move(row));
@@ -128,7 +155,11 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   meta.emplace_back("bootstrap", std::to_string(wo.bootstrap));
   meta.emplace_back("confidence", format_number(wo.confidence));
   meta.emplace_back("seed", std::to_string(wo.seed));
-  meta.emplace_back("rc_m", "first radius (outwards from the vane) where mean |v| < v_c, linear "
+  meta.emplace_back("estimator_option", profile::estimator_name(wo.estimator));
+  meta.emplace_back("estimator", "per row: mean_abs (the paper's mean |v| per bin) or lockin (the mean |v_theta| "
+                                 "implied by the phase-locked waveform of v_theta; auto takes it where mean_abs is "
+                                 "noise_limited)");
+  meta.emplace_back("rc_m", "first radius (outwards from the vane) where the estimator's velocity < v_c, linear "
                             "interpolation between bin centres; never_below: R (a lower bound); "
                             "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
   meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
@@ -137,18 +168,26 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
                     "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
                     "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
                     "residuals an AR(1) series of lag-1 correlation rc_ci_rho (AR-sieve bootstrap); "
-                    "pairs: the same about the mean (frequency unknown); none: no interval");
+                    "pairs: the same about the mean (frequency unknown); wild_cycles / wild_pair_blocks (lockin): "
+                    "wild bootstrap of the lock-in fit, signs flipped per cycle or per block of pairs "
+                    "(rc_ci_units clusters), widened by t_(G-1)/z; none: no interval");
+  meta.emplace_back("v_noise_m_per_s", "the floor the status used: mean_abs: median over bins of v_noise; lockin: "
+                                       "the lock-in floor at the crossing");
   io::AtomicOutput out(o.output, o.force);
   {
     io::CsvWriter w(out.stream(), meta,
-                    {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
+                    {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status", "estimator",
                      "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
     for (const auto& r : rows) {
       const bool ci = std::isfinite(r.res.ci_low_m);
+      const bool lk = r.res.estimator == profile::Estimator::kLockin;
+      const std::string method = !ci ? "none"
+                                  : lk ? (r.res.grouping == profile::Grouping::kCycles ? "wild_cycles" : "wild_pair_blocks")
+                                       : profile::grouping_name(r.res.grouping);
       w.row(std::vector<std::string>{
           r.label, r.N, r.phi0, io::format_number_or_empty(r.res.rc_m),
           io::format_number_or_empty(r.res.ci_low_m), io::format_number_or_empty(r.res.ci_high_m),
-          profile::width_status_name(r.res.status), ci ? profile::grouping_name(r.res.grouping) : "none",
+          profile::width_status_name(r.res.status), profile::estimator_name(r.res.estimator), method,
           ci ? std::to_string(r.res.bootstrap_units) : "",
           ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
           format_number(r.res.v_noise_m_per_s), r.n_pairs});

@@ -27,6 +27,9 @@ void ProfileOptions::validate() const {
   if (!(std::isfinite(r_min_m) && r_min_m >= 0 && r_min_m < r_max_m))
     throw ConfigError(fmt::format("profile: r_min = {} m must satisfy 0 <= r_min < r_max = {} m",
                                   r_min_m, r_max_m));
+  if (lockin_harmonics != 0 && !(lockin_harmonics >= 1 && lockin_harmonics <= 31 && lockin_harmonics % 2 == 1))
+    throw ConfigError(fmt::format("profile: lock-in harmonics {}: expected 0 (off) or an odd number 1..31",
+                                  lockin_harmonics));
   if ((r_max_m - r_min_m) / bin_m > 1e5)
     throw ConfigError(fmt::format("profile: bin width {} m gives more than 1e5 bins", bin_m));
 }
@@ -45,7 +48,7 @@ ProfileAccumulator::ProfileAccumulator(ProfileOptions options) : opt_(options) {
   noise_by_bin_.resize(opt_.num_bins());
 }
 
-void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle, double phase) {
+void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle, double phase, double span) {
   if (!(std::isfinite(dt_s) && dt_s > 0))
     throw InputError(fmt::format("profile: pair time step {} s: expected a positive number", dt_s));
   const std::size_t n = f.size();
@@ -54,9 +57,12 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
   const std::size_t nb = bins_.size();
   pair_cycle_.push_back(cycle);
   pair_phase_.push_back(phase);
+  pair_span_.push_back(std::isfinite(span) ? span : 0.0);
   pair_s_.resize(pair_s_.size() + nb, 0.0);
+  pair_st_.resize(pair_st_.size() + nb, 0.0);
   pair_n_.resize(pair_n_.size() + nb, 0.0);
   double* ps = pair_s_.data() + n_pairs_ * nb;
+  double* pst = pair_st_.data() + n_pairs_ * nb;
   double* pn = pair_n_.data() + n_pairs_ * nb;
   const double scale = opt_.m_per_px / dt_s;  // px per pair -> m/s
   for (std::size_t i = 0; i < f.ny(); ++i)
@@ -87,6 +93,7 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
       s.s_r += pc.v_r;
       ++s.n;
       ps[b] += a;
+      pst[b] += pc.v_theta;
       pn[b] += 1.0;
       NoiseSums& ns = noise_by_bin_[b];
       ns.s += pc.v_r;
@@ -105,10 +112,15 @@ RadialProfile ProfileAccumulator::finish_common() const {
   p.pairs.n_bins = nb;
   p.pairs.cycle = pair_cycle_;
   p.pairs.phase = pair_phase_;
+  p.pairs.phase_span = pair_span_;
   p.pairs.n_vectors = pair_n_;
   p.pairs.v_abs.assign(pair_s_.size(), 0.0);
+  p.pairs.v_theta.assign(pair_s_.size(), 0.0);
   for (std::size_t i = 0; i < pair_s_.size(); ++i)
-    if (pair_n_[i] > 0) p.pairs.v_abs[i] = pair_s_[i] / pair_n_[i];
+    if (pair_n_[i] > 0) {
+      p.pairs.v_abs[i] = pair_s_[i] / pair_n_[i];
+      p.pairs.v_theta[i] = pair_st_[i] / pair_n_[i];
+    }
   p.grouping = choose_grouping(p.pairs, opt_.grouping);
   const BinMeanBootstrap boot(p.pairs, p.grouping);
   p.n_groups = boot.units();
@@ -128,6 +140,16 @@ RadialProfile ProfileAccumulator::finish_common() const {
     o.v_r = s.s_r / n;
     o.v_abs_rms = std::sqrt(s.s_abs2 / n);
     o.v_abs_sem = se[b];
+  }
+  if (opt_.lockin_harmonics > 0 && n_pairs_ > 0 && p.pairs.phase_known()) {
+    const LockinFit fit(p.pairs, opt_.lockin_harmonics);
+    p.lockin = true;
+    p.lockin_harmonics = fit.harmonics();
+    p.lockin_clusters = fit.cluster_kind();
+    p.lockin_n_clusters = fit.clusters();
+    p.lockin_block_pairs = fit.block_pairs();
+    p.lockin_rho = fit.rho();
+    for (std::size_t b = 0; b < nb; ++b) p.bins[b].lockin = fit.bins()[b];
   }
   return p;
 }

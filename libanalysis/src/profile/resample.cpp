@@ -34,10 +34,12 @@ bool parse_grouping(const std::string& name, Grouping& g) {
   return false;
 }
 
-std::size_t PairSeries::add_pair(int c, double ph) {
+std::size_t PairSeries::add_pair(int c, double ph, double span) {
   cycle.push_back(c);
   phase.push_back(ph);
+  phase_span.push_back(span);
   v_abs.resize(v_abs.size() + n_bins, 0.0);
+  v_theta.resize(v_theta.size() + n_bins, 0.0);
   n_vectors.resize(n_vectors.size() + n_bins, 0.0);
   return cycle.size() - 1;
 }

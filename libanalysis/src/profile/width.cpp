@@ -10,6 +10,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/stats.hpp"
+#include "shearzone/profile/lockin.hpp"
 
 namespace shearzone::profile {
 
@@ -21,6 +22,28 @@ const char* width_status_name(WidthStatus s) {
     case WidthStatus::kNoiseLimited: return "noise_limited";
   }
   return "?";
+}
+
+const char* estimator_name(Estimator e) {
+  switch (e) {
+    case Estimator::kMeanAbs: return "mean_abs";
+    case Estimator::kLockin: return "lockin";
+    case Estimator::kAuto: return "auto";
+  }
+  return "?";
+}
+
+bool parse_estimator(const std::string& name, Estimator& e) {
+  if (name == "mean-abs" || name == "mean_abs") e = Estimator::kMeanAbs;
+  else if (name == "lockin") e = Estimator::kLockin;
+  else if (name == "auto") e = Estimator::kAuto;
+  else return false;
+  return true;
+}
+
+bool WidthInput::has_lockin() const {
+  if (v_abs_lockin.size() != r_m.size() || v_noise_lockin.size() != r_m.size()) return false;
+  return std::any_of(v_abs_lockin.begin(), v_abs_lockin.end(), [](double v) { return std::isfinite(v); });
 }
 
 void WidthOptions::validate() const {
@@ -44,6 +67,14 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
   w.R_m = R_m;
   w.pairs = p.pairs;
   w.grouping = p.grouping;
+  if (p.lockin) {
+    w.lockin_harmonics = p.lockin_harmonics;
+    for (const auto& b : p.bins) {
+      const bool ok = b.lockin.ok && std::isfinite(b.lockin.v_noise);
+      w.v_abs_lockin.push_back(ok ? b.lockin.v_abs : kNoValue);
+      w.v_noise_lockin.push_back(ok ? b.lockin.v_noise : kNoValue);
+    }
+  }
   return w;
 }
 
@@ -70,8 +101,90 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
   return R_m;
 }
 
+namespace {
+
+/// The interval factor for G clusters: t_(G-1) / z at the level's tail a.
+double small_sample_factor(double a, double G) {
+  return gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
+}
+
+WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
+  const std::size_t nb = in.r_m.size();
+  WidthResult res;
+  res.estimator = Estimator::kLockin;
+  // Bins without a lock-in value are skipped like empty bins.
+  std::vector<std::size_t> n(nb, 0);
+  for (std::size_t k = 0; k < nb; ++k) n[k] = std::isfinite(in.v_abs_lockin[k]) ? 1 : 0;
+  res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status);
+  // The floor where the decision was made.
+  std::vector<std::size_t> idx;
+  for (std::size_t k = 0; k < nb; ++k)
+    if (n[k]) idx.push_back(k);
+  double floor = 0;
+  if (res.status == WidthStatus::kNeverBelow) floor = in.v_noise_lockin[idx.back()];
+  else if (res.status == WidthStatus::kBelowAtVane) floor = in.v_noise_lockin[idx.front()];
+  else
+    for (std::size_t i = 1; i < idx.size(); ++i)
+      if (in.r_m[idx[i - 1]] <= res.rc_m && res.rc_m <= in.r_m[idx[i]]) {
+        floor = std::max(in.v_noise_lockin[idx[i - 1]], in.v_noise_lockin[idx[i]]);
+        break;
+      }
+  res.v_noise_m_per_s = floor;
+  if (opt.v_c_m_per_s < opt.noise_factor * floor) res.status = WidthStatus::kNoiseLimited;
+
+  const bool have_series = in.pairs.num_pairs() >= 2 && in.pairs.phase_known() &&
+                           in.pairs.v_theta.size() == in.pairs.num_pairs() * nb && in.lockin_harmonics > 0;
+  if (opt.bootstrap == 0 || !have_series) return res;
+  if (in.pairs.n_bins != nb)
+    throw InputError(fmt::format("width: the per-pair means have {} bins, the profile {}", in.pairs.n_bins, nb));
+  const LockinFit fit(in.pairs, in.lockin_harmonics);
+  if (fit.clusters() < 2) return res;
+  res.grouping = fit.block_pairs() == 0 ? Grouping::kCycles : Grouping::kPairs;
+  res.bootstrap_units = fit.clusters();
+  res.rho = fit.rho();
+  std::mt19937_64 rng(opt.seed);
+  std::vector<double> rcs, v;
+  rcs.reserve(static_cast<std::size_t>(opt.bootstrap));
+  WidthStatus st;
+  for (int b = 0; b < opt.bootstrap; ++b) {
+    fit.draw(rng, v);
+    // Keep the profile's bins: a bin without a value stays skipped.
+    for (std::size_t k = 0; k < nb; ++k)
+      if (!n[k]) v[k] = kNoValue;
+    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st));
+  }
+  const double a = 0.5 * (1.0 - opt.confidence);
+  const double f = small_sample_factor(a, static_cast<double>(res.bootstrap_units));
+  for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
+  res.ci_low_m = core::percentile(rcs, a);
+  res.ci_high_m = core::percentile(rcs, 1.0 - a);
+  return res;
+}
+
+WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt);
+
+}  // namespace
+
 WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
   opt.validate();
+  const std::size_t nb = in.r_m.size();
+  if (nb == 0 || in.v_abs.size() != nb || in.n_vectors.size() != nb)
+    throw InputError("width: the profile has no bins");
+  if (opt.estimator == Estimator::kLockin) {
+    if (!in.has_lockin())
+      throw InputError("width: the profile has no lock-in values (the drive frequency was unknown to `shearzone "
+                       "profile`, or it ran with --lockin-harmonics 0 or a phase window); use --estimator mean-abs");
+    return lockin_width(in, opt);
+  }
+  WidthResult res = mean_abs_width(in, opt);
+  if (opt.estimator == Estimator::kAuto && res.status == WidthStatus::kNoiseLimited && in.has_lockin())
+    return lockin_width(in, opt);
+  return res;
+}
+
+namespace {
+
+WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
   const std::size_t nb = in.r_m.size();
   if (nb == 0 || in.v_abs.size() != nb || in.n_vectors.size() != nb)
     throw InputError("width: the profile has no bins");
@@ -107,12 +220,14 @@ WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& opt) {
     // sqrt((G-1)/G) and the normal quantile is too small for G - 1 degrees of
     // freedom; widen the replicates about r_c by sqrt(G/(G-1)) t_(G-1)/z.
     const double G = static_cast<double>(res.bootstrap_units);
-    const double f = std::sqrt(G / (G - 1.0)) * gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
+    const double f = std::sqrt(G / (G - 1.0)) * small_sample_factor(a, G);
     for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
   }
   res.ci_low_m = core::percentile(rcs, a);
   res.ci_high_m = core::percentile(rcs, 1.0 - a);
   return res;
 }
+
+}  // namespace
 
 }  // namespace shearzone::profile

@@ -14,6 +14,16 @@
 //     v_noise_m_per_s     noise floor of mean |v| in the bin
 //     n_vectors           valid vectors averaged
 //     n_masked, n_invalid vectors masked out, vectors rejected by validation
+//   lock-in columns (profile/lockin.hpp; empty when the drive phase is unknown or the
+//   bin's pairs do not cover the cycle):
+//     v_theta_amp_m_per_s, v_theta_amp_se_m_per_s   amplitude of v_theta at the drive
+//                         frequency and its standard error
+//     v_theta_lag_deg     its phase lag behind the vane's angular velocity
+//     v_theta_inphase_m_per_s  the part in phase with the vane's angular velocity
+//     v_abs_lockin_m_per_s, v_abs_lockin_se_m_per_s  the mean |v_theta| the fitted
+//                         waveform implies, and its standard error
+//     v_noise_lockin_m_per_s  the floor of v_abs_lockin (falls like 1/sqrt(n))
+//     lockin_n_eff        effective number of independent pairs
 // A bin without vectors (n_vectors = 0) leaves every velocity cell empty.
 //
 // Groups (`<stem>_groups.csv`): one row per (pair, bin) with vectors, pair by pair:
@@ -21,7 +31,9 @@
 //     cycle               oscillation cycle floor(f (t - t0)); empty when f is unknown
 //     phase_deg           oscillation phase at the pair's mid-time; empty when f is unknown
 //     r_m                 the profile bin's centre (m)
+//     phase_span_deg      the drive phase the pair spans (360 f dt); empty when f is unknown
 //     v_abs_m_per_s       the pair's mean |v| in the bin
+//     v_theta_m_per_s     the pair's mean v_theta in the bin (the lock-in's data)
 //     n_vectors           vectors in that mean
 // `shearzone width` resamples these for its bootstrap interval.
 #pragma once
@@ -48,6 +60,10 @@ struct ProfileCsvRow {
   double v_abs_sem = core::kUnset;
   double v_noise = 0;
   std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
+  // Lock-in columns (NaN: none; see above).
+  double amp = core::kUnset, amp_se = core::kUnset, lag_deg = core::kUnset, in_phase = core::kUnset;
+  double v_abs_lockin = core::kUnset, v_abs_lockin_se = core::kUnset, v_noise_lockin = core::kUnset;
+  double n_eff = core::kUnset;
 };
 
 /// One (pair, bin) mean of the groups file.
@@ -56,17 +72,21 @@ struct ProfileGroupRow {
   std::size_t pair = 0;
   int cycle = kNoCycle;
   double phase_deg = core::kUnset;  ///< NaN when f is unknown
+  double phase_span_deg = 0;        ///< 0 when unknown
   double r_m = 0, v_abs = 0, n_vectors = 0;
+  double v_theta = core::kUnset;    ///< NaN in files written before the column existed
   std::size_t line = 0;  ///< source line (reading only)
 };
 
 /// What `width` reads back from a profile: r_m, v_abs_m_per_s, v_noise_m_per_s and
-/// n_vectors of every row (the other columns are not needed and may be absent; they are
-/// left NaN or 0), and the header block.
+/// n_vectors of every row, v_abs_lockin_m_per_s and v_noise_lockin_m_per_s when present
+/// (`has_lockin`; the other columns are not needed and may be absent; they are left NaN
+/// or 0), and the header block.
 struct ProfileCsv {
   std::filesystem::path path;
   core::Metadata metadata;
   std::vector<ProfileCsvRow> rows;
+  bool has_lockin = false;  ///< the lock-in columns exist and hold at least one value
   /// A header value, "" when absent.
   std::string meta(const std::string& key) const;
   /// A header value as a number, NaN when absent or not a number.

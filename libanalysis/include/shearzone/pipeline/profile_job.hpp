@@ -45,9 +45,22 @@ struct ProfileJobOptions {
   double bin_m = core::kUnset, bin_px = core::kUnset;
   double bead_diameter_m = 2.4e-3;  ///< the paper's steel beads
   bool exclude_replaced = false;
-  // Pair selection (needs f: given or attribute f_Hz).
+  // Pair selection (needs f: given or attribute f_Hz) and the drive phase.
   double f_Hz = core::kUnset;
-  double t0_s = 0.0;             ///< time of an upward zero crossing of phi(t)
+  /// Time of an upward zero crossing of phi(t), s. The drive phase comes from, in this
+  /// order: an angle log (`log_path`: phi0 sin(2 pi f (t - t0)) + c fitted to it by
+  /// least squares, f refined; log time = field time + log_offset_s, default the
+  /// file's vane_log_offset_s, else 0), t0_s when set, the file's vane_phase_rad
+  /// (t0 = -phase / (2 pi f), written by `piv` for its vane mask), else t0 = 0 (an
+  /// assumption, said in the header).
+  double t0_s = core::kUnset;
+  std::string log_path;          ///< angle log CSV (time_s, angle_rad)
+  double log_offset_s = core::kUnset;
+  /// Lock-in estimator (profile/lockin.hpp): highest odd harmonic H, 0 = off. It runs
+  /// when the drive phase is known and no phase window or phase bins are selected. H is
+  /// lowered (odd) until the pairs support it: at least 4 (H + 2) pairs, and
+  /// H f dt <= 1/4 (at least four pairs per period of the highest harmonic).
+  int lockin_harmonics = 7;
   std::vector<int> cycles;       ///< empty: all
   double phase_min_deg = 0.0, phase_max_deg = 360.0;
   /// Phase-resolved profiles: K equal phase bins over the phase range, one output
@@ -70,6 +83,9 @@ struct ProfileJobSummary {
   double noise_floor_m_per_s = 0;
   std::string geometry_source, scale_source, grouping;
   double rho = 0;
+  std::string drive_phase_source;  ///< where t0 came from ("" when f is unknown)
+  double t0_s = core::kUnset;
+  bool lockin = false;             ///< lock-in columns written
 };
 
 ProfileJobSummary run_profile_job(const ProfileJobOptions& options, const core::Metadata& header,

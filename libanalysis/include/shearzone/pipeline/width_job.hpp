@@ -29,6 +29,7 @@ struct WidthJobOptions {
 struct WidthRow {
   std::string label, advice;
   profile::WidthStatus status = profile::WidthStatus::kOk;
+  profile::Estimator estimator = profile::Estimator::kMeanAbs;  ///< the one used
   double rc_m = 0;  ///< NaN when not reported (noise_limited)
 };
 

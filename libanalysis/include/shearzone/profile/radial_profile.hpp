@@ -31,10 +31,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/profile/lockin.hpp"
 #include "shearzone/profile/resample.hpp"
 
 namespace shearzone::profile {
@@ -51,6 +53,9 @@ struct ProfileOptions {
   Grouping grouping = Grouping::kNone;
   int se_replicates = 1000;                 ///< bootstrap replicates for the standard errors
   std::uint64_t seed = 1;                   ///< their seed (deterministic)
+  /// Lock-in estimator (profile/lockin.hpp): highest odd harmonic H, 0 = off. It runs
+  /// only when every pair's drive phase is known.
+  int lockin_harmonics = 1;
   /// Throws ConfigError naming the option.
   void validate() const;
   std::size_t num_bins() const;
@@ -66,6 +71,7 @@ struct ProfileBin {
   double v_abs_sem = kNoValue;             ///< standard error of v_abs, m/s (NaN: none)
   double v_noise = 0;                      ///< noise floor of v_abs, m/s
   std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
+  LockinBin lockin;                        ///< phase-locked v_theta (ok = false: none)
 };
 
 struct RadialProfile {
@@ -77,6 +83,12 @@ struct RadialProfile {
   std::size_t n_groups = 0;      ///< units resampled: cycles or pairs (0: none)
   double rho = 0;                ///< lag-1 autocorrelation of the pairs' noise (pairs groupings)
   double noise_sigma_m_per_s = 0;  ///< per-component noise (outer-region method), m/s
+  // Lock-in estimator (when it ran): harmonics, clustering of its standard errors.
+  bool lockin = false;
+  int lockin_harmonics = 0;
+  std::string lockin_clusters;     ///< "cycles" or "pair_blocks"
+  std::size_t lockin_n_clusters = 0, lockin_block_pairs = 0;
+  double lockin_rho = 0;
 };
 
 /// Accumulates fields pair by pair (a clip is never held whole).
@@ -84,13 +96,16 @@ class ProfileAccumulator {
  public:
   explicit ProfileAccumulator(ProfileOptions options);
   /// Adds one pair: displacements in px over dt_s seconds, with its oscillation
-  /// cycle and phase (fraction of a cycle in [0, 1)) when the frequency is known.
+  /// cycle and phase (fraction of a cycle in [0, 1), at mid-pair) when the frequency
+  /// is known, and the fraction of a cycle the pair spans (f dt_s).
   /// Pairs must come in time order. Throws InputError if dt_s is not positive or
   /// the arrays do not match the grid.
   void add(const core::VectorField& field, double dt_s, int cycle = PairSeries::kNoCycle,
-           double phase = kNoValue);
+           double phase = kNoValue, double phase_span = 0.0);
   std::size_t num_pairs() const { return n_pairs_; }
   const ProfileOptions& options() const { return opt_; }
+  /// The lock-in's highest harmonic (0: off), e.g. capped once the pairs are known.
+  void set_lockin_harmonics(int h) { opt_.lockin_harmonics = h; }
 
   /// Noise from the bins whose centre lies in [noise_r_min_m, noise_r_max_m] (a
   /// region that does not move). Throws NoResultError if no usable vector lies there.
@@ -113,8 +128,8 @@ class ProfileAccumulator {
   ProfileOptions opt_;
   std::vector<Sums> bins_;
   std::vector<int> pair_cycle_;
-  std::vector<double> pair_phase_;
-  std::vector<double> pair_s_, pair_n_;           // [pair * bins + bin]: sum |v|, count
+  std::vector<double> pair_phase_, pair_span_;
+  std::vector<double> pair_s_, pair_st_, pair_n_;  // [pair * bins + bin]: sum |v|, sum v_theta, count
   std::vector<NoiseSums> noise_by_bin_;          // v_r sums per bin
   std::size_t n_pairs_ = 0;
   std::size_t replaced_used_ = 0;

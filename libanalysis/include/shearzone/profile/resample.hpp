@@ -59,17 +59,19 @@ const char* grouping_name(Grouping g);
 /// Parses a grouping name; returns false if unknown.
 bool parse_grouping(const std::string& name, Grouping& g);
 
-/// Per pair (in time order) and bin: mean |v| and count.
+/// Per pair (in time order) and bin: mean |v|, mean v_theta and count.
 struct PairSeries {
   static constexpr int kNoCycle = std::numeric_limits<int>::min();
   std::size_t n_bins = 0;
   std::vector<int> cycle;        ///< per pair; kNoCycle when the frequency is unknown
-  std::vector<double> phase;     ///< per pair, fraction of a cycle in [0, 1); NaN if unknown
+  std::vector<double> phase;     ///< per pair, fraction of a cycle in [0, 1) at mid-pair; NaN if unknown
+  std::vector<double> phase_span;///< per pair, f dt: the fraction of a cycle the pair spans (0 if unknown)
   std::vector<double> v_abs;     ///< [pair * n_bins + bin], m/s (0 where the count is 0)
+  std::vector<double> v_theta;   ///< [pair * n_bins + bin], signed mean v_theta, m/s (0 where the count is 0)
   std::vector<double> n_vectors; ///< [pair * n_bins + bin]
   std::size_t num_pairs() const { return cycle.size(); }
   /// Appends a pair with empty bins and returns its index.
-  std::size_t add_pair(int cycle, double phase);
+  std::size_t add_pair(int cycle, double phase, double phase_span = 0.0);
   /// Cycles that hold at least one vector.
   std::size_t num_cycles() const;
   bool phase_known() const;

@@ -15,6 +15,18 @@
 // under the grouping of profile/resample.hpp (whole cycles, or pairs with the
 // phase modulation removed and the residuals an AR(1) series); a single pair gives
 // no interval (NaN). Seeded: deterministic.
+//
+// Estimators (Estimator):
+//   mean_abs  the paper's mean |v| per bin (above);
+//   lockin    the mean |v_theta| implied by the phase-locked waveform of v_theta
+//             (profile/lockin.hpp), whose noise floor falls like 1/sqrt(n). The same
+//             scan; noise_limited when v_c < noise_factor x the lock-in floor at the
+//             crossing (the larger of the two bracketing bins' floors; the last bin's
+//             for never_below, the first's for below_at_vane). Interval: wild
+//             bootstrap of the lock-in fit (signs flipped per cluster: cycles or
+//             blocks of pairs), widened by t_(G-1) / z for G clusters;
+//   auto      mean_abs, unless it is noise_limited and the profile has lock-in values:
+//             then lockin. The result says which was used.
 #pragma once
 
 #include <cstdint>
@@ -28,12 +40,18 @@ namespace shearzone::profile {
 enum class WidthStatus { kOk, kNeverBelow, kBelowAtVane, kNoiseLimited };
 const char* width_status_name(WidthStatus s);
 
+enum class Estimator { kMeanAbs, kLockin, kAuto };
+const char* estimator_name(Estimator e);  ///< "mean_abs", "lockin", "auto"
+/// Parses mean-abs / mean_abs, lockin, auto; false if unknown.
+bool parse_estimator(const std::string& name, Estimator& e);
+
 struct WidthOptions {
   double v_c_m_per_s = 4e-5;   ///< threshold velocity
   double noise_factor = 3.0;   ///< noise_limited when v_c < noise_factor * v_noise
   int bootstrap = 2000;        ///< resamples (0: no interval)
   double confidence = 0.95;    ///< two-sided level of the interval
   std::uint64_t seed = 1;      ///< bootstrap seed
+  Estimator estimator = Estimator::kAuto;
   void validate() const;
 };
 
@@ -45,10 +63,15 @@ struct WidthInput {
   double R_m = 0;                             ///< cup radius (r_c when never below)
   PairSeries pairs;                           ///< per-pair bin means (may be empty)
   Grouping grouping = Grouping::kNone;        ///< how to resample them (kNone: no interval)
+  // Lock-in values per bin (empty vectors: none; NaN in a bin: no value there).
+  std::vector<double> v_abs_lockin, v_noise_lockin;
+  int lockin_harmonics = 0;                   ///< H of the profile's fit (for the interval)
+  bool has_lockin() const;
   static WidthInput from_profile(const RadialProfile& p, double R_m);
 };
 
 struct WidthResult {
+  Estimator estimator = Estimator::kMeanAbs;  ///< the one used (never kAuto)
   double rc_m = 0;
   double ci_low_m = kNoValue, ci_high_m = kNoValue;  ///< NaN: no interval
   WidthStatus status = WidthStatus::kOk;
