@@ -84,6 +84,9 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
                 sum.pairs / std::max(sum.seconds, 1e-9));
     if (j.vane.log_offset_auto)
       std::printf("piv: angle log offset found from the video: %.3f s\n", sum.log_offset_s);
+    if (j.vane.phase_auto)
+      std::printf("piv: vane phase found from the video: %.4f rad (amplitude %.4f rad, rms residual %.2g rad)\n",
+                  sum.phase_rad, sum.phase_amplitude_rad, sum.phase_rms_rad);
   }
   return kExitOk;
 }
@@ -221,6 +224,8 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   c->add_flag("--log-offset-auto", j.vane.log_offset_auto,
               "Find the log offset by matching the vane angle seen in the frames");
+  c->add_flag("--phase-auto", j.vane.phase_auto,
+              "Find the vane phase by fitting phi0 sin(2 pi f t + phase) to the vane angle seen in the frames");
   // Attributes
   c->add_option("--m-per-px", s->m_per_px,
                 "Calibration stored in the output, m per px; range: > 0, finite");

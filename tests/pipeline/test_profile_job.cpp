@@ -1,5 +1,6 @@
 // profile and width jobs end to end: rendered frames -> PIV -> v(r) -> r_c.
 #include <cmath>
+#include <fstream>
 
 #include <catch2/catch.hpp>
 
@@ -10,7 +11,9 @@
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
+#include "shearzone/io/field_file.hpp"
 #include "shearzone/synth/generator.hpp"
+#include "shearzone/synth/zone_fields.hpp"
 #include "support/temp_dir.hpp"
 
 using namespace shearzone;
@@ -255,5 +258,86 @@ TEST_CASE("profile refuses non-finite measured vectors in a field file", "[pipel
   o.bin_px = 10;
   CHECK_THROWS_WITH(pipeline::run_profile_job(o, {}),
                     Contains("f.h5: /pairs/u_px[0][1][1] = nan: expected a finite displacement"));
+  CHECK_FALSE(fs::exists(o.output));
+}
+
+namespace {
+
+/// The issue-15 clip (0.5 Hz, 150 pairs, 16 px grid, noise-free) as an HDF5 field file
+/// whose vane_phase_rad attribute says `phase_rad` while the beads follow phase 0.
+fs::path zone_clip(const fs::path& dir, double phase_rad) {
+  synth::ZoneFieldOptions z;
+  z.width_px = z.height_px = 688;
+  z.centre_x_px = z.centre_y_px = 343.5;
+  z.spacing_px = 16;
+  z.f_Hz = 0.5;
+  z.noise_px = 0;
+  fs::create_directories(dir);
+  const fs::path path = dir / "fields.h5";
+  io::FieldFileWriter w(path);
+  for (std::size_t k = 0; k < 150; ++k) w.append(synth::zone_pair(z, k), static_cast<std::int64_t>(k),
+                                                 static_cast<std::int64_t>(k + 1), k / z.fps, 1 / z.fps);
+  w.set_attribute("f_Hz", z.f_Hz);
+  w.set_attribute("m_per_px", z.m_per_px);
+  w.set_attribute("centre_x_px", z.centre_x_px);
+  w.set_attribute("centre_y_px", z.centre_y_px);
+  w.set_attribute("vane_phase_rad", phase_rad);
+  w.close();
+  // The rheometer's angle log: the true drive, phi = 0.3 sin(2 pi f t), at 100 Hz,
+  // starting 1 s before the video (log time = field time + 1 s).
+  std::ofstream log(dir / "angle.csv");
+  log << "time_s,angle_rad\n";
+  for (int i = 0; i <= 900; ++i) {
+    const double t = 0.01 * i;
+    log << t << "," << 0.3 * std::sin(2 * M_PI * z.f_Hz * (t - 1.0)) << "\n";
+  }
+  return path;
+}
+
+}  // namespace
+
+TEST_CASE("the drive phase: a 10 degree error in vane_phase_rad shows as cos 10 in the in-phase amplitude; "
+          "the angle log removes it",
+          "[pipeline][profile][lockin]") {
+  TempDir tmp("drive_phase");
+  const double err = 10 * M_PI / 180;
+  const fs::path f = zone_clip(tmp / "in", err);
+  pipeline::ProfileJobOptions o;
+  o.input = f;
+  o.output = tmp / "attr.csv";
+  o.vane_radius_px = 125;
+  o.cup_radius_px = 340;
+  o.bin_m = 1.2e-3;
+  o.lockin_harmonics = 1;
+  auto sum = pipeline::run_profile_job(o, {});
+  CHECK_THAT(sum.drive_phase_source, Contains("vane_phase_rad"));
+  CHECK(sum.lockin);
+  auto t = io::read_csv(o.output);
+  auto amp = t.numeric_column("v_theta_amp_m_per_s"), inph = t.numeric_column("v_theta_inphase_m_per_s"),
+       lag = t.numeric_column("v_theta_lag_deg");
+  std::vector<double> amp_attr = amp;
+  for (std::size_t b = 0; b + 1 < amp.size(); ++b) {
+    CHECK(inph[b] / amp[b] == Approx(std::cos(err)).epsilon(1e-6));
+    CHECK(std::abs(lag[b]) == Approx(10).margin(1e-6));
+  }
+  o.output = tmp / "log.csv";
+  o.log_path = (tmp / "in" / "angle.csv").string();
+  o.log_offset_s = 1.0;
+  sum = pipeline::run_profile_job(o, {});
+  CHECK_THAT(sum.drive_phase_source, Contains("angle log"));
+  CHECK(sum.t0_s == Approx(0).margin(1e-6));
+  t = io::read_csv(o.output);
+  amp = t.numeric_column("v_theta_amp_m_per_s");
+  inph = t.numeric_column("v_theta_inphase_m_per_s");
+  lag = t.numeric_column("v_theta_lag_deg");
+  for (std::size_t b = 0; b + 1 < amp.size(); ++b) {
+    CHECK(inph[b] / amp[b] == Approx(1).epsilon(1e-8));
+    CHECK(std::abs(lag[b]) < 1e-3);
+    CHECK(amp[b] == Approx(amp_attr[b]).epsilon(1e-9));  // the magnitude never saw the error
+  }
+  // A log at another frequency than the fields': the inputs disagree, refuse.
+  o.f_Hz = 0.6;
+  o.output = tmp / "bad.csv";
+  CHECK_THROWS_AS(pipeline::run_profile_job(o, {}), ConfigError);
   CHECK_FALSE(fs::exists(o.output));
 }

@@ -10,6 +10,7 @@
 #include "shearzone/core/vane.hpp"
 #include "shearzone/piv/mask.hpp"
 #include "shearzone/piv/piv.hpp"
+#include "shearzone/piv/vane_angle.hpp"
 #include "support/piv_eval.hpp"
 
 using namespace shearzone;
@@ -337,4 +338,24 @@ TEST_CASE("A fixed synthetic pair gives the pinned field bit for bit", "[piv]") 
   }
   INFO("field hash " << std::hex << h);
   CHECK(h == 0xaef78e6d4954f40dULL);  // the same with 1 and 2 OpenMP threads
+}
+
+TEST_CASE("the vane phase is fitted from measured angles, and refused over less than a quarter cycle", "[piv]") {
+  // Angles as estimate_vane_angle reports them: phi0 sin(2 pi f t + phase) + offset,
+  // with 0.25 deg grid noise (uniform, deterministic).
+  const double f = 0.5, phase = 0.7, phi0 = 0.3;
+  std::vector<double> t, a;
+  for (int k = 0; k < 100; ++k) {
+    t.push_back(k / 25.0);
+    const double jitter = 0.002 * std::sin(12.9898 * k);  // below the 0.25 deg estimator grid
+    a.push_back(phi0 * std::sin(2 * M_PI * f * t.back() + phase) + 0.01 + jitter);
+  }
+  const auto fit = piv::fit_vane_phase(t, a, f);
+  CHECK(fit.phase_rad == Approx(phase).margin(0.01));
+  CHECK(fit.amplitude_rad == Approx(phi0).margin(0.003));
+  CHECK(fit.offset_rad == Approx(0.01).margin(0.002));
+  CHECK(fit.rms_rad < 0.002);
+  t.resize(10);  // 0.36 s = 0.18 cycle
+  a.resize(10);
+  CHECK(std::isnan(piv::fit_vane_phase(t, a, f).phase_rad));
 }

@@ -51,6 +51,8 @@ class VaneAngle {
   const std::vector<double>& log_angles() const { return angle_; }
   void set_log_offset(double s) { o_.log_offset_s = s; }
   double log_offset() const { return o_.log_offset_s; }
+  void set_phase(double p) { o_.phase_rad = p; }
+  double phase() const { return o_.phase_rad; }
 
   /// Blade-0 angle (angle0 + phi) at frame time t, rad.
   double at(double t_s, const std::string& frame_label) const {
@@ -158,6 +160,8 @@ void PivJobOptions::validate() const {
   if (vane.geometry.blades > 0 && vane.log_path.empty() && !(vane.f_Hz >= 0))
     throw ConfigError(fmt::format("vane frequency {} Hz: must be >= 0", format_number(vane.f_Hz)));
   if (!(vane.margin_px >= 0)) throw ConfigError("vane margin: must be >= 0 px");
+  if (vane.phase_auto && (vane.geometry.blades == 0 || !vane.log_path.empty() || !(vane.f_Hz > 0)))
+    throw ConfigError("--phase-auto finds the phase of the vane's sinusoid: it needs --vane, --f-hz and no --angle-log");
 }
 
 PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
@@ -172,13 +176,12 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
   }
   VaneAngle vane_angle(o.vane);
-  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto) {
-    // Align the log with the video: the vane angle measured in each selected frame
-    // against the log at t + offset (blade symmetry: angles within +-pi/blades).
+  // The vane angle seen in each selected frame, relative to angle0 (blade symmetry:
+  // within +-pi/blades), with the frame times.
+  auto measure_vane = [&](std::vector<double>& ts, std::vector<double>& phis) {
     auto src = io::open_frames(o.inputs, o.fps, o.grey);
     const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
     const double half = std::numbers::pi / o.vane.geometry.blades;
-    std::vector<double> ts, phis;
     io::Frame fr;
     while (src->next(fr)) {
       if (fr.index < o.first_frame) continue;
@@ -187,9 +190,38 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       phis.push_back(piv::estimate_vane_angle(fr.gray, o.centre_x_px, o.centre_y_px,
                                               o.vane.geometry, a0 - half, a0 + half) - a0);
     }
-    if (ts.empty()) throw InputError(fmt::format("{}: no frame to align the angle log with", o.inputs.front()));
+    if (ts.empty()) throw InputError(fmt::format("{}: no frame to measure the vane angle in", o.inputs.front()));
+  };
+  PivJobSummary sum;
+  sum.phase_rad = o.vane.phase_rad;
+  if (o.vane.phase_auto) {
+    std::vector<double> ts, phis;
+    measure_vane(ts, phis);
+    const auto fit = piv::fit_vane_phase(ts, phis, o.vane.f_Hz);
+    if (!std::isfinite(fit.phase_rad))
+      throw InputError(fmt::format("{}: {} frames span less than a quarter cycle of {} Hz: the vane phase cannot be "
+                                   "found; give --phase-rad",
+                                   o.inputs.front(), ts.size(), format_number(o.vane.f_Hz)));
+    // The fit must see the vane the options describe: an amplitude within 25 % of phi0.
+    if (!(std::abs(fit.amplitude_rad - std::abs(o.vane.phi0_rad)) <= 0.25 * std::abs(o.vane.phi0_rad)))
+      throw InputError(fmt::format("{}: the vane angle seen in the frames oscillates with amplitude {:.4g} rad, "
+                                   "--phi0-rad says {}: expected within 25 %; check --vane, --centre and "
+                                   "--vane-angle0-deg, or give --phase-rad",
+                                   o.inputs.front(), fit.amplitude_rad, format_number(o.vane.phi0_rad)));
+    // phi0 < 0 is the same sinusoid shifted by pi.
+    sum.phase_rad = o.vane.phi0_rad < 0 ? std::remainder(fit.phase_rad + std::numbers::pi, 2 * std::numbers::pi)
+                                        : fit.phase_rad;
+    sum.phase_rms_rad = fit.rms_rad;
+    sum.phase_amplitude_rad = fit.amplitude_rad;
+    vane_angle.set_phase(sum.phase_rad);
+  }
+  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto) {
+    // Align the log with the video: the vane angle measured in each selected frame
+    // against the log at t + offset.
+    std::vector<double> ts, phis;
+    measure_vane(ts, phis);
     const double off = piv::best_log_offset(ts, phis, vane_angle.log_times(), vane_angle.log_angles(),
-                                            0.25 / src->fps());
+                                            0.25 / source->fps());
     if (std::isnan(off))
       throw InputError(fmt::format(
           "{}: the angle log spans {} s, less than the clip's {} s; it "
@@ -228,7 +260,6 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   };
   std::deque<Unique> window;  // the last pair_spacing + 1 unique frames
   std::size_t unique_count = 0;
-  PivJobSummary sum;
   io::AtomicOutput out(o.output, o.force);
   io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
   core::Metadata meta = header;
@@ -255,8 +286,11 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
             format_number(o.vane.geometry.radius_px), format_number(o.vane.margin_px),
             format_number(o.vane.angle0_deg),
             o.vane.log_path.empty()
-                ? fmt::format("{} sin(2 pi {} t + {})", format_number(o.vane.phi0_rad),
-                              format_number(o.vane.f_Hz), format_number(o.vane.phase_rad))
+                ? fmt::format("{} sin(2 pi {} t + {}){}", format_number(o.vane.phi0_rad),
+                              format_number(o.vane.f_Hz), format_number(vane_angle.phase()),
+                              o.vane.phase_auto
+                                  ? fmt::format(" (phase found from the video: rms residual {:.3g} rad)", sum.phase_rms_rad)
+                                  : "")
                 : fmt::format("log {} at t + {} s{}", o.vane.log_path, format_number(vane_angle.log_offset()),
                               o.vane.log_offset_auto ? " (offset found from the video)" : "")));
   meta.emplace_back("units", "displacements in px per pair from frame a to frame b");
@@ -362,6 +396,13 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       }
       if (sum.damaged.size() > 1000) list += ",...";
       fields.set_attribute("damaged_frames", list.empty() ? std::string("none") : list);
+    }
+    // The drive the vane mask followed: what `profile` locks its phase to.
+    if (o.vane.geometry.blades > 0 && o.vane.log_path.empty() && o.vane.f_Hz > 0)
+      fields.set_attribute("vane_phase_rad", vane_angle.phase());
+    if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty()) {
+      fields.set_attribute("vane_angle_log", o.vane.log_path);
+      fields.set_attribute("vane_log_offset_s", vane_angle.log_offset());
     }
     if (!std::isnan(o.centre_x_px)) {
       fields.set_attribute("centre_x_px", o.centre_x_px);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <numbers>
 
+#include <Eigen/Dense>
+
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/piv/piv.hpp"
@@ -100,6 +102,35 @@ double best_log_offset(const std::vector<double>& ft, const std::vector<double>&
     }
   }
   return best;
+}
+
+VanePhaseFit fit_vane_phase(const std::vector<double>& t, const std::vector<double>& y, double f_Hz) {
+  VanePhaseFit out;
+  const std::size_t n = std::min(t.size(), y.size());
+  if (n < 4 || !(f_Hz > 0) || !((t[n - 1] - t[0]) * f_Hz >= 0.25)) {
+    out.phase_rad = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
+  const double w = 2.0 * std::numbers::pi * f_Hz;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d x(std::sin(w * t[i]), std::cos(w * t[i]), 1.0);
+    A += x * x.transpose();
+    r += y[i] * x;
+  }
+  const Eigen::Vector3d b = A.ldlt().solve(r);
+  // A sin + B cos = R sin(w t + phase), phase = atan2(B, A).
+  out.amplitude_rad = std::hypot(b(0), b(1));
+  out.phase_rad = std::atan2(b(1), b(0));
+  out.offset_rad = b(2);
+  double ss = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double e = y[i] - (b(0) * std::sin(w * t[i]) + b(1) * std::cos(w * t[i]) + b(2));
+    ss += e * e;
+  }
+  out.rms_rad = std::sqrt(ss / static_cast<double>(n));
+  return out;
 }
 
 }  // namespace shearzone::piv

@@ -46,6 +46,11 @@ struct VaneMaskOptions {
   /// Find the offset instead: the vane angle is measured in every selected frame
   /// (piv/vane_angle.hpp) and the offset that best matches the log is used.
   bool log_offset_auto = false;
+  /// Find the phase of the sinusoid instead: the vane angle is measured in every
+  /// selected frame and phi0 sin(2 pi f t + phase) + c fitted to it by least squares
+  /// (f given). The phase used is written to the fields as vane_phase_rad, the drive
+  /// phase `profile` locks to.
+  bool phase_auto = false;
 };
 
 struct PivJobOptions {
@@ -84,6 +89,9 @@ struct PivJobSummary {
   std::size_t vectors_per_pair = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
   double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
+  double phase_rad = 0.0;       ///< the vane phase used (found, with phase_auto)
+  double phase_rms_rad = 0.0;   ///< rms residual of the phase fit (phase_auto)
+  double phase_amplitude_rad = 0.0;  ///< amplitude of the fitted sinusoid (phase_auto)
   double seconds = 0.0;         ///< wall time of the job
 };
 
