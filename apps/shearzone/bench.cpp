@@ -1,9 +1,11 @@
 // `shearzone bench piv`: the PIV speed-accuracy chart and failure map (CSV).
+// `shearzone bench profile`: profile and width on a long synthetic clip: time, memory, r_c.
 // `shearzone bench sim`: engine speed against bead count, accuracy against h and the cap.
 #include <cstdio>
 #include <memory>
 
 #include "shearzone/pipeline/bench_piv.hpp"
+#include "shearzone/pipeline/bench_profile.hpp"
 #include "shearzone/pipeline/bench_sim.hpp"
 #include "subcommands.hpp"
 
@@ -22,6 +24,21 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   p->add_option("--width", o->width_px, "Pair width, px; range: 8..8192")->capture_default_str();
   p->add_option("--height", o->height_px, "Pair height, px; range: 8..8192")->capture_default_str();
+  auto po = std::make_shared<pipeline::BenchProfileOptions>();
+  auto pout = std::make_shared<std::string>();
+  CLI::App* pr = bench->add_subcommand(
+      "profile", "profile + width on a long synthetic clip (default: 4 min of 1080p): time, memory, r_c vs truth");
+  pr->add_option("-o,--output", *pout, "Output folder for the CSV files")->required();
+  pr->add_flag("--force", po->force, "Replace existing files");
+  pr->add_option("--pairs", po->pairs, "Pairs of the clip (25 per second); range: 12..1000000")->capture_default_str();
+  pr->add_option("--spacing-px", po->spacing_px, "PIV grid step, px; range: 2..256")->capture_default_str();
+  pr->add_option("--width", po->width_px, "Frame width, px; range: 688..8192")->capture_default_str();
+  pr->add_option("--height", po->height_px, "Frame height, px; range: 688..8192")->capture_default_str();
+  pr->add_option("--f-hz", po->f_Hz, "Drive frequency, Hz; range: 0 < f <= 5")->capture_default_str();
+  pr->add_option("--noise-px", po->noise_px, "PIV noise per component, px; range: 0..1")->capture_default_str();
+  pr->add_option("--lockin-harmonics", po->lockin_harmonics, "Lock-in harmonics (as profile); range: 0 or odd 1..31")
+      ->capture_default_str();
+  pr->add_flag("--keep-fields", po->keep_fields, "Keep the generated zone_fields.h5 (about 10 bytes per vector)");
   auto so = std::make_shared<pipeline::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
   CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap");
@@ -65,6 +82,18 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
                std::printf("plot: /usr/bin/python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
              }
              (void)p;
+             return kExitOk;
+           }},
+          {pr, [pr, po, pout, &ctx] {
+             po->out_dir = *pout;
+             core::ProgressReporter progress("bench profile", ctx.level);
+             const auto sum = pipeline::run_profile_bench(*po, ctx.header(), progress.callback());
+             progress.finish();
+             if (ctx.level != core::LogLevel::kQuiet) {
+               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
+               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
+             }
+             (void)pr;
              return kExitOk;
            }},
           {s, [s, so, sout, &ctx] {
