@@ -32,7 +32,7 @@ echo "== 3. Bead top view around an oscillating four-blade vane (shear zone), 25
 "$SZ" synth beads --config data-samples/synth/beads_vane.toml -o "$OUT/beads_vane"
 echo "== 4. PIV of the bead clip, with the rotating vane masked (-> HDF5 fields)"
 "$SZ" piv "$OUT/beads_vane/video.mp4" -o "$OUT/beads_vane/fields.h5" \
-    --centre 319.5,239.5 --vane 4,6,110 --phi0-rad 0.3 --f-hz 0.5 --N 9
+    --centre 319.5,239.5 --vane 4,6,110 --phi0-rad 0.3 --f-hz 0.5 --phase-auto --N 9
 "$PY" scripts/plot_piv.py "$OUT/beads_vane/piv_field.png" "$OUT/beads_vane/fields.h5" \
     "$OUT/beads_vane/video.mp4" --every 3 --circles-px 110,235 \
     --title "PIV of the synthetic bead clip (circles: vane tips, cup wall)"
@@ -47,6 +47,8 @@ echo "== 6. Radial profile v(r) of the clip and the shear-zone width r_c"
 "$SZ" profile "$OUT/beads_vane/fields.h5" -o "$OUT/beads_vane/profile.csv" \
     --radii-px 110,235 --cup-radius-m 0.034
 "$SZ" width "$OUT/beads_vane/profile.csv" -o "$OUT/beads_vane/widths.csv" --vc 2e-3
+# The same width from the lock-in estimator (the phase-locked amplitude of v_theta).
+"$SZ" width "$OUT/beads_vane/profile.csv" -o "$OUT/beads_vane/widths_lockin.csv" --vc 2e-3 --estimator lockin
 "$PY" scripts/plot_fig2.py profiles "$OUT/beads_vane/fig2a_profile.png" \
     "$OUT/beads_vane/profile.csv" --vc 2e-3 --widths "$OUT/beads_vane/widths.csv"
 echo "== 7. Fits and collapse of r_c(phi0) for four chain lengths (data-samples/widths)"

@@ -88,6 +88,16 @@ def profiles(a):
         rn, vn = szplot.finite(column(rows, "r_m"), column(rows, "v_noise_m_per_s"))
         if len(vn) and i == 0:
             ax.plot(rn * 1e3, vn * 1e3, color="0.55", ls="-.", lw=0.8, label="PIV noise level")
+        # The lock-in estimate (the mean |v_theta| of the phase-locked waveform) and its
+        # floor, where the profile has them: dashed, same colour.
+        if "v_abs_lockin_m_per_s" in rows[0]:
+            rl, vl = szplot.finite(column(rows, "r_m"), column(rows, "v_abs_lockin_m_per_s"))
+            if len(vl):
+                ax.plot(rl * 1e3, vl * 1e3, color=st["color"], ls="--", lw=0.9,
+                        label="lock-in mean |v$_\\theta$|" if i == 0 else None)
+            rf, vf = szplot.finite(column(rows, "r_m"), column(rows, "v_noise_lockin_m_per_s"))
+            if len(vf) and i == 0:
+                ax.plot(rf * 1e3, vf * 1e3, color="0.55", ls=(0, (4, 1, 1, 1, 1, 1)), lw=0.8, label="lock-in noise level")
         for key in ("Rv_m", "R_m"):
             if math.isfinite(num(meta.get(key))):
                 radii.add((key, num(meta[key]) * 1e3))
@@ -105,6 +115,8 @@ def profiles(a):
                 txt += f" [{lo:.{dec}f}, {hi:.{dec}f}]"
             if status != "ok":
                 txt += f" ({status})"
+            if w.get("estimator") == "lockin":
+                txt += " lock-in"
             ax.axvline(rc, color=st["color"], ls=":", lw=1.0, zorder=1, label=txt)
             if i == 0:
                 mark_radius(ax, rc, r"$r_c$", color=st["color"], ls=":")
@@ -121,7 +133,8 @@ def profiles(a):
     ax.set_ylabel(r"mean bead speed $|v|$ (mm/s)")
     ax.set_title("Fig. 2A  Radial velocity profile $v(r)$", pad=14)
     h, lab = ax.get_legend_handles_labels()
-    order = sorted(range(len(h)), key=lambda j: (not lab[j].startswith(("mean", "$N$")), lab[j].startswith("PIV")))
+    order = sorted(range(len(h)), key=lambda j: (not lab[j].startswith(("mean", "$N$", "lock-in mean")),
+                                                 lab[j].startswith(("PIV", "lock-in noise"))))
     ax.legend([h[j] for j in order], [lab[j] for j in order], loc="upper left", bbox_to_anchor=(1.02, 1.0),
               borderaxespad=0.0, title="bars: standard error" + (f"\nshaded: {conf_txt} of $r_c$" if widths else ""), title_fontsize=7,
               alignment="left")

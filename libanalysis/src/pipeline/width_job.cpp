@@ -102,6 +102,10 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   std::vector<WidthRow> report;
   for (const auto& path : o.inputs) {
     const io::ProfileCsv p = io::read_profile_csv(path);
+    if (wo.estimator == profile::Estimator::kLockin && !p.has_lockin)
+      throw InputError(fmt::format("{}: the profile has no lock-in values (lockin: {}); use --estimator mean-abs or "
+                                   "auto, or re-run `shearzone profile` with the drive frequency (--f-hz)",
+                                   path.string(), p.meta("lockin").empty() ? "absent" : p.meta("lockin")));
     const profile::WidthInput in = width_input(p);
     Row row;
     row.label = path.stem().string();
