@@ -37,7 +37,7 @@ seed "$C/image" data-samples/pivlab-sand/*.jpeg tests/data/openpiv-test1/*.bmp \
   tests/data/fluidimage-oseen/*.tif tests/data/regressions/*.png
 seed "$C/video" tests/data/regressions/*.mp4
 seed "$C/field_h5" tests/data/regressions/*.h5
-seed "$C/profile_csv" data-samples/widths/*.csv
+seed "$C/profile_csv" data-samples/widths/*.csv tests/data/profiles/*.csv
 
 status=0
 for t in $TARGETS; do

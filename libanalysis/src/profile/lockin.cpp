@@ -185,7 +185,8 @@ LockinFit::LockinFit(const PairSeries& s, int harmonics, int min_cycles) : H_(ha
     G_ = (np + L_ - 1) / L_;
   }
   score_.assign(G_ * nb_ * p_, 0.0);
-  std::vector<std::size_t> clusters_with_data(nb_, 0);
+  clusters_with_data_.assign(nb_, 0);
+  auto& clusters_with_data = clusters_with_data_;
   {
     std::vector<char> seen(G_ * nb_, 0);
     for (std::size_t k = 0; k < np; ++k)
@@ -262,13 +263,9 @@ void LockinFit::draw(std::mt19937_64& rng, std::vector<double>& v_abs) const {
   for (std::size_t b = 0; b < nb_; ++b) {
     if (!bins_[b].ok) continue;
     delta.setZero();
-    std::size_t gb = 0;
-    for (std::size_t c = 0; c < G_; ++c) {
-      const Eigen::Map<const Eigen::VectorXd> g(score_.data() + (c * nb_ + b) * p_, p);
-      if (g.squaredNorm() == 0) continue;
-      ++gb;
-      delta += eta[c] * g;
-    }
+    for (std::size_t c = 0; c < G_; ++c)
+      delta += eta[c] * Eigen::Map<const Eigen::VectorXd>(score_.data() + (c * nb_ + b) * p_, p);
+    const std::size_t gb = clusters_with_data_[b];
     const Eigen::Map<const Eigen::VectorXd> beta(beta_.data() + b * p_, p);
     const Eigen::Map<const Eigen::MatrixXd> Ainv(ainv_.data() + b * p_ * p_, p, p);
     const double f = gb >= 2 ? std::sqrt(static_cast<double>(gb) / static_cast<double>(gb - 1)) : 1.0;

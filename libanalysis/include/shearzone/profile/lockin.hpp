@@ -102,6 +102,7 @@ class LockinFit {
   std::vector<double> ainv_;    // [bin * p * p], A^-1
   std::vector<double> score_;   // [cluster * nb * p], sum of w x e over the cluster
   std::vector<double> grid_;    // basis on the phase grid, column-major [M x p]
+  std::vector<std::size_t> clusters_with_data_;  // per bin
 };
 
 }  // namespace shearzone::profile
