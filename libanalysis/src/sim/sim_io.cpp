@@ -163,6 +163,31 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/angles/max_angle", {na}, amax);
     f.write("/angles/impulse", {na}, imp);
   }
+  // Rotors (the vane): drive and reference placement; bodies in CSR form.
+  f.set_attribute("/", "n_rotors", static_cast<std::int64_t>(s.rotors.size()));
+  if (const std::size_t nr = s.rotors.size(); nr > 0) {
+    std::vector<double> drive, ref, refq;
+    std::vector<std::int64_t> offsets{0}, bodies;
+    for (const Rotor& r : s.rotors) {
+      for (double v : {r.centre.x(), r.centre.y(), r.centre.z(), r.axis.x(), r.axis.y(), r.axis.z(), r.phi0,
+                       r.f_Hz, r.phase, r.t_start})
+        drive.push_back(v);
+      for (std::size_t k = 0; k < r.bodies.size(); ++k) {
+        bodies.push_back(r.bodies[k]);
+        for (int a = 0; a < 3; ++a) ref.push_back(r.reference[k](a));
+        const Eigen::Quaterniond& q = r.reference_orientation[k];
+        for (double v : {q.w(), q.x(), q.y(), q.z()}) refq.push_back(v);
+      }
+      offsets.push_back(static_cast<std::int64_t>(bodies.size()));
+    }
+    f.write("/rotors/drive", {nr, 10}, drive);
+    f.write("/rotors/offsets", {nr + 1}, offsets);
+    if (!bodies.empty()) {
+      f.write("/rotors/bodies", {bodies.size()}, bodies);
+      f.write("/rotors/reference", {bodies.size(), 3}, ref);
+      f.write("/rotors/reference_orientation", {bodies.size(), 4}, refq);
+    }
+  }
   if (const std::size_t nc = s.contacts.size(); nc > 0) {
     std::vector<std::int64_t> ids;
     std::vector<Vec3> normal, pt;
@@ -289,6 +314,38 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
       c.tangential_impulse = pt[k];
       c.status = static_cast<ContactStatus>(status[k]);
       s.contacts.push_back(c);
+    }
+  }
+  // Checkpoints written before rotors existed have no n_rotors: none.
+  const std::size_t nrot = f.has_attribute("/", "n_rotors") ? count_attr(f, "n_rotors") : 0;
+  if (nrot > 0) {
+    const auto drive = read_checked<double>(f, "/rotors/drive", nrot, 10);
+    const auto offsets = read_checked<std::int64_t>(f, "/rotors/offsets", nrot + 1, 0);
+    if (offsets.front() != 0 || !std::is_sorted(offsets.begin(), offsets.end()) || offsets.back() < 0)
+      throw InputError(fmt::format("{}: dataset \"/rotors/offsets\": expected 0 and non-decreasing counts", f.path()));
+    const auto total = static_cast<std::size_t>(offsets.back());
+    std::vector<std::int64_t> bodies;
+    std::vector<double> ref, refq;
+    if (total > 0) {
+      bodies = read_checked<std::int64_t>(f, "/rotors/bodies", total, 0);
+      ref = read_checked<double>(f, "/rotors/reference", total, 3);
+      refq = read_checked<double>(f, "/rotors/reference_orientation", total, 4);
+    }
+    for (std::size_t r = 0; r < nrot; ++r) {
+      Rotor rot;
+      const double* d = drive.data() + 10 * r;
+      rot.centre = Vec3(d[0], d[1], d[2]);
+      rot.axis = Vec3(d[3], d[4], d[5]);
+      rot.phi0 = d[6];
+      rot.f_Hz = d[7];
+      rot.phase = d[8];
+      rot.t_start = d[9];
+      for (auto k = static_cast<std::size_t>(offsets[r]); k < static_cast<std::size_t>(offsets[r + 1]); ++k) {
+        rot.bodies.push_back(to_int(bodies[k], f, "/rotors/bodies"));
+        rot.reference.emplace_back(ref[3 * k], ref[3 * k + 1], ref[3 * k + 2]);
+        rot.reference_orientation.emplace_back(refq[4 * k], refq[4 * k + 1], refq[4 * k + 2], refq[4 * k + 3]);
+      }
+      s.rotors.push_back(std::move(rot));
     }
   }
   return s;

@@ -119,6 +119,7 @@ int World::add_sphere(const Vec3& position, double diameter, double density, Bod
   mass_.push_back(m);
   inertia_.push_back(inertia);
   kind_.push_back(kind);
+  rotor_of_.push_back(-1);
   return static_cast<int>(x_.size()) - 1;
 }
 
@@ -873,6 +874,7 @@ StepDiagnostics World::step() {
   static_assert(sizeof(SolverBody) == 64, "one cache line per body");
   static_assert(sizeof(ContactRow) == 128, "two cache lines per contact row");
   const std::int64_t this_step = step_ + 1;
+  drive_rotors();
   find_contacts(contact_search_distance(this_step));  // 1. contact detection
   add_free_velocities();                              // 2. free velocities
   prepare_rows();                                     // 3. warm start
@@ -881,8 +883,10 @@ StepDiagnostics World::step() {
   d.step = this_step;
   d.rows = static_cast<int>(contacts_.size() + ropes_.size() + angles_.size());
   solve(d);
+  rotor_torques();
   integrate_positions();                              // 5. positions
   step_ = this_step;                                  // 6. diagnostics
+  place_rotors();                                     //    (rotors at φ(t + h) exactly)
   remember_impulses();
   check_state(d);
   return d;
@@ -991,6 +995,123 @@ std::vector<ContactRecord> World::contacts() const {
   return out;
 }
 
+double Rotor::angle(double t) const {
+  return phi0 * std::sin(2.0 * std::numbers::pi * f_Hz * (t - t_start) + phase);
+}
+
+namespace {
+
+/// c + R(φ) (x₀ − c) and R(φ) q₀ for a rotor sphere.
+Vec3 rotor_position(const Rotor& r, std::size_t k, double phi) {
+  return r.centre + Eigen::AngleAxisd(phi, r.axis) * (r.reference[k] - r.centre);
+}
+
+void check_drive(double phi0, double f_Hz, double phase, double t_start) {
+  if (!std::isfinite(phi0) || !(f_Hz >= 0.0) || !std::isfinite(f_Hz) || !std::isfinite(phase) ||
+      !std::isfinite(t_start))
+    throw ConfigError(fmt::format("sim rotor: drive phi0 = {} rad, f = {} Hz, phase = {}, t_start = {} s: expected "
+                                  "finite values, f >= 0",
+                                  phi0, f_Hz, phase, t_start));
+}
+
+}  // namespace
+
+int World::add_rotor(std::span<const int> bodies, const Vec3& centre, const Vec3& axis, double phi0, double f_Hz,
+                     double phase, double t_start) {
+  check_drive(phi0, f_Hz, phase, t_start);
+  if (!finite(centre) || !finite(axis) || !(axis.norm() > 0.0))
+    throw ConfigError("sim rotor: the axis needs a finite point and a non-zero direction");
+  if (bodies.empty()) throw ConfigError("sim rotor: no body");
+  rotor_of_.resize(x_.size(), -1);
+  Rotor r;
+  r.centre = centre;
+  r.axis = axis.normalized();
+  r.phi0 = phi0;
+  r.f_Hz = f_Hz;
+  r.phase = phase;
+  r.t_start = t_start;
+  const double phi = r.angle(time());
+  const Eigen::AngleAxisd back(-phi, r.axis);
+  for (int b : bodies) {
+    check_body(b, "rotor");
+    const auto ub = static_cast<std::size_t>(b);
+    if (kind_[ub] != BodyKind::kinematic)
+      throw ConfigError(fmt::format("sim rotor: body {} is not kinematic", b));
+    if (rotor_of_[ub] != -1) throw ConfigError(fmt::format("sim rotor: body {} is already in rotor {}", b, rotor_of_[ub]));
+    rotor_of_[ub] = static_cast<int>(rotors_.size());
+    r.bodies.push_back(b);
+    r.reference.push_back(centre + back * (x_[ub] - centre));
+    r.reference_orientation.push_back((Eigen::Quaterniond(back) * q_[ub]).normalized());
+  }
+  rotors_.push_back(std::move(r));
+  rotor_torque_.push_back(0.0);
+  return static_cast<int>(rotors_.size()) - 1;
+}
+
+void World::set_rotor_drive(int ri, double phi0, double f_Hz, double phase, double t_start) {
+  check_drive(phi0, f_Hz, phase, t_start);
+  Rotor& r = rotors_.at(static_cast<std::size_t>(ri));
+  r.phi0 = phi0;
+  r.f_Hz = f_Hz;
+  r.phase = phase;
+  r.t_start = t_start;
+  place_rotors();
+}
+
+double World::rotor_angle(int r) const { return rotors_.at(static_cast<std::size_t>(r)).angle(time()); }
+
+double World::rotor_torque(int r) const { return rotor_torque_.at(static_cast<std::size_t>(r)); }
+
+void World::drive_rotors() {
+  const double h = opt_.time_step;
+  const double t0 = time(), t1 = static_cast<double>(step_ + 1) * h;
+  for (const Rotor& r : rotors_) {
+    const double p0 = r.angle(t0), p1 = r.angle(t1);
+    const Vec3 w = (p1 - p0) / h * r.axis;
+    for (std::size_t k = 0; k < r.bodies.size(); ++k) {
+      SolverBody& sb = body_[static_cast<std::size_t>(r.bodies[k])];
+      sb.v = (rotor_position(r, k, p1) - rotor_position(r, k, p0)) / h;
+      sb.w = w;
+    }
+  }
+}
+
+void World::place_rotors() {
+  const double t = time();
+  for (const Rotor& r : rotors_) {
+    const double phi = r.angle(t);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(phi, r.axis));
+    for (std::size_t k = 0; k < r.bodies.size(); ++k) {
+      const auto b = static_cast<std::size_t>(r.bodies[k]);
+      x_[b] = rotor_position(r, k, phi);
+      q_[b] = (q * r.reference_orientation[k]).normalized();
+    }
+  }
+}
+
+void World::rotor_torques() {
+  if (rotors_.empty()) return;
+  std::fill(rotor_torque_.begin(), rotor_torque_.end(), 0.0);
+  const double h = opt_.time_step;
+  const int n = static_cast<int>(x_.size());
+  for (const ContactRow& c : contacts_) {
+    if (c.i >= n) continue;  // wall rows: rotor spheres have none
+    const int ri = rotor_of_[static_cast<std::size_t>(c.i)], rj = rotor_of_[static_cast<std::size_t>(c.j)];
+    if (ri < 0 && rj < 0) continue;
+    const Vec3 P = c.pn * c.n + c.pt;  // on j; −P on i
+    const Vec3 p = x_[static_cast<std::size_t>(c.i)] + c.ri * c.n;  // contact point
+    // The drive balances the beads' push: motor torque = −(torque of the beads on the rotor).
+    if (ri >= 0) {
+      const Rotor& r = rotors_[static_cast<std::size_t>(ri)];
+      rotor_torque_[static_cast<std::size_t>(ri)] += ((p - r.centre).cross(P)).dot(r.axis) / h;
+    }
+    if (rj >= 0) {
+      const Rotor& r = rotors_[static_cast<std::size_t>(rj)];
+      rotor_torque_[static_cast<std::size_t>(rj)] -= ((p - r.centre).cross(P)).dot(r.axis) / h;
+    }
+  }
+}
+
 WorldState World::state() const {
   WorldState s;
   s.options = opt_;
@@ -1015,6 +1136,7 @@ WorldState World::state() const {
   for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda});
   s.contacts.reserve(contacts_.size());
   for (std::size_t k = 0; k < contacts_.size(); ++k) s.contacts.push_back(record(k));
+  s.rotors = rotors_;
   return s;
 }
 
@@ -1102,6 +1224,23 @@ World World::from_state(const WorldState& s) {
   }
   w.step_ = s.step;
   w.cap_hits_ = s.iteration_cap_hits;
+  w.rotor_of_.assign(n, -1);
+  for (std::size_t ri = 0; ri < s.rotors.size(); ++ri) {
+    const Rotor& r = s.rotors[ri];
+    check_drive(r.phi0, r.f_Hz, r.phase, r.t_start);
+    if (r.reference.size() != r.bodies.size() || r.reference_orientation.size() != r.bodies.size() ||
+        !finite(r.centre) || !finite(r.axis) || !(std::abs(r.axis.norm() - 1.0) < 1e-9))
+      bad(fmt::format("rotor {}: inconsistent arrays, a non-finite centre or a non-unit axis", ri));
+    for (std::size_t k = 0; k < r.bodies.size(); ++k) {
+      const int b = r.bodies[k];
+      if (b < 0 || b >= nb || s.kind[static_cast<std::size_t>(b)] != BodyKind::kinematic ||
+          w.rotor_of_[static_cast<std::size_t>(b)] != -1 || !finite(r.reference[k]))
+        bad(fmt::format("rotor {}: body {} out of range, not kinematic, in two rotors or non-finite", ri, b));
+      w.rotor_of_[static_cast<std::size_t>(b)] = static_cast<int>(ri);
+    }
+    w.rotors_.push_back(r);  // positions as stored: they are the rotor's at this step
+    w.rotor_torque_.push_back(0.0);
+  }
   return w;
 }
 

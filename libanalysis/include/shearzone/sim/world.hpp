@@ -119,6 +119,28 @@ struct StepDiagnostics {
   int rows = 0;                   ///< rows of this step (contacts + ropes + angles)
 };
 
+/// A rigid rotor (the vane): kinematic spheres that turn together about the axis through
+/// `centre` along `axis` by φ(t) = phi0 sin(2π f (t − t_start) + phase), t = step × h
+/// (exact, no accumulated time). Each sphere sits exactly at c + R(φ(t)) (x₀ − c), its
+/// orientation R(φ(t)) q₀ (never x ← x + h v, which spirals outwards); during the step
+/// from t to t + h it moves with the chord velocity (x(t + h) − x(t))/h and spins with
+/// (φ(t + h) − φ(t))/h about the axis, the rigid rotation's Ω × r to O(h²), so the
+/// contact solve sees the displacement the sphere really makes. φ > 0 is a right-handed
+/// rotation about `axis` (counter-clockwise seen from the +axis side).
+struct Rotor {
+  std::vector<int> bodies;
+  std::vector<Vec3> reference;                         ///< x₀ of each body (φ = 0), m
+  std::vector<Eigen::Quaterniond> reference_orientation;  ///< q₀ of each body (φ = 0)
+  Vec3 centre = Vec3::Zero();                          ///< a point of the axis, m
+  Vec3 axis = Vec3::UnitZ();                           ///< unit
+  double phi0 = 0.0;                                   ///< amplitude, rad
+  double f_Hz = 0.0;                                   ///< frequency (0: at rest, φ = phi0 sin(phase))
+  double phase = 0.0;                                  ///< rad
+  double t_start = 0.0;                                ///< time origin of the drive, s
+  /// φ at time t (rad).
+  [[nodiscard]] double angle(double t) const;
+};
+
 /// A contact row of the last step, for tests and force analysis. The impulse P acts on
 /// body_j, −P on body_i (or on the wall); the normal points from i (or the wall) to j.
 struct ContactRecord {
@@ -159,6 +181,7 @@ struct WorldState {
   std::vector<Rope> ropes;
   std::vector<Angle> angles;
   std::vector<ContactRecord> contacts;  ///< last step's rows, raw status
+  std::vector<Rotor> rotors;
 };
 
 // The solver's rows and scratch, private to the engine (src/sim/solver_rows.hpp).
@@ -197,6 +220,26 @@ class World {
   /// Ropes between consecutive beads (max bond length) and, if max_angle < π, angle
   /// rows at every interior bead.
   void add_chain(std::span<const int> beads, double max_bond_length, double max_angle);
+
+  /// Makes the kinematic spheres `bodies` a rigid rotor (see Rotor) with the drive
+  /// (phi0, f_Hz, phase, t_start); their present positions and orientations are taken
+  /// as the rotor's at the present time (x₀ = c + R(−φ(now)) (x − c)). Returns its index.
+  /// Throws ConfigError for a body that is not kinematic or already in a rotor, a zero
+  /// axis or a non-finite value.
+  int add_rotor(std::span<const int> bodies, const Vec3& centre, const Vec3& axis, double phi0, double f_Hz,
+                double phase = 0.0, double t_start = 0.0);
+  /// A new drive for rotor r from now on (amplitude branches): the spheres keep their
+  /// reference x₀ and are moved to φ(now) of the new drive at once.
+  void set_rotor_drive(int r, double phi0, double f_Hz, double phase, double t_start);
+  [[nodiscard]] int rotor_count() const { return static_cast<int>(rotors_.size()); }
+  [[nodiscard]] const Rotor& rotor(int r) const { return rotors_.at(static_cast<std::size_t>(r)); }
+  /// φ of rotor r now (rad).
+  [[nodiscard]] double rotor_angle(int r) const;
+  /// The motor torque about the rotor's axis over the last step (N m): what the drive
+  /// must exert to impose the motion against the contact forces of the spheres on it,
+  /// Σ over its contact rows of ((p − c) × P_on_beads)·axis / h, p the contact point at
+  /// the start of the step. τ > 0 drives towards +φ. 0 before the first step.
+  [[nodiscard]] double rotor_torque(int r) const;
 
   /// Initial conditions of a mobile sphere, or the prescribed motion of a kinematic one.
   /// Throws ConfigError for a fixed sphere or a non-finite value.
@@ -270,6 +313,9 @@ class World {
   void sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out);
   void apply_contact(const ContactRow& r, const Vec3& p);
   void integrate_positions();                          // 5
+  void drive_rotors();                                 // 1: rotor velocities for this step
+  void place_rotors();                                 // 5: rotor spheres at their exact place
+  void rotor_torques();                                // 4: motor torque of each rotor
   void remember_impulses();                            // 6: warm start of the next step
   void check_state(StepDiagnostics& d) const;          // 6: diagnostics, divergence checks
 
@@ -293,6 +339,9 @@ class World {
   std::vector<int> cell_of_, cell_start_, cell_bodies_;
   std::int64_t step_ = 0;
   std::int64_t cap_hits_ = 0;
+  std::vector<Rotor> rotors_;
+  std::vector<int> rotor_of_;           // rotor of each body, −1 for none
+  std::vector<double> rotor_torque_;    // motor torque of each rotor, last step (N m)
 };
 
 }  // namespace shearzone::sim
