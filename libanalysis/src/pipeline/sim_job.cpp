@@ -86,6 +86,30 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   out.check("checkpoint.h5");
   io::AtomicOutput* ckpt_file = nullptr;
 
+  // The vane's torque log (rotor 0): what a rheometer records, in the generic log layout
+  // that `shearzone laos` reads with no options.
+  io::AtomicOutput* torque_file = w.rotor_count() > 0 ? &out.add("torque.csv") : nullptr;
+  std::optional<io::CsvWriter> torque;
+  if (torque_file) {
+    const sim::Rotor& r = w.rotor(0);
+    core::Metadata tm = meta;
+    tm.emplace_back("N", std::to_string(scene.beads_per_chain));
+    tm.emplace_back("phi0_rad", io::format_number(r.phi0));
+    tm.emplace_back("f_Hz", io::format_number(r.f_Hz));
+    tm.emplace_back("angle_rad", "vane deflection phi(t) = phi0 sin(2 pi f (t - t_start) + phase), > 0 "
+                                 "counter-clockwise seen from above (+z)");
+    tm.emplace_back("torque_N_m", "motor torque about the vane axis, > 0 drives towards +phi (as a rheometer "
+                                  "reports it), from the contact impulses on the vane beads, averaged over the "
+                                  "steps since the previous row");
+    tm.emplace_back("sampling", scene.torque_every_rad > 0
+                                    ? fmt::format("a row each time phi has changed by {} rad since the previous row "
+                                                  "(time and angle at the row's step)",
+                                                  io::format_number(scene.torque_every_rad))
+                                    : std::string("every step"));
+    torque.emplace(torque_file->stream(), tm, std::vector<std::string>{"time_s", "angle_rad", "torque_N_m"});
+  }
+  double torque_impulse = 0.0, torque_time = 0.0, phi_last = w.rotor_count() > 0 ? w.rotor_angle(0) : 0.0;
+
   sim::SnapshotWriter snaps(snap_file.temp_path(), w, meta, chain_ids);
   sim::DiagnosticsCsv diag(diag_file.stream(), meta);
   auto checkpoint = [&] {
@@ -108,6 +132,16 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       const sim::StepDiagnostics d = w.step();
       sum.max_overlap_over_d = std::max(sum.max_overlap_over_d, d.max_overlap);
       if (d.step % cad.diagnostics_every == 0 || k == todo) diag.row(d, w.time());
+      if (torque) {
+        torque_impulse += w.rotor_torque(0) * h;
+        torque_time += h;
+        const double phi = w.rotor_angle(0);
+        if (scene.torque_every_rad == 0 || std::abs(phi - phi_last) >= scene.torque_every_rad || k == todo) {
+          torque->row(std::vector<double>{w.time(), phi, torque_impulse / torque_time});
+          torque_impulse = torque_time = 0.0;
+          phi_last = phi;
+        }
+      }
       if (cad.snapshot_every > 0 && d.step % cad.snapshot_every == 0) {
         snaps.append(w);
         last_snapshot = d.step;

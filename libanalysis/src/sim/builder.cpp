@@ -41,7 +41,9 @@ bool inside(const Region& region, const Vec3& x, double r) {
   }
   const auto& c = std::get<CylinderRegion>(region);
   const double dx = x.x() - c.cx, dy = x.y() - c.cy;
-  return x.z() >= c.z0 + r && x.z() <= c.z1 - r && std::sqrt(dx * dx + dy * dy) <= c.radius - r;
+  const double rho = std::sqrt(dx * dx + dy * dy);
+  return x.z() >= c.z0 + r && x.z() <= c.z1 - r && rho <= c.radius - r &&
+         (c.inner_radius <= 0.0 || rho >= c.inner_radius + r);
 }
 
 Vec3 random_centre(const Region& region, double r, std::mt19937_64& rng) {
@@ -51,7 +53,9 @@ Vec3 random_centre(const Region& region, double r, std::mt19937_64& rng) {
     return x;
   }
   const auto& c = std::get<CylinderRegion>(region);
-  const double rho = (c.radius - r) * std::sqrt(u01(rng)), phi = 2.0 * kPi * u01(rng);
+  // Uniform in area between the inner and outer radii the centre may take.
+  const double ro = c.radius - r, ri = c.inner_radius > 0.0 ? std::min(ro, c.inner_radius + r) : 0.0;
+  const double rho = std::sqrt(ri * ri + (ro * ro - ri * ri) * u01(rng)), phi = 2.0 * kPi * u01(rng);
   const double z = c.z0 + r + u01(rng) * (c.z1 - c.z0 - 2.0 * r);
   return {c.cx + rho * std::cos(phi), c.cy + rho * std::sin(phi), z};
 }
@@ -199,7 +203,7 @@ double integrate_slices(const Vec3& c, double r, double z0, double z1, const std
 double region_volume(const Region& region) {
   if (const auto* b = std::get_if<BoxRegion>(&region)) return (b->hi - b->lo).prod();
   const auto& c = std::get<CylinderRegion>(region);
-  return kPi * c.radius * c.radius * (c.z1 - c.z0);
+  return kPi * (c.radius * c.radius - c.inner_radius * c.inner_radius) * (c.z1 - c.z0);
 }
 
 double gravity_magnitude(const Options& o) { return o.gravity.norm(); }
@@ -236,6 +240,8 @@ void validate(const Region& region) {
   if (!std::isfinite(c.cx) || !std::isfinite(c.cy)) bad_option("region.cx/cy", c.cx, "finite");
   if (!(c.radius > 0.0) || !std::isfinite(c.radius)) bad_option("region.radius", c.radius, "> 0");
   if (!(c.z1 > c.z0) || !std::isfinite(c.z0) || !std::isfinite(c.z1)) bad_option("region.z1", c.z1, "> z0");
+  if (!(c.inner_radius >= 0.0 && c.inner_radius < c.radius))
+    bad_option("region.inner_radius", c.inner_radius, "in [0, radius)");
 }
 
 ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
@@ -244,7 +250,8 @@ ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
   const double d = o.diameter, r = 0.5 * d;
   const bool room = std::holds_alternative<BoxRegion>(region)
                         ? (std::get<BoxRegion>(region).hi - std::get<BoxRegion>(region).lo).minCoeff() >= d
-                        : std::get<CylinderRegion>(region).radius >= r &&
+                        : std::get<CylinderRegion>(region).radius - std::get<CylinderRegion>(region).inner_radius >=
+                                  (std::get<CylinderRegion>(region).inner_radius > 0.0 ? 2.0 * r : r) &&
                               std::get<CylinderRegion>(region).z1 - std::get<CylinderRegion>(region).z0 >= d;
   if (!room)
     throw ConfigError(fmt::format("sim builder region: smaller than one bead of diameter {}", d));
@@ -370,7 +377,7 @@ FillResult fill(const Options& world_options, const FillOptions& o, const std::f
     z0 = b->lo.z();
   } else {
     auto& cyl = std::get<CylinderRegion>(insert);
-    floor_area = kPi * cyl.radius * cyl.radius;
+    floor_area = kPi * (cyl.radius * cyl.radius - cyl.inner_radius * cyl.inner_radius);
     z0 = cyl.z0;
   }
   const double height = n_beads * bead_volume / (o.insert_fraction * floor_area) + d;
@@ -438,6 +445,12 @@ double sphere_region_volume(const Vec3& c, double r, const Region& region) {
                             [&](double rho) { return disc_rect(0.0, 0.0, rho, x0, x1, y0, y1); });
   }
   const auto& cyl = std::get<CylinderRegion>(region);
+  if (cyl.inner_radius > 0.0) {  // the annulus: the outer cylinder minus the inner one
+    CylinderRegion outer = cyl, inner = cyl;
+    outer.inner_radius = inner.inner_radius = 0.0;
+    inner.radius = cyl.inner_radius;
+    return sphere_region_volume(c, r, outer) - sphere_region_volume(c, r, inner);
+  }
   const double e = std::hypot(c.x() - cyl.cx, c.y() - cyl.cy);
   if (e >= cyl.radius + r || c.z() + r <= cyl.z0 || c.z() - r >= cyl.z1) return 0.0;
   if (inside(region, c, r)) return 4.0 / 3.0 * kPi * r * r * r;

@@ -41,7 +41,10 @@ const std::vector<std::string> kKeys = {
     "fill.seed",              "fill.clearance",         "fill.settle",
     "fill.insert_fraction",   "fill.settle_tolerance",  "fill.settle_max_iterations",
     "fill.settle_max_steps",  "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
-    "fill.relax_max_steps"};
+    "fill.relax_max_steps",
+    "vane.blades",            "vane.radius_m",          "vane.height_m",
+    "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
+    "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m"};
 
 // The settle/relax keys of [fill]; they only mean something with fill.settle = true.
 const std::vector<std::string> kSettleKeys = {
@@ -187,9 +190,13 @@ struct SceneBodies {
   std::vector<Vec3> fixed, kinematic, mobile;
   Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
   ChainOptions chains;
+  // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
+  std::vector<Vec3> vane;
+  Vec3 vane_centre = Vec3::Zero();
+  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3;
   // [fill].
   bool fill = false;
-  BoxRegion fill_region;
+  Region fill_region;
   bool settle = false;
   FillOptions settle_options;
 };
@@ -232,7 +239,7 @@ SceneBodies read_bodies(const Scene& s) {
   for (const char* k : {"beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s"})
     if (s.has(k) && !s.has("beads.kinematic_positions_m")) s.fail(k, "needs beads.kinematic_positions_m");
   const bool any_beads = s.has("beads.positions_m") || s.has("beads.fixed_positions_m") ||
-                         s.has("beads.kinematic_positions_m") || s.has("fill.count");
+                         s.has("beads.kinematic_positions_m") || s.has("fill.count") || s.has("vane.radius_m");
   // Without fill.count, no other [fill] key may be set.
   auto no_fill_keys = [&s] {
     for (const char* k : {"fill.min_m", "fill.max_m", "fill.seed", "fill.clearance", "fill.settle"})
@@ -263,6 +270,44 @@ SceneBodies read_bodies(const Scene& s) {
   if (s.has("beads.kinematic_velocity_m_per_s")) b.kinematic_velocity = s.vec3("beads.kinematic_velocity_m_per_s");
   if (s.has("beads.kinematic_angular_velocity_rad_per_s"))
     b.kinematic_omega = s.vec3("beads.kinematic_angular_velocity_rad_per_s");
+  if (s.has("vane.radius_m") || s.has("vane.height_m")) {
+    const double d = b.diameter;
+    const double radius = s.positive("vane.radius_m", 1.0), height = s.positive("vane.height_m", 1.0);
+    const auto blades = static_cast<int>(s.integer("vane.blades", 4, 1, 64));
+    if (radius < 1.5 * d) s.fail("vane.radius_m", fmt::format("{} m: expected at least 1.5 bead diameters", radius));
+    if (height < d) s.fail("vane.height_m", fmt::format("{} m: expected at least one bead diameter", height));
+    const double layers = std::floor(height / d - 0.5) + 1.0, per_blade = std::floor(radius / d - 0.5);
+    if (!(layers * (1.0 + blades * per_blade) <= static_cast<double>(kMaxBeads)))
+      s.fail("vane.height_m", "the vane would hold more than 1e6 beads");
+    if (s.has("vane.centre_m")) {
+      const auto c = s.fixed_size("vane.centre_m", 2);
+      b.vane_centre = Vec3(c[0], c[1], 0.0);
+    } else if (b.cylinder) {
+      b.vane_centre = Vec3(b.cyl_cx, b.cyl_cy, 0.0);
+    }
+    b.vane_phi0 = s.num("vane.phi0_rad", 0.0);
+    if (!(std::abs(b.vane_phi0) <= 100.0)) s.fail("vane.phi0_rad", "expected |phi0| <= 100 rad");
+    b.vane_f = s.non_negative("vane.f_Hz", 0.0);
+    if (!(b.vane_f <= 1000.0)) s.fail("vane.f_Hz", "expected 0 <= f <= 1000 Hz");
+    b.vane_phase = s.num("vane.phase_rad", 0.0);
+    if (!std::isfinite(b.vane_phase)) s.fail("vane.phase_rad", "expected a finite number");
+    b.vane_torque_every = s.non_negative("vane.torque_every_rad", 1e-3);
+    // A hub bead on the axis and, per blade, touching beads at r = d, 2d, ... while the
+    // tip bead's outer edge stays within radius_m; layers from the floor up to height_m.
+    for (int layer = 0; (0.5 + layer) * d <= height; ++layer) {
+      const double z = (0.5 + layer) * d;
+      b.vane.push_back(b.vane_centre + Vec3(0, 0, z));
+      for (int j = 0; j < blades; ++j) {
+        const double a = 2.0 * std::numbers::pi * j / blades;
+        for (int k = 1; (k + 0.5) * d <= radius * (1 + 1e-12); ++k)
+          b.vane.push_back(b.vane_centre + Vec3(k * d * std::cos(a), k * d * std::sin(a), z));
+      }
+    }
+  } else {
+    for (const char* k : {"vane.blades", "vane.centre_m", "vane.phi0_rad", "vane.f_Hz", "vane.phase_rad",
+                          "vane.torque_every_rad"})
+      if (s.has(k)) s.fail_file("[vane] needs radius_m and height_m");
+  }
   b.mobile = s.points("beads.positions_m");
   if (!b.mobile.empty() && s.has("fill.count") && s.flag("fill.settle", false))
     s.fail("beads.positions_m",
@@ -283,21 +328,46 @@ SceneBodies read_bodies(const Scene& s) {
                                      co.beads_per_chain, kMaxBeads));
   co.seed = static_cast<std::uint64_t>(s.integer("fill.seed", 1, 0));
   co.clearance = s.non_negative("fill.clearance", co.clearance);
-  b.fill_region = read_box(s, "fill.min_m", "fill.max_m");
-  const Vec3 &flo = b.fill_region.lo, &fhi = b.fill_region.hi;
-  // The chains must start inside the container: a bead placed through a half-space wall
-  // would start deep in overlap and stop the run at its first step.
-  if (b.box) {
-    const bool inside = flo.x() >= b.box->lo.x() && flo.y() >= b.box->lo.y() && flo.z() >= b.box->lo.z() &&
-                        fhi.x() <= b.box->hi.x() && fhi.y() <= b.box->hi.y() &&
-                        (!b.lid || fhi.z() <= b.box->hi.z());
-    if (!inside) s.fail("fill.max_m", "the fill region must lie inside the box (below its lid, if any)");
-  } else if (b.cylinder) {
-    const double rx = std::max(std::abs(flo.x() - b.cyl_cx), std::abs(fhi.x() - b.cyl_cx));
-    const double ry = std::max(std::abs(flo.y() - b.cyl_cy), std::abs(fhi.y() - b.cyl_cy));
-    if (std::hypot(rx, ry) > b.cyl_radius || flo.z() < 0.0)
-      s.fail("fill.max_m", fmt::format("the fill region must lie inside the cylinder (radius {} m, floor z = 0)",
-                                       b.cyl_radius));
+  // The fill region: a box (fill.min_m, fill.max_m), or in a [cylinder] without them the
+  // cylinder itself from the floor to fill.height_m (default: the cylinder's height),
+  // around the vane when there is one (an annulus outside vane.radius_m).
+  const bool cylinder_fill = b.cylinder && !s.has("fill.min_m") && !s.has("fill.max_m");
+  if (s.has("fill.height_m") && !cylinder_fill)
+    s.fail("fill.height_m", "only applies to a [cylinder] fill without fill.min_m and fill.max_m");
+  if (cylinder_fill) {
+    CylinderRegion c;
+    c.cx = b.cyl_cx;
+    c.cy = b.cyl_cy;
+    c.radius = b.cyl_radius;
+    c.z0 = 0.0;
+    c.z1 = s.positive("fill.height_m", b.cyl_height);
+    if (!b.vane.empty()) {
+      if (std::hypot(b.vane_centre.x() - b.cyl_cx, b.vane_centre.y() - b.cyl_cy) > 1e-12 * b.cyl_radius)
+        s.fail("vane.centre_m", "a cylinder fill around a vane needs the vane on the cylinder's axis");
+      c.inner_radius = s.num("vane.radius_m", 0.0);
+      if (!(c.radius - c.inner_radius >= b.diameter))
+        s.fail("vane.radius_m", fmt::format("{} m leaves less than a bead diameter to the cylinder wall at {} m",
+                                            c.inner_radius, c.radius));
+    }
+    b.fill_region = c;
+  } else {
+    b.fill_region = read_box(s, "fill.min_m", "fill.max_m");
+    const BoxRegion& fb = std::get<BoxRegion>(b.fill_region);
+    const Vec3 &flo = fb.lo, &fhi = fb.hi;
+    // The chains must start inside the container: a bead placed through a half-space wall
+    // would start deep in overlap and stop the run at its first step.
+    if (b.box) {
+      const bool inside = flo.x() >= b.box->lo.x() && flo.y() >= b.box->lo.y() && flo.z() >= b.box->lo.z() &&
+                          fhi.x() <= b.box->hi.x() && fhi.y() <= b.box->hi.y() &&
+                          (!b.lid || fhi.z() <= b.box->hi.z());
+      if (!inside) s.fail("fill.max_m", "the fill region must lie inside the box (below its lid, if any)");
+    } else if (b.cylinder) {
+      const double rx = std::max(std::abs(flo.x() - b.cyl_cx), std::abs(fhi.x() - b.cyl_cx));
+      const double ry = std::max(std::abs(flo.y() - b.cyl_cy), std::abs(fhi.y() - b.cyl_cy));
+      if (std::hypot(rx, ry) > b.cyl_radius || flo.z() < 0.0)
+        s.fail("fill.max_m", fmt::format("the fill region must lie inside the cylinder (radius {} m, floor z = 0)",
+                                         b.cyl_radius));
+    }
   }
 
   b.settle = s.flag("fill.settle", false);
@@ -311,25 +381,40 @@ SceneBodies read_bodies(const Scene& s) {
     s.fail("fill.insert_fraction", fmt::format("{} (expected in (0, 0.35])", fo.insert_fraction));
   // fill places the chains in the fill box raised until they fill insert_fraction of
   // it (builder.hpp, "Fill"); without settle they go into the box itself.
-  BoxRegion placed = b.fill_region;
+  Region placed = b.fill_region;
   if (b.settle) {
     const double d = b.diameter;
     const double beads = static_cast<double>(co.chains) * co.beads_per_chain;
-    const double area = (fhi.x() - flo.x()) * (fhi.y() - flo.y());
-    placed.hi.z() =
-        std::max(fhi.z(), flo.z() + beads * std::numbers::pi * d * d * d / 6.0 / (fo.insert_fraction * area) + d);
+    const double column = beads * std::numbers::pi * d * d * d / 6.0;
+    if (auto* pb = std::get_if<BoxRegion>(&placed)) {
+      const double area = (pb->hi.x() - pb->lo.x()) * (pb->hi.y() - pb->lo.y());
+      pb->hi.z() = std::max(pb->hi.z(), pb->lo.z() + column / (fo.insert_fraction * area) + d);
+    } else {
+      auto& pc = std::get<CylinderRegion>(placed);
+      const double area = std::numbers::pi * (pc.radius * pc.radius - pc.inner_radius * pc.inner_radius);
+      pc.z1 = std::max(pc.z1, pc.z0 + column / (fo.insert_fraction * area) + d);
+    }
   }
+  const double placed_top = std::holds_alternative<BoxRegion>(placed) ? std::get<BoxRegion>(placed).hi.z()
+                                                                      : std::get<CylinderRegion>(placed).z1;
   // Placement sees none of the scene's other beads: one in the way would start in deep
   // overlap with a chain bead.
+  auto reaches_in = [&](const Vec3& x) {
+    if (const auto* pb = std::get_if<BoxRegion>(&placed)) {
+      const Vec3 nearest = x.cwiseMax(pb->lo).cwiseMin(pb->hi);
+      return (x - nearest).norm() < 0.5 * b.diameter;
+    }
+    const auto& pc = std::get<CylinderRegion>(placed);
+    const double rho = std::hypot(x.x() - pc.cx, x.y() - pc.cy), r = 0.5 * b.diameter;
+    return x.z() > pc.z0 - r && x.z() < pc.z1 + r && rho < pc.radius + r && rho > pc.inner_radius - r;
+  };
   auto check_clear = [&](const std::vector<Vec3>& beads, const char* key) {
-    for (std::size_t k = 0; k < beads.size(); ++k) {
-      const Vec3 nearest = beads[k].cwiseMax(placed.lo).cwiseMin(placed.hi);
-      if ((beads[k] - nearest).norm() < 0.5 * b.diameter)
+    for (std::size_t k = 0; k < beads.size(); ++k)
+      if (reaches_in(beads[k]))
         s.fail(key, fmt::format("bead {} at ({}, {}, {}) reaches into the {} region (z up to {:.6g} m), where "
                                 "the chains are placed without seeing it",
                                 k, beads[k].x(), beads[k].y(), beads[k].z(), b.settle ? "drop" : "fill",
-                                placed.hi.z()));
-    }
+                                placed_top));
   };
   check_clear(b.fixed, "beads.fixed_positions_m");
   check_clear(b.kinematic, "beads.kinematic_positions_m");
@@ -350,10 +435,10 @@ SceneBodies read_bodies(const Scene& s) {
   fo.relax_kinetic_energy = s.positive("fill.relax_kinetic_energy", fo.relax_kinetic_energy);
   fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0, kMaxFillSteps);
   // Under a lid the drop column must fit, or beads would start above the lid.
-  if (b.lid && placed.hi.z() > b.box->hi.z())
+  if (b.lid && placed_top > b.box->hi.z())
     s.fail("fill.settle", fmt::format("the drop column reaches z = {:.6g} m, above the lid at {:.6g} m (raise "
                                       "box.max_m, raise fill.insert_fraction or set box.lid = false)",
-                                      placed.hi.z(), b.box->hi.z()));
+                                      placed_top, b.box->hi.z()));
   return b;
 }
 
@@ -385,6 +470,17 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
       w.set_angular_velocity(id, b.kinematic_omega);
     }
   }
+  // The vane's beads: kinematic, at rest until the rotor is added to the run's world.
+  for (const Vec3& x : b.vane) w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
+}
+
+/// The vane of a built world: its beads are the container's last kinematic bodies.
+void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
+  if (b.vane.empty()) return;
+  std::vector<int> ids;
+  const int first = container_bodies - static_cast<int>(b.vane.size());
+  for (int k = 0; k < static_cast<int>(b.vane.size()); ++k) ids.push_back(first + k);
+  w.add_rotor(ids, b.vane_centre, Vec3::UnitZ(), b.vane_phi0, b.vane_f, b.vane_phase, 0.0);
 }
 
 /// Builds the world of a scene. `check_only` (restart): reads and checks every section
@@ -396,13 +492,16 @@ LoadedScene build_world(const Scene& s, bool check_only) {
   if (b.settle && !(opt.gravity.z() < 0.0))
     s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
   LoadedScene out;
+  out.torque_every_rad = b.vane_torque_every;
+  out.vane = !b.vane.empty();
+  out.beads_per_chain = b.chains.beads_per_chain;
   World container(opt);
   add_container(container, b, true);
   // Every container body is a chain of its own; then the explicit chains, then the fill.
   std::int64_t next_chain = 0;
   for (int k = 0; k < container.body_count(); ++k) out.chain_ids.push_back(next_chain++);
   if (b.fill) {
-    validate(Region{b.fill_region});
+    validate(b.fill_region);
     validate(b.chains);
     if (b.settle) validate(b.settle_options);
   }
@@ -432,12 +531,15 @@ LoadedScene build_world(const Scene& s, bool check_only) {
         out.world->set_velocity(k, b.kinematic_velocity);
         out.world->set_angular_velocity(k, b.kinematic_omega);
       }
+    add_vane_rotor(*out.world, b, container.body_count());
     for (const int c : r.chain_of_bead) out.chain_ids.push_back(next_chain + c);
     return out;
   }
 
+  const int container_bodies = container.body_count();
   out.world.emplace(std::move(container));
   World& w = *out.world;
+  add_vane_rotor(w, b, container_bodies);
   const auto n = static_cast<std::size_t>(b.chains.beads_per_chain);
   for (std::size_t c = 0; c < b.mobile.size() / n; ++c) {
     std::vector<int> ids;

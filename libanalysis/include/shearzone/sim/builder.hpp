@@ -45,11 +45,13 @@ struct BoxRegion {
   Vec3 hi = Vec3::Ones();
 };
 
-/// Upright cylinder: (x − cx)² + (y − cy)² ≤ radius², z0 ≤ z ≤ z1.
+/// Upright cylinder: inner_radius² ≤ (x − cx)² + (y − cy)² ≤ radius², z0 ≤ z ≤ z1 (an
+/// annulus when inner_radius > 0: the cup around its vane).
 struct CylinderRegion {
   double cx = 0.0, cy = 0.0;
   double radius = 1.0;
   double z0 = 0.0, z1 = 1.0;
+  double inner_radius = 0.0;
 };
 
 using Region = std::variant<BoxRegion, CylinderRegion>;

@@ -47,6 +47,15 @@
 //                settle = true. Either way the region must lie inside the box or cylinder
 //                and clear of the scene's other beads (placement does not see them; with
 //                settle, the whole raised column).
+//     [vane]     radius_m, height_m (required for a vane), blades (4), centre_m = [x, y]
+//                (default: the cylinder's centre, else the origin), phi0_rad, f_Hz,
+//                phase_rad, torque_every_rad (1e-3; 0: every step): a rigid rotor of
+//                kinematic beads of beads.diameter_m about the vertical axis (a hub bead
+//                and, per blade, touching beads at r = d, 2d, ... while the tip's edge is
+//                within radius_m; layers from the floor up to height_m), turned by
+//                phi(t) = phi0 sin(2 pi f t + phase) (World::add_rotor): exact positions,
+//                the motor torque logged (sim job: torque.csv). It stands still during a
+//                settled fill.
 // Bodies are numbered: cylinder wall beads, fixed beads, kinematic beads, explicit mobile
 // chains, fill chains; every fixed or kinematic bead is a chain of its own (chain_id).
 // Bad values (out of range, wrong type, wrong count) are one ConfigError line naming
@@ -85,6 +94,9 @@ struct SceneFillReport {
 
 struct LoadedScene {
   SceneCadence cadence;
+  bool vane = false;               ///< the scene has a [vane] (rotor 0 of the world)
+  double torque_every_rad = 1e-3;  ///< torque log sampling: a row per this change of phi (0: every step)
+  int beads_per_chain = 1;         ///< N, for the torque log's header
   std::optional<World> world;           ///< built (check_only: the container only)
   std::vector<std::int64_t> chain_ids;  ///< per body, for the snapshots
   SceneFillReport fill;
