@@ -79,12 +79,15 @@ L="$OUT/laos"
 "$PY" scripts/plot_laos.py taun "$L/fig3d_tau_N.png" "$L/summary.csv" "$L/tau_power.csv"
 echo "== 9. Contact dynamics: 60 chains of 6 beads poured into a box (snapshots + XDMF for ParaView)"
 "$SZ" sim data-samples/sim/pour_chains.toml -o "$OUT/sim_pour"
-echo "== 10. Ground-truth plots"
+echo "== 10. Contact dynamics: a small vane cup sheared for two cycles -> torque log -> LAOS"
+"$SZ" sim data-samples/sim/vane_cup.toml -o "$OUT/sim_cup"
+"$SZ" laos "$OUT/sim_cup/torque.csv" -o "$OUT/sim_cup/laos"
+echo "== 11. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \
     --image "$OUT/pair_rotation/A.png" --every 2
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png" \
     --image "$OUT/beads_vane/video.mp4" --every 2
-echo "== 11. Every figure present and a valid PNG"
+echo "== 12. Every figure present and a valid PNG"
 "$PY" scripts/check_figures.py "$OUT"
 
 echo

@@ -329,3 +329,36 @@ TEST_CASE("Packing: poured single beads near random loose packing, chains looser
   CHECK(mean[1].second <= mean[0].second - 0.02);
   CHECK(mean[2].second <= mean[0].second - 0.02);
 }
+
+TEST_CASE("an annulus region (the cup around its vane): placement stays between the radii, volumes add up",
+          "[sim][builder]") {
+  CylinderRegion c;
+  c.radius = 0.03;
+  c.inner_radius = 0.01;
+  c.z0 = 0.0;
+  c.z1 = 0.02;
+  ChainOptions o;
+  o.chains = 80;
+  o.beads_per_chain = 3;
+  o.diameter = 0.004;
+  o.l_max = 0.0004;
+  const ChainPlacement p = place_chains(c, o);
+  REQUIRE(p.positions.size() == 240);
+  for (const Vec3& x : p.positions) {
+    const double rho = std::hypot(x.x(), x.y());
+    CHECK(rho >= c.inner_radius + 0.002 - 1e-12);
+    CHECK(rho <= c.radius - 0.002 + 1e-12);
+  }
+  // A sphere straddling the inner wall: its volume in the annulus is the whole sphere's
+  // minus the part inside the inner cylinder (the two cut at the same wall).
+  CylinderRegion inner = c;
+  inner.inner_radius = 0.0;
+  inner.radius = c.inner_radius;
+  const Vec3 at(0.0105, 0, 0.01);
+  const double whole = 4.0 / 3.0 * M_PI * std::pow(0.002, 3);
+  CHECK(sphere_region_volume(at, 0.002, c) + sphere_region_volume(at, 0.002, inner) == Approx(whole).epsilon(1e-9));
+  CHECK(sphere_region_volume(at, 0.002, c) > 0.4 * whole);
+  CylinderRegion bad = c;
+  bad.inner_radius = 0.04;
+  CHECK_THROWS_AS(validate(Region{bad}), shearzone::ConfigError);
+}

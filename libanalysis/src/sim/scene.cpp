@@ -271,6 +271,7 @@ SceneBodies read_bodies(const Scene& s) {
   if (s.has("beads.kinematic_angular_velocity_rad_per_s"))
     b.kinematic_omega = s.vec3("beads.kinematic_angular_velocity_rad_per_s");
   if (s.has("vane.radius_m") || s.has("vane.height_m")) {
+    if (!s.has("vane.radius_m") || !s.has("vane.height_m")) s.fail_file("[vane] needs radius_m and height_m");
     const double d = b.diameter;
     const double radius = s.positive("vane.radius_m", 1.0), height = s.positive("vane.height_m", 1.0);
     const auto blades = static_cast<int>(s.integer("vane.blades", 4, 1, 64));
@@ -285,6 +286,9 @@ SceneBodies read_bodies(const Scene& s) {
     } else if (b.cylinder) {
       b.vane_centre = Vec3(b.cyl_cx, b.cyl_cy, 0.0);
     }
+    if (b.cylinder && std::hypot(b.vane_centre.x() - b.cyl_cx, b.vane_centre.y() - b.cyl_cy) + radius > b.cyl_radius)
+      s.fail("vane.radius_m", fmt::format("{} m: the vane reaches through the cylinder wall at {} m", radius,
+                                          b.cyl_radius));
     b.vane_phi0 = s.num("vane.phi0_rad", 0.0);
     if (!(std::abs(b.vane_phi0) <= 100.0)) s.fail("vane.phi0_rad", "expected |phi0| <= 100 rad");
     b.vane_f = s.non_negative("vane.f_Hz", 0.0);
