@@ -14,6 +14,7 @@
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/pipeline/laos_job.hpp"
+#include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/sim_job.hpp"
 #include "shearzone/sim/sim_io.hpp"
 #include "support/temp_dir.hpp"
@@ -238,6 +239,9 @@ f_Hz = 1.0
 [fill]
 count = 150
 settle = true
+[camera]
+fps = 25
+spacing_px = 8
 )";
 
 }  // namespace
@@ -267,6 +271,21 @@ TEST_CASE("a vane cup writes a torque log that laos reads with no options: the d
   CHECK(summary.numeric_column("phi0_rad")[0] == Approx(0.3).epsilon(1e-9));
   CHECK(summary.numeric_column("omega_rad_per_s")[0] == Approx(2 * M_PI).epsilon(1e-9));
   CHECK(summary.numeric_column("tau_max_N_m")[0] > 0);
+  // The surface field goes through profile unchanged: geometry, scale and drive phase
+  // from its attributes; the lock-in runs; the beads near the vane follow it.
+  pipeline::ProfileJobOptions po;
+  po.input = dir / "run" / "surface.h5";
+  po.output = dir / "profile.csv";
+  po.bead_diameter_m = 0.004;
+  const auto ps = pipeline::run_profile_job(po, core::standard_metadata("test"));
+  CHECK(ps.pairs_used == 50);  // 2 s at 25 fps
+  CHECK(ps.lockin);
+  CHECK_THAT(ps.drive_phase_source, Contains("vane_phase_rad"));
+  CHECK(ps.m_per_px == Approx(4e-4));
+  const auto prof = io::read_csv(po.output);
+  const auto amp = prof.numeric_column("v_theta_inphase_m_per_s");
+  CHECK(amp.front() > 0);                 // in phase with the vane near it
+  CHECK(amp.front() > 3 * amp.back());    // and more than far from it
   // Restart: the rotor comes back from the checkpoint and goes on from where it was.
   const auto more = run_scene(dir, with(kVaneCup, "duration_s = 2.0", "duration_s = 2.5"), "run2", "run/checkpoint.h5");
   const auto log2 = io::read_csv(dir / "run2" / "torque.csv");

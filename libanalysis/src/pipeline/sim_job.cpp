@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <utility>
@@ -16,8 +17,10 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/field_file.hpp"
 #include "shearzone/sim/scene.hpp"
 #include "shearzone/sim/sim_io.hpp"
+#include "shearzone/sim/surface.hpp"
 #include "shearzone/sim/world.hpp"
 
 namespace shearzone::pipeline {
@@ -110,6 +113,22 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   }
   double torque_impulse = 0.0, torque_time = 0.0, phi_last = w.rotor_count() > 0 ? w.rotor_angle(0) : 0.0;
 
+  // The surface field (a [camera]): one pair per frame interval, frames at the steps
+  // nearest k / fps from the run's start.
+  io::AtomicOutput* surface_file = scene.camera ? &out.add("surface.h5") : nullptr;
+  std::optional<io::FieldFileWriter> surface;
+  std::optional<sim::SurfaceCamera> camera;
+  std::int64_t frame = 0, next_frame_step = w.steps_done();
+  const double frame_s = scene.camera ? 1.0 / scene.camera->fps : 0.0;
+  const double t_first = w.time();
+  double t_frame = t_first;
+  if (scene.camera) {
+    surface.emplace(surface_file->temp_path());
+    camera.emplace(scene.camera->options);
+    camera->record(w);
+    next_frame_step = w.steps_done() + std::llround(frame_s / h);
+  }
+
   sim::SnapshotWriter snaps(snap_file.temp_path(), w, meta, chain_ids);
   sim::DiagnosticsCsv diag(diag_file.stream(), meta);
   auto checkpoint = [&] {
@@ -117,7 +136,40 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     sim::write_checkpoint(ckpt_file->temp_path(), w, meta);
     ++sum.checkpoints;
   };
+  auto finish_surface = [&] {
+    if (!surface) return;
+    if (!surface->started()) {  // no frame interval in the run: an empty field file is refused
+      throw NoResultError(fmt::format("{}: the run holds no frame interval of the camera ({} s): run longer than "
+                                      "1/fps or drop [camera]",
+                                      o.scene.string(), io::format_number(frame_s)));
+    }
+    const sim::SurfaceCameraOptions& co = scene.camera->options;
+    surface->set_attribute("fps", scene.camera->fps);
+    surface->set_attribute("m_per_px", co.m_per_px);
+    surface->set_attribute("centre_x_px", co.centre_x_px);
+    surface->set_attribute("centre_y_px", co.centre_y_px);
+    surface->set_attribute("cup_radius_px", co.cup_radius_m / co.m_per_px);
+    surface->set_attribute("vane_radius_px", co.vane_radius_m / co.m_per_px);
+    surface->set_attribute("N", static_cast<double>(scene.beads_per_chain));
+    if (w.rotor_count() > 0) {
+      const sim::Rotor& r = w.rotor(0);
+      surface->set_attribute("f_Hz", r.f_Hz);
+      surface->set_attribute("phi0_rad", r.phi0);
+      // phi = phi0 sin(2 pi f (t - t_start) + phase) = phi0 sin(2 pi f t + vane_phase_rad)
+      surface->set_attribute("vane_phase_rad", r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start);
+    }
+    surface->set_attribute("source", "shearzone sim: virtual top camera (exact surface motion)");
+    std::string conv;
+    for (const auto& [k, v] : meta) conv += k + ": " + v + "\n";
+    surface->set_attribute("options", conv);
+    surface->set_attribute("surface", "each node sees the top-most mobile bead whose horizontal disc contains it; "
+                                      "u_px, v_px: displacement of that material point from frame a to frame b "
+                                      "(x right = +X, y down = -Y, seen from above); masked: vane disc and outside "
+                                      "the cup; invalid: no bead");
+    surface->close();
+  };
   auto finish_files = [&] {
+    finish_surface();
     snaps.close();
     sim::write_snapshot_xdmf(xdmf_file.stream(), "snapshots.h5", snaps.body_count(), snaps.times());
     sum.snapshots = snaps.snapshot_count();
@@ -132,6 +184,14 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       const sim::StepDiagnostics d = w.step();
       sum.max_overlap_over_d = std::max(sum.max_overlap_over_d, d.max_overlap);
       if (d.step % cad.diagnostics_every == 0 || k == todo) diag.row(d, w.time());
+      if (camera && w.steps_done() == next_frame_step) {
+        const core::VectorField f = camera->pair(w);
+        surface->append(f, frame, frame + 1, t_frame, w.time() - t_frame);
+        ++frame;
+        t_frame = w.time();
+        next_frame_step = sum.first_step + std::llround((t_first + static_cast<double>(frame + 1) * frame_s) / h) -
+                          std::llround(t_first / h);
+      }
       if (torque) {
         torque_impulse += w.rotor_torque(0) * h;
         torque_time += h;
@@ -152,6 +212,8 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   } catch (const NoResultError&) {
     // The failing step's state is not written; what was written up to it is whole.
     sum.steps = w.steps_done() - sum.first_step;
+    // A surface field needs one frame interval; a run that diverges before it commits nothing.
+    if (surface && !surface->started()) throw;
     finish_files();
     out.commit_all();
     throw;

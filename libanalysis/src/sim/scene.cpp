@@ -44,7 +44,8 @@ const std::vector<std::string> kKeys = {
     "fill.relax_max_steps",
     "vane.blades",            "vane.radius_m",          "vane.height_m",
     "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
-    "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m"};
+    "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
+    "camera.fps",             "camera.m_per_px",        "camera.spacing_px"};
 
 // The settle/relax keys of [fill]; they only mean something with fill.settle = true.
 const std::vector<std::string> kSettleKeys = {
@@ -496,6 +497,27 @@ LoadedScene build_world(const Scene& s, bool check_only) {
   if (b.settle && !(opt.gravity.z() < 0.0))
     s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
   LoadedScene out;
+  if (s.has("camera.fps") || s.has("camera.m_per_px") || s.has("camera.spacing_px")) {
+    if (!b.cylinder) s.fail_file("[camera] looks down into a [cylinder] (give the cup as [cylinder])");
+    SceneCamera& c = out.camera.emplace();
+    c.fps = s.positive("camera.fps", 25.0);
+    if (!(c.fps <= 1e4)) s.fail("camera.fps", "expected 0 < fps <= 1e4");
+    if (!(1.0 / c.fps >= opt.time_step * (1 - 1e-9)))
+      s.fail("camera.fps", fmt::format("{} frames per second: a frame is shorter than the time step {} s", c.fps,
+                                       opt.time_step));
+    SurfaceCameraOptions& co = c.options;
+    co.m_per_px = s.positive("camera.m_per_px", b.diameter > 0 ? b.diameter / 10.0 : 1e-4);
+    co.spacing_px = s.positive("camera.spacing_px", 8.0);
+    if (!(co.spacing_px >= 1 && co.spacing_px <= 1024)) s.fail("camera.spacing_px", "expected 1..1024 px");
+    const double half_px = std::ceil((b.cyl_radius + b.cyl_bead) / co.m_per_px);
+    if (!(2 * half_px <= 65536)) s.fail("camera.m_per_px", "the image of the cup would exceed 65536 px");
+    co.width_px = co.height_px = static_cast<int>(2 * half_px);
+    co.centre_x_px = co.centre_y_px = half_px - 0.5;
+    co.cx_m = b.cyl_cx;
+    co.cy_m = b.cyl_cy;
+    co.cup_radius_m = b.cyl_radius;
+    co.vane_radius_m = b.vane.empty() ? 0.0 : s.num("vane.radius_m", 0.0);
+  }
   out.torque_every_rad = b.vane_torque_every;
   out.vane = !b.vane.empty();
   out.beads_per_chain = b.chains.beads_per_chain;

@@ -56,6 +56,10 @@
 //                phi(t) = phi0 sin(2 pi f t + phase) (World::add_rotor): exact positions,
 //                the motor torque logged (sim job: torque.csv). It stands still during a
 //                settled fill.
+//     [camera]   fps (25), m_per_px (default d/10), spacing_px (8): a virtual camera
+//                looking down into the [cylinder] (required): the sim job writes the
+//                surface field surface.h5 in the PIV field layout, one pair per frame
+//                interval (sim/surface.hpp), masked on the vane and outside the cup.
 // Bodies are numbered: cylinder wall beads, fixed beads, kinematic beads, explicit mobile
 // chains, fill chains; every fixed or kinematic bead is a chain of its own (chain_id).
 // Bad values (out of range, wrong type, wrong count) are one ConfigError line naming
@@ -71,6 +75,7 @@
 #include <optional>
 #include <vector>
 
+#include "shearzone/sim/surface.hpp"
 #include "shearzone/sim/world.hpp"
 
 namespace shearzone::sim {
@@ -92,7 +97,14 @@ struct SceneFillReport {
   double seconds = 0.0;               ///< wall time of the fill stage
 };
 
+/// [camera]: the virtual top camera of the surface field (sim/surface.hpp).
+struct SceneCamera {
+  double fps = 25.0;
+  SurfaceCameraOptions options;  ///< the image covers the cylinder, its axis at the centre
+};
+
 struct LoadedScene {
+  std::optional<SceneCamera> camera;  ///< the scene has a [camera]
   SceneCadence cadence;
   bool vane = false;               ///< the scene has a [vane] (rotor 0 of the world)
   double torque_every_rad = 1e-3;  ///< torque log sampling: a row per this change of phi (0: every step)
