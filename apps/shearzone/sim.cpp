@@ -45,6 +45,9 @@ int run_sim(SimCli& s, const Context& ctx) {
                 "state hash %016llx\n",
                 sum.snapshots, sum.checkpoints, static_cast<long long>(sum.iteration_cap_hits),
                 sum.max_overlap_over_d, static_cast<unsigned long long>(sum.state_hash));
+    if (sum.cycles_done > 0)
+      std::printf("sim: %lld whole drive cycles%s\n", static_cast<long long>(sum.cycles_done),
+                  sum.stopped_steady ? "; stopped early: the torque amplitude is steady (vane.stop_change)" : "");
   }
   return kExitOk;
 }
@@ -62,6 +65,13 @@ std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx) {
   c->add_option("--restart", s->restart,
                 "Continue from this checkpoint .h5 (the scene then gives duration and output cadence)");
   c->add_flag("--force", s->job.force, "Replace existing outputs");
+  c->add_option("--phi0", s->job.branch_phi0_rad,
+                "Amplitude branch from --restart: the vane turns phi0 sin(2 pi f (t - t_checkpoint)), rad; "
+                "range: |phi0| <= 100");
+  c->add_option("--f-hz", s->job.branch_f_Hz,
+                "Frequency of the branch (default: the checkpoint's), Hz; range: 0 < f <= 1000");
+  c->add_option("--cycles", s->job.branch_cycles,
+                "Length of the branch in cycles (default 3; replaces duration_s); range: 0 < cycles <= 1e6");
   return {{c, [s, &ctx] { return run_sim(*s, ctx); }}};
 }
 

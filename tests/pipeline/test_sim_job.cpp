@@ -4,6 +4,7 @@
 // values are one ConfigError naming file:line and key.
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -306,4 +307,54 @@ TEST_CASE("vane scene refusals: one line naming the key", "[pipeline][sim][vane]
   CHECK_THROWS_WITH(run_scene(dir, with(kVaneCup, "settle = true", "settle = true\nheight_m = 0.01\nmin_m = [0, 0, 0]"),
                               "r4"),
                     Contains("fill"));
+}
+
+TEST_CASE("protocol: a pre-shear stops once its torque is steady, then amplitude branches run from its checkpoint",
+          "[pipeline][sim][vane][slow]") {
+  TempDir dir("sim_protocol");
+  // Pre-shear: f = 2 Hz, 10 s at most, stopping when the torque amplitude changed by less
+  // than 50 % over 3 consecutive cycles (loose, to keep the test short).
+  std::string pre = with(with(with(kVaneCup, "duration_s = 2.0", "duration_s = 10.0"), "f_Hz = 1.0",
+                              "f_Hz = 2.0\nstop_change = 0.5"),
+                         "[camera]\nfps = 25\nspacing_px = 8\n", "");
+  const auto ps = run_scene(dir, pre, "pre");
+  CHECK(ps.stopped_steady);
+  CHECK(ps.cycles_done >= 4);
+  CHECK(ps.time_s < 10.0);
+  const auto cyc = io::read_csv(dir / "pre" / "cycles.csv");
+  CHECK(cyc.num_rows() == static_cast<std::size_t>(ps.cycles_done));
+  for (double a : cyc.numeric_column("torque_amplitude_N_m")) CHECK(a > 0);
+  // The checkpoint ends on a whole cycle: the vane is back at phi = 0.
+  const auto st = sim::read_checkpoint(dir / "pre" / "checkpoint.h5");
+  REQUIRE(st.rotors.size() == 1);
+  // A branch as its own process: --restart pre/checkpoint.h5 --phi0 0.1 --f-hz 1 --cycles 1.
+  testing::write_file(dir / "s.toml", pre);
+  pipeline::SimJobOptions o;
+  o.scene = dir / "s.toml";
+  o.output_dir = dir / "phi0_0.100";
+  o.restart = dir / "pre" / "checkpoint.h5";
+  o.branch_phi0_rad = 0.1;
+  o.branch_f_Hz = 1.0;
+  o.branch_cycles = 1;
+  const auto bs = pipeline::run_sim_job(o, core::standard_metadata("test"));
+  CHECK(bs.time_s == Approx(ps.time_s + 1.0).margin(1e-9));
+  CHECK(bs.cycles_done == 1);
+  const auto log = io::read_csv(dir / "phi0_0.100" / "torque.csv");
+  CHECK(core::metadata_value(log.metadata, "phi0_rad") == "0.1");
+  CHECK(core::metadata_value(log.metadata, "f_Hz") == "1");
+  const auto phi = log.numeric_column("angle_rad"), t = log.numeric_column("time_s");
+  for (std::size_t k = 0; k < phi.size(); ++k)
+    REQUIRE(phi[k] == Approx(0.1 * std::sin(2 * M_PI * (t[k] - ps.time_s))).margin(1e-12));
+  // The same branch again: the same bits (deterministic, one thread).
+  o.output_dir = dir / "again";
+  CHECK(pipeline::run_sim_job(o, core::standard_metadata("test")).state_hash == bs.state_hash);
+  // Refusals: a branch needs a checkpoint, and --f-hz/--cycles need --phi0.
+  pipeline::SimJobOptions bad = o;
+  bad.output_dir = dir / "bad";
+  bad.restart.clear();
+  CHECK_THROWS_WITH(pipeline::run_sim_job(bad, {}), Contains("give --restart"));
+  bad = o;
+  bad.output_dir = dir / "bad2";
+  bad.branch_phi0_rad = std::numeric_limits<double>::quiet_NaN();
+  CHECK_THROWS_WITH(pipeline::run_sim_job(bad, {}), Contains("give --phi0"));
 }

@@ -130,6 +130,20 @@ TEST_CASE("a checkpoint keeps the rotor; a branch with a new drive starts from t
   }
   CHECK(a.state_hash() == b.state_hash());
   CHECK(a.rotor_torque(0) == b.rotor_torque(0));
+  // A branch run straight through (the same world goes on with a new drive) and the same
+  // branch from the checkpoint: the same state.
+  {
+    World straight = World::from_state(read_checkpoint(dir / "c.h5"));
+    World restarted = World::from_state(read_checkpoint(dir / "c.h5"));
+    // `straight` stands for the run that never stopped: its state is the checkpoint's bits.
+    straight.set_rotor_drive(0, 0.3, 0.5, 0.0, straight.time());
+    restarted.set_rotor_drive(0, 0.3, 0.5, 0.0, restarted.time());
+    for (int k = 0; k < 200; ++k) {
+      straight.step();
+      restarted.step();
+    }
+    CHECK(straight.state_hash() == restarted.state_hash());
+  }
   // A branch: a new drive from now on (time origin now, so phi = 0 at the start).
   World c = World::from_state(read_checkpoint(dir / "c.h5"));
   const double t0 = c.time();

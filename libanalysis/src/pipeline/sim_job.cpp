@@ -42,6 +42,22 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     chain_ids = sim::chain_ids_from_ropes(built->state());
   }
   sim::World& w = *built;
+  const bool branch = !std::isnan(o.branch_phi0_rad);
+  if (branch) {
+    if (o.restart.empty())
+      throw ConfigError("--phi0 starts an amplitude branch from a checkpoint: give --restart (the pre-sheared state)");
+    if (w.rotor_count() == 0)
+      throw InputError(fmt::format("{}: the checkpoint has no vane: an amplitude branch needs one", o.restart.string()));
+    const double f = std::isnan(o.branch_f_Hz) ? w.rotor(0).f_Hz : o.branch_f_Hz;
+    if (!(std::abs(o.branch_phi0_rad) <= 100.0))
+      throw ConfigError(fmt::format("--phi0 {}: expected |phi0| <= 100 rad", o.branch_phi0_rad));
+    if (!(f > 0 && f <= 1000.0)) throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1000 Hz", f));
+    const double k = std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles;
+    if (!(k > 0 && k <= 1e6)) throw ConfigError(fmt::format("--cycles {}: expected 0 < cycles <= 1e6", k));
+    w.set_rotor_drive(0, o.branch_phi0_rad, f, 0.0, w.time());
+  } else if (!std::isnan(o.branch_f_Hz) || !std::isnan(o.branch_cycles)) {
+    throw ConfigError("--f-hz and --cycles belong to an amplitude branch: give --phi0 (and --restart)");
+  }
 
   sum.first_step = w.steps_done();
   sum.bodies = w.body_count();
@@ -56,7 +72,9 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   const double h = w.options().time_step;
   // The number of steps must be a count this run can reach (and llround can hold).
   constexpr double kMaxSteps = 1e9;
-  const double steps = cad.duration_s / h;
+  const double branch_end_s =
+      branch ? w.time() + (std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles) / w.rotor(0).f_Hz : 0.0;
+  const double steps = (branch ? branch_end_s : cad.duration_s) / h;
   if (!(steps <= kMaxSteps))
     throw ConfigError(fmt::format("{}: sim.duration_s = {} s over sim.time_step_s = {} s is {:.3g} steps; "
                                   "expected at most {:.0e} (a longer time step or a shorter run)",
@@ -68,6 +86,14 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   core::Metadata meta = header;
   meta.emplace_back("scene", o.scene.string());
   if (!o.restart.empty()) meta.emplace_back("restart", o.restart.string());
+  if (branch) {
+    const sim::Rotor& r = w.rotor(0);
+    meta.emplace_back("branch", fmt::format("amplitude branch: phi = {} sin(2 pi {} (t - {})) for {} cycles from the "
+                                            "checkpoint",
+                                            io::format_number(r.phi0), io::format_number(r.f_Hz),
+                                            io::format_number(r.t_start),
+                                            io::format_number(std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles)));
+  }
   meta.emplace_back("time_step_s", io::format_number(h));
   meta.emplace_back("threads", std::to_string(w.options().threads));
   meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
@@ -128,6 +154,33 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     camera->record(w);
     next_frame_step = w.steps_done() + std::llround(frame_s / h);
   }
+
+  // Per drive cycle of the vane (f > 0): the torque's fundamental amplitude and the
+  // solver's work, and the early stop of a pre-shear (vane.stop_change).
+  const bool cycling = w.rotor_count() > 0 && w.rotor(0).f_Hz > 0;
+  io::AtomicOutput* cycles_file = cycling ? &out.add("cycles.csv") : nullptr;
+  std::optional<io::CsvWriter> cycles;
+  if (cycling) {
+    core::Metadata cm = meta;
+    cm.emplace_back("cycle", "floor(f (t - t_start)) of the vane's drive; a row per whole cycle of this run");
+    cm.emplace_back("torque_amplitude_N_m", "amplitude of the fundamental of the motor torque over the cycle "
+                                            "(per-step torques against cos and sin of 2 pi f t)");
+    cm.emplace_back("stop_change", io::format_number(scene.stop_change));
+    cycles.emplace(cycles_file->stream(), cm,
+                   std::vector<std::string>{"cycle", "torque_amplitude_N_m", "mean_sweeps_per_step", "cap_hits",
+                                            "max_overlap_over_d", "wall_s"});
+  }
+  struct CycleSums {
+    double c = 0, s = 0, sweeps = 0, overlap = 0;
+    std::int64_t steps = 0, caps = 0;
+  } cyc;
+  auto cycle_of = [&](double t) {
+    const sim::Rotor& r = w.rotor(0);
+    return static_cast<std::int64_t>(std::floor(r.f_Hz * (t - r.t_start) + 1e-9));
+  };
+  std::int64_t current_cycle = cycling ? cycle_of(w.time()) : 0;
+  std::vector<double> amplitudes;
+  auto cycle_wall = std::chrono::steady_clock::now();
 
   sim::SnapshotWriter snaps(snap_file.temp_path(), w, meta, chain_ids);
   sim::DiagnosticsCsv diag(diag_file.stream(), meta);
@@ -192,11 +245,45 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
         next_frame_step = sum.first_step + std::llround((t_first + static_cast<double>(frame + 1) * frame_s) / h) -
                           std::llround(t_first / h);
       }
+      if (cycling) {
+        const sim::Rotor& r = w.rotor(0);
+        const double t_mid = w.time() - 0.5 * h;  // the step's torque acts over it
+        const double a = 2.0 * std::numbers::pi * r.f_Hz * (t_mid - r.t_start);
+        cyc.c += w.rotor_torque(0) * std::cos(a);
+        cyc.s += w.rotor_torque(0) * std::sin(a);
+        cyc.sweeps += d.iterations;
+        cyc.caps += d.hit_iteration_cap ? 1 : 0;
+        cyc.overlap = std::max(cyc.overlap, d.max_overlap);
+        ++cyc.steps;
+        const std::int64_t now_cycle = cycle_of(w.time());
+        if (now_cycle != current_cycle) {  // a whole cycle has ended with this step
+          const double n = static_cast<double>(cyc.steps);
+          const double amp = 2.0 / n * std::hypot(cyc.c, cyc.s);
+          const auto now = std::chrono::steady_clock::now();
+          cycles->row(std::vector<std::string>{
+              std::to_string(current_cycle), io::format_number(amp), io::format_number(cyc.sweeps / n),
+              std::to_string(cyc.caps), io::format_number(cyc.overlap),
+              fmt::format("{:.3f}", std::chrono::duration<double>(now - cycle_wall).count())});
+          cycle_wall = now;
+          amplitudes.push_back(amp);
+          ++sum.cycles_done;
+          cyc = CycleSums{};
+          current_cycle = now_cycle;
+          // Steady: three consecutive changes of the amplitude below stop_change.
+          if (scene.stop_change > 0 && amplitudes.size() >= 4) {
+            bool steady = true;
+            for (std::size_t q = amplitudes.size() - 3; q < amplitudes.size(); ++q)
+              steady = steady && std::abs(amplitudes[q] - amplitudes[q - 1]) <= scene.stop_change * amplitudes[q];
+            if (steady) sum.stopped_steady = true;
+          }
+        }
+      }
       if (torque) {
         torque_impulse += w.rotor_torque(0) * h;
         torque_time += h;
         const double phi = w.rotor_angle(0);
-        if (scene.torque_every_rad == 0 || std::abs(phi - phi_last) >= scene.torque_every_rad || k == todo) {
+        if (scene.torque_every_rad == 0 || std::abs(phi - phi_last) >= scene.torque_every_rad || k == todo ||
+            sum.stopped_steady) {
           torque->row(std::vector<double>{w.time(), phi, torque_impulse / torque_time});
           torque_impulse = torque_time = 0.0;
           phi_last = phi;
@@ -208,6 +295,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       }
       if (cad.checkpoint_every > 0 && d.step % cad.checkpoint_every == 0 && k != todo) checkpoint();
       if (progress) progress(static_cast<std::size_t>(k), static_cast<std::size_t>(todo));
+      if (sum.stopped_steady) break;
     }
   } catch (const NoResultError&) {
     // The failing step's state is not written; what was written up to it is whole.

@@ -45,7 +45,8 @@ const std::vector<std::string> kKeys = {
     "vane.blades",            "vane.radius_m",          "vane.height_m",
     "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
     "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
-    "camera.fps",             "camera.m_per_px",        "camera.spacing_px"};
+    "camera.fps",             "camera.m_per_px",        "camera.spacing_px",
+    "vane.stop_change"};
 
 // The settle/relax keys of [fill]; they only mean something with fill.settle = true.
 const std::vector<std::string> kSettleKeys = {
@@ -194,7 +195,7 @@ struct SceneBodies {
   // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
   std::vector<Vec3> vane;
   Vec3 vane_centre = Vec3::Zero();
-  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3;
+  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3, vane_stop_change = 0.0;
   // [fill].
   bool fill = false;
   Region fill_region;
@@ -297,6 +298,8 @@ SceneBodies read_bodies(const Scene& s) {
     b.vane_phase = s.num("vane.phase_rad", 0.0);
     if (!std::isfinite(b.vane_phase)) s.fail("vane.phase_rad", "expected a finite number");
     b.vane_torque_every = s.non_negative("vane.torque_every_rad", 1e-3);
+    b.vane_stop_change = s.non_negative("vane.stop_change", 0.0);
+    if (b.vane_stop_change > 0 && !(b.vane_f > 0)) s.fail("vane.stop_change", "needs vane.f_Hz > 0 (whole cycles)");
     // A hub bead on the axis and, per blade, touching beads at r = d, 2d, ... while the
     // tip bead's outer edge stays within radius_m; layers from the floor up to height_m.
     for (int layer = 0; (0.5 + layer) * d <= height; ++layer) {
@@ -310,7 +313,7 @@ SceneBodies read_bodies(const Scene& s) {
     }
   } else {
     for (const char* k : {"vane.blades", "vane.centre_m", "vane.phi0_rad", "vane.f_Hz", "vane.phase_rad",
-                          "vane.torque_every_rad"})
+                          "vane.torque_every_rad", "vane.stop_change"})
       if (s.has(k)) s.fail_file("[vane] needs radius_m and height_m");
   }
   b.mobile = s.points("beads.positions_m");
@@ -519,6 +522,7 @@ LoadedScene build_world(const Scene& s, bool check_only) {
     co.vane_radius_m = b.vane.empty() ? 0.0 : s.num("vane.radius_m", 0.0);
   }
   out.torque_every_rad = b.vane_torque_every;
+  out.stop_change = b.vane_stop_change;
   out.vane = !b.vane.empty();
   out.beads_per_chain = b.chains.beads_per_chain;
   World container(opt);

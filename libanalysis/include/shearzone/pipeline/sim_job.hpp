@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
@@ -20,6 +21,13 @@ struct SimJobOptions {
   std::filesystem::path output_dir;  ///< run folder
   std::filesystem::path restart;     ///< checkpoint .h5 to continue from (empty: none)
   bool force = false;
+  /// An amplitude branch (with restart, a checkpoint holding a vane): the vane's drive
+  /// becomes phi0 sin(2 pi f (t - t_ck)) from the checkpoint's time t_ck, and the run
+  /// lasts `branch_cycles` cycles instead of the scene's duration. NaN: not a branch;
+  /// f NaN: the checkpoint's frequency; cycles NaN: 3.
+  double branch_phi0_rad = std::numeric_limits<double>::quiet_NaN();
+  double branch_f_Hz = std::numeric_limits<double>::quiet_NaN();
+  double branch_cycles = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct SimJobSummary {
@@ -39,6 +47,8 @@ struct SimJobSummary {
   double wall_seconds = 0.0;  ///< the run (the fill stage: fill.seconds)
   std::uint64_t state_hash = 0;  ///< World::state_hash() at the end
   int threads = 1;               ///< sweep threads of the run (sim::Options::threads)
+  std::int64_t cycles_done = 0;  ///< whole drive cycles in this run (a vane)
+  bool stopped_steady = false;   ///< vane.stop_change met: the run stopped early
   // fill.settle = true (not on restart): the sim::fill stage before the run.
   sim::SceneFillReport fill;
 };

@@ -55,7 +55,9 @@
 //                within radius_m; layers from the floor up to height_m), turned by
 //                phi(t) = phi0 sin(2 pi f t + phase) (World::add_rotor): exact positions,
 //                the motor torque logged (sim job: torque.csv). It stands still during a
-//                settled fill.
+//                settled fill. stop_change (0: off): stop the run once the torque
+//                amplitude per cycle changed by less than this fraction over 3
+//                consecutive cycles (a pre-shear that has reached its steady state).
 //     [camera]   fps (25), m_per_px (default d/10), spacing_px (8): a virtual camera
 //                looking down into the [cylinder] (required): the sim job writes the
 //                surface field surface.h5 in the PIV field layout, one pair per frame
@@ -108,6 +110,9 @@ struct LoadedScene {
   SceneCadence cadence;
   bool vane = false;               ///< the scene has a [vane] (rotor 0 of the world)
   double torque_every_rad = 1e-3;  ///< torque log sampling: a row per this change of phi (0: every step)
+  /// Stop once the vane's torque amplitude changed by less than this fraction over 3
+  /// consecutive whole cycles (0: run the whole duration); the pre-shear's early stop.
+  double stop_change = 0.0;
   int beads_per_chain = 1;         ///< N, for the torque log's header
   std::optional<World> world;           ///< built (check_only: the container only)
   std::vector<std::int64_t> chain_ids;  ///< per body, for the snapshots
