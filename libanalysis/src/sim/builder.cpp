@@ -346,6 +346,8 @@ void add_box_walls(World& world, const BoxRegion& b, double friction) {
 }
 
 void validate(const FillOptions& o) {
+  if (!(o.max_fall_speed >= 0.0) || !std::isfinite(o.max_fall_speed))
+    bad_option("fill.max_fall_speed", o.max_fall_speed, ">= 0 (x d per step)");
   validate(o.chains);
   validate(o.region);
   if (!(o.wall_friction >= 0.0) || !std::isfinite(o.wall_friction)) bad_option("wall_friction", o.wall_friction, ">= 0");
@@ -399,12 +401,21 @@ FillResult fill(const Options& world_options, const FillOptions& o, const std::f
   const std::vector<int> ids = add_chains(drop, placement, c);
   const double mgd = drop.mass(ids.front()) * g * d;
   const double energy_scale = n_beads * mgd;
-  // At least the free-fall time of the whole insertion height.
-  const auto min_steps =
-      static_cast<std::int64_t>(std::ceil(std::sqrt(2.0 * height / g) / world_options.time_step));
+  // At least the fall time of the whole insertion height (free fall, or at the terminal
+  // speed when that is slower).
+  const double h_step = world_options.time_step;
+  const double v_cap = o.max_fall_speed > 0 ? o.max_fall_speed * d / h_step : 0.0;
+  const double fall_s = std::max(std::sqrt(2.0 * height / g), v_cap > 0 ? height / v_cap : 0.0);
+  const auto min_steps = static_cast<std::int64_t>(std::ceil(fall_s / h_step));
   std::int64_t settle = 0;
   for (; settle < o.settle_max_steps; ++settle) {
     (void)drop.step();
+    if (v_cap > 0)
+      for (const int b : ids) {
+        const Vec3& v = drop.velocity(b);
+        const double speed = v.norm();
+        if (speed > v_cap) drop.set_velocity(b, v * (v_cap / speed));
+      }
     if (settle + 1 >= min_steps && translational_energy(drop, ids) <= o.settle_kinetic_energy * energy_scale) {
       ++settle;
       break;

@@ -107,6 +107,10 @@ struct FillOptions {
   double settle_kinetic_energy = 1e-3;  ///< end of the drop: ½ m v² per bead / (m g d)
   double relax_kinetic_energy = 1e-5;   ///< end of the relaxation: ½ m v² per bead / (m g d)
   std::int64_t relax_max_steps = 20000;
+  /// Terminal speed of the drop, × d per time step (0: none): after every drop step a
+  /// bead faster than this is slowed to it, as in a viscous fluid, so a tall drop column
+  /// cannot bring beads in at a diameter per step whatever the time step.
+  double max_fall_speed = 0.1;
 };
 
 struct FillResult {
