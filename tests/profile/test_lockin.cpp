@@ -188,6 +188,14 @@ double lockin_coverage(double f_Hz, int pairs, double rho, int repetitions, cons
   return static_cast<double>(covered) / repetitions;
 }
 
+/// 95 % intervals over 400 seeds of 300 pairs must cover the truth 91.5-98.5 % of the time.
+void check_coverage(double f_Hz, double rho, const char* clusters) {
+  const double c = lockin_coverage(f_Hz, 300, rho, 400, clusters);
+  INFO("coverage " << c);
+  CHECK(c >= 0.915);
+  CHECK(c <= 0.985);
+}
+
 }  // namespace
 
 TEST_CASE("the lock-in r_c interval covers the truth 91.5-98.5 % of the time (400 seeds)",
@@ -195,27 +203,14 @@ TEST_CASE("the lock-in r_c interval covers the truth 91.5-98.5 % of the time (40
   // 95 % intervals; 400 seeds give a binomial standard deviation of 1.1 %, and the
   // band is the issue's. Few cycles: blocks of pairs; many: whole cycles.
   // Measured: 93.75 % and 93.5 %.
-  SECTION("6 cycles, independent pairs: blocks of pairs") {
-    const double c = lockin_coverage(0.5, 300, 0.0, 400, "pair_blocks");
-    INFO("coverage " << c);
-    CHECK(c >= 0.915);
-    CHECK(c <= 0.985);
-  }
-  SECTION("12 cycles, AR(1) noise in time (rho = 0.5): whole cycles") {
-    const double c = lockin_coverage(1.0, 300, 0.5, 400, "cycles");
-    INFO("coverage " << c);
-    CHECK(c >= 0.915);
-    CHECK(c <= 0.985);
-  }
+  SECTION("6 cycles, independent pairs: blocks of pairs") { check_coverage(0.5, 0.0, "pair_blocks"); }
+  SECTION("12 cycles, AR(1) noise in time (rho = 0.5): whole cycles") { check_coverage(1.0, 0.5, "cycles"); }
 }
 
 TEST_CASE("lock-in coverage with correlated pairs over few cycles (blocks of pairs)",
           "[profile][lockin][width][slow]") {
   // The weak case: AR(1) rho = 0.5 over 6 cycles; blocks of 10 tau pairs. Measured 92.25 %.
-  const double c = lockin_coverage(0.5, 300, 0.5, 400, "pair_blocks");
-  INFO("coverage " << c);
-  CHECK(c >= 0.915);
-  CHECK(c <= 0.985);
+  check_coverage(0.5, 0.5, "pair_blocks");
 }
 
 TEST_CASE("non-sinusoidal motion: the harmonics reproduce mean |v| of the noise-free field within 2 %",
