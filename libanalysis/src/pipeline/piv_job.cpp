@@ -1,5 +1,7 @@
 #include "shearzone/pipeline/piv_job.hpp"
 
+#include "angle_log.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -8,6 +10,8 @@
 #include <utility>
 
 #include <fmt/format.h>
+
+#include "angle_log.hpp"
 
 #include "shearzone/core/conventions.hpp"
 #include "shearzone/core/error.hpp"
@@ -34,17 +38,9 @@ class VaneAngle {
  public:
   explicit VaneAngle(const VaneMaskOptions& o) : o_(o) {
     if (o.log_path.empty()) return;
-    const io::CsvTable t = io::read_csv(o.log_path);
-    time_ = t.numeric_column("time_s");
-    angle_ = t.numeric_column("angle_rad");
-    if (time_.size() < 2)
-      throw InputError(fmt::format("{}: the angle log needs at least 2 rows", o.log_path));
-    for (std::size_t r = 1; r < time_.size(); ++r)
-      if (!(time_[r] > time_[r - 1]))
-        throw InputError(fmt::format("{}:{}: column \"time_s\": {} does not increase (previous "
-                                     "row has {}); expected strictly increasing times",
-                                     o.log_path, t.row_lines[r], format_number(time_[r]),
-                                     format_number(time_[r - 1])));
+    AngleLog log = read_angle_log(o.log_path, 2);
+    time_ = std::move(log.time_s);
+    angle_ = std::move(log.angle_rad);
   }
 
   const std::vector<double>& log_times() const { return time_; }

@@ -5,7 +5,6 @@
 #include <memory>
 #include <numbers>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
@@ -20,6 +19,9 @@
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
 #include "shearzone/profile/width.hpp"
+#include "shearzone/piv/vane_angle.hpp"
+
+#include "angle_log.hpp"
 
 namespace shearzone::pipeline {
 
@@ -44,32 +46,22 @@ struct DriveFit {
   double f_Hz = 0, t0_s = 0, amplitude_rad = 0, r2 = 0;
 };
 
-/// Residual sum of squares of the linear fit at frequency f (and the fit).
+/// Residual sum of squares of the linear fit c + A sin(2 pi f t) + B cos(2 pi f t) at
+/// frequency f (piv::fit_vane_phase, the fit the vane phase finder uses), and the fit.
 double drive_rss(const std::vector<double>& t, const std::vector<double>& y, double f, DriveFit* out) {
-  const double w = 2.0 * std::numbers::pi * f;
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d r = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    const Eigen::Vector3d x(1.0, std::sin(w * t[i]), std::cos(w * t[i]));
-    A += x * x.transpose();
-    r += y[i] * x;
-  }
-  const Eigen::Vector3d b = A.ldlt().solve(r);
-  double rss = 0, mean = 0, tss = 0;
-  for (double v : y) mean += v;
-  mean /= static_cast<double>(y.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    const double e = y[i] - (b(0) + b(1) * std::sin(w * t[i]) + b(2) * std::cos(w * t[i]));
-    rss += e * e;
-    tss += (y[i] - mean) * (y[i] - mean);
-  }
+  const piv::VanePhaseFit p = piv::fit_vane_phase(t, y, f);
+  const double n = static_cast<double>(y.size());
+  const double rss = p.rms_rad * p.rms_rad * n;
   if (out) {
+    double mean = 0, tss = 0;
+    for (double v : y) mean += v;
+    mean /= n;
+    for (double v : y) tss += (v - mean) * (v - mean);
     out->f_Hz = f;
-    out->amplitude_rad = std::hypot(b(1), b(2));
-    // A sin(wt) + B cos(wt) = R sin(w t + psi): upward zero crossing at w t = -psi.
-    const double psi = std::atan2(b(2), b(1));
+    out->amplitude_rad = p.amplitude_rad;
+    // R sin(w t + phase): upward zero crossing at w t = -phase.
     const double T = 1.0 / f;
-    out->t0_s = std::fmod(-psi / w, T);
+    out->t0_s = std::fmod(-p.phase_rad / (2.0 * std::numbers::pi * f), T);
     if (out->t0_s < 0) out->t0_s += T;
     out->r2 = tss > 0 ? 1.0 - rss / tss : 0.0;
   }
@@ -79,14 +71,9 @@ double drive_rss(const std::vector<double>& t, const std::vector<double>& y, dou
 /// The drive sinusoid of an angle log (columns time_s, angle_rad), the frequency refined
 /// around f_hint (or found from the log's upward zero crossings when f_hint is unset).
 DriveFit fit_drive_log(const std::string& path, double f_hint) {
-  const io::CsvTable tab = io::read_csv(path);
-  const std::vector<double> t = tab.numeric_column("time_s"), y = tab.numeric_column("angle_rad");
-  if (t.size() < 8) throw InputError(fmt::format("{}: the angle log has {} rows; expected at least 8", path, t.size()));
-  for (std::size_t r = 1; r < t.size(); ++r)
-    if (!(t[r] > t[r - 1]))
-      throw InputError(fmt::format("{}:{}: column \"time_s\": {} does not increase (previous row has {}); "
-                                   "expected strictly increasing times",
-                                   path, tab.row_lines[r], format_number(t[r]), format_number(t[r - 1])));
+  const AngleLog log = read_angle_log(path, 8);
+  const std::vector<double>& t = log.time_s;
+  const std::vector<double>& y = log.angle_rad;
   const double span = t.back() - t.front();
   double f0 = f_hint;
   if (!set(f0)) {
