@@ -1,7 +1,5 @@
 #include "shearzone/pipeline/piv_job.hpp"
 
-#include "angle_log.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
