@@ -79,11 +79,12 @@ L="$OUT/laos"
 "$PY" scripts/plot_laos.py taun "$L/fig3d_tau_N.png" "$L/summary.csv" "$L/tau_power.csv"
 echo "== 9. Contact dynamics: 60 chains of 6 beads poured into a box (snapshots + XDMF for ParaView)"
 "$SZ" sim data-samples/sim/pour_chains.toml -o "$OUT/sim_pour"
-echo "== 10. Contact dynamics: a small vane cup sheared for two cycles -> torque log -> LAOS; surface -> v(r), r_c"
+echo "== 10. Contact dynamics: a small vane cup through the protocol (fill, pre-shear, two amplitude branches)"
 "$SZ" sim data-samples/sim/vane_cup.toml -o "$OUT/sim_cup"
-"$SZ" laos "$OUT/sim_cup/torque.csv" -o "$OUT/sim_cup/laos"
-# Its top surface seen by a virtual camera (surface.h5, the PIV field layout): v(r) and r_c.
-"$SZ" profile "$OUT/sim_cup/surface.h5" -o "$OUT/sim_cup/profile.csv"
+# Each branch's torque log through LAOS (no options), and the large branch's top surface
+# seen by a virtual camera (surface.h5, the PIV field layout) through profile and width.
+"$SZ" laos "$OUT/sim_cup/phi0_0.020/torque.csv" "$OUT/sim_cup/phi0_0.300/torque.csv" -o "$OUT/sim_cup/laos"
+"$SZ" profile "$OUT/sim_cup/phi0_0.300/surface.h5" -o "$OUT/sim_cup/profile.csv"
 "$SZ" width "$OUT/sim_cup/profile.csv" -o "$OUT/sim_cup/widths.csv" --vc 2e-3
 echo "== 11. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \

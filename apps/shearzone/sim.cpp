@@ -2,6 +2,7 @@
 // checkpoints and the diagnostics CSV in one folder. Flags map onto
 // pipeline::SimJobOptions; the scene keys are in shearzone/pipeline/sim_job.hpp.
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -16,13 +17,7 @@ struct SimCli {
   std::string scene, output, restart;
 };
 
-int run_sim(SimCli& s, const Context& ctx) {
-  s.job.scene = s.scene;
-  s.job.output_dir = s.output;
-  s.job.restart = s.restart;
-  core::ProgressReporter progress("sim: steps", ctx.level);
-  const auto sum = pipeline::run_sim_job(s.job, ctx.header(), progress.callback());
-  progress.finish();
+void print_summary(const pipeline::SimJobSummary& sum, const std::string& output, const Context& ctx) {
   if (ctx.level != core::LogLevel::kQuiet) {
     if (sum.fill.settled)
       std::printf("sim: fill settled: %lld drop steps (%lld iteration-cap hits), %lld relaxation steps, "
@@ -40,15 +35,42 @@ int run_sim(SimCli& s, const Context& ctx) {
                 "in %.3g s on %d thread%s -> %s\n",
                 sum.bodies, kinds.c_str(), sum.walls, sum.ropes, sum.angles,
                 static_cast<long long>(sum.first_step), static_cast<long long>(sum.first_step + sum.steps),
-                sum.time_s, sum.wall_seconds, sum.threads, sum.threads == 1 ? "" : "s", s.output.c_str());
+                sum.time_s, sum.wall_seconds, sum.threads, sum.threads == 1 ? "" : "s", output.c_str());
     std::printf("sim: %zu snapshots, %zu checkpoints, %lld iteration-cap hits, max overlap %.3g d, "
                 "state hash %016llx\n",
                 sum.snapshots, sum.checkpoints, static_cast<long long>(sum.iteration_cap_hits),
                 sum.max_overlap_over_d, static_cast<unsigned long long>(sum.state_hash));
     if (sum.cycles_done > 0)
       std::printf("sim: %lld whole drive cycles%s\n", static_cast<long long>(sum.cycles_done),
-                  sum.stopped_steady ? "; stopped early: the torque amplitude is steady (vane.stop_change)" : "");
+                  sum.stopped_steady ? "; stopped early: the torque amplitude is steady (stop_change)" : "");
   }
+}
+
+int run_sim(SimCli& s, const Context& ctx) {
+  s.job.scene = s.scene;
+  s.job.output_dir = s.output;
+  s.job.restart = s.restart;
+  if (s.restart.empty() && pipeline::scene_has_protocol(s.job.scene)) {
+    // The whole protocol: pre-shear, then every amplitude branch, each in its own folder.
+    auto progress = std::make_unique<core::ProgressReporter>("sim: preshear steps", ctx.level);
+    const auto stage = [&](const pipeline::SimProtocolStage& st) {
+      progress->finish();
+      print_summary(st.summary, (std::filesystem::path(s.output) / st.name).string(), ctx);
+      progress = std::make_unique<core::ProgressReporter>("sim: branch steps", ctx.level);
+    };
+    const auto sum =
+        pipeline::run_sim_protocol(s.job, ctx.header(), [&](std::size_t k, std::size_t n) { progress->callback()(k, n); },
+                                   stage);
+    progress->finish();
+    if (ctx.level != core::LogLevel::kQuiet)
+      std::printf("sim: protocol done: pre-shear and %zu amplitude branches -> %s/protocol.csv\n",
+                  sum.stages.size() - 1, s.output.c_str());
+    return kExitOk;
+  }
+  core::ProgressReporter progress("sim: steps", ctx.level);
+  const auto sum = pipeline::run_sim_job(s.job, ctx.header(), progress.callback());
+  progress.finish();
+  print_summary(sum, s.output, ctx);
   return kExitOk;
 }
 
@@ -58,7 +80,7 @@ std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx) {
   auto s = std::make_shared<SimCli>();
   CLI::App* c = root.add_subcommand(
       "sim", "Contact-dynamics simulation of a scene (TOML) -> snapshots (HDF5 + XDMF), "
-             "checkpoints, diagnostics CSV");
+             "checkpoints, diagnostics CSV; a scene with [protocol] runs pre-shear and every amplitude branch");
   c->add_option("scene", s->scene, "Scene .toml (keys: docs/sim.md)")
       ->required();
   c->add_option("-o,--output", s->output, "Run folder")->required();

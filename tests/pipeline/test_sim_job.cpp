@@ -4,6 +4,7 @@
 // values are one ConfigError naming file:line and key.
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <limits>
 #include <string>
 #include <vector>
@@ -357,4 +358,97 @@ TEST_CASE("protocol: a pre-shear stops once its torque is steady, then amplitude
   bad.output_dir = dir / "bad2";
   bad.branch_phi0_rad = std::numeric_limits<double>::quiet_NaN();
   CHECK_THROWS_WITH(pipeline::run_sim_job(bad, {}), Contains("give --phi0"));
+}
+
+namespace {
+
+// kVaneCup as a [protocol] scene: a 1 s pre-shear at 2 Hz, then two branches of one
+// cycle at 2 Hz.
+std::string protocol_cup() {
+  std::string s = with(with(kVaneCup, "duration_s = 2.0\n", ""), "phi0_rad = 0.3\nf_Hz = 1.0\n", "");
+  s = with(s, "[camera]\nfps = 25\nspacing_px = 8\n", "");
+  return s + "[protocol]\npreshear_phi0_rad = 0.05\npreshear_f_Hz = 2\npreshear_s = 1\nstop_change = 0\n"
+             "phi0_rad = [0.1, 0.3]\nf_Hz = 2\ncycles = 1\n";
+}
+
+}  // namespace
+
+TEST_CASE("protocol: one scene runs the pre-shear and every amplitude branch, each branch the same bits as "
+          "its own process",
+          "[pipeline][sim][vane]") {
+  TempDir dir("sim_protocol_all");
+  testing::write_file(dir / "s.toml", protocol_cup());
+  CHECK(pipeline::scene_has_protocol(dir / "s.toml"));
+  pipeline::SimJobOptions o;
+  o.scene = dir / "s.toml";
+  o.output_dir = dir / "run";
+  std::vector<std::string> told;
+  const auto sum = pipeline::run_sim_protocol(o, core::standard_metadata("test"), {},
+                                              [&](const pipeline::SimProtocolStage& st) { told.push_back(st.name); });
+  CHECK(told == std::vector<std::string>{"preshear", "phi0_0.100", "phi0_0.300"});
+  CHECK(testing::list_dir(dir / "run") == std::vector<std::string>{"phi0_0.100", "phi0_0.300", "preshear",
+                                                                   "protocol.csv"});
+  // The pre-shear: phi = 0.05 sin(4 pi t) for 1 s from the settled fill.
+  const auto& pre = sum.stages[0].summary;
+  CHECK(pre.fill.settled);
+  CHECK(pre.time_s == Approx(1.0).margin(1e-9));
+  CHECK(pre.cycles_done == 2);
+  const auto plog = io::read_csv(dir / "run" / "preshear" / "torque.csv");
+  CHECK(core::metadata_value(plog.metadata, "phi0_rad") == "0.05");
+  CHECK(core::metadata_value(plog.metadata, "f_Hz") == "2");
+  // Each branch: its amplitude, one cycle at 2 Hz from the checkpoint's time.
+  for (std::size_t k = 1; k < 3; ++k) {
+    const auto& st = sum.stages[k];
+    CHECK(st.summary.time_s == Approx(1.5).margin(1e-9));
+    CHECK(st.summary.cycles_done == 1);
+    const auto log = io::read_csv(dir / "run" / st.name / "torque.csv");
+    CHECK(core::metadata_value(log.metadata, "phi0_rad") == io::format_number(st.phi0_rad));
+    const auto phi = log.numeric_column("angle_rad"), t = log.numeric_column("time_s");
+    REQUIRE(phi.size() > 100);
+    for (std::size_t j = 0; j < phi.size(); ++j)
+      REQUIRE(phi[j] == Approx(st.phi0_rad * std::sin(4 * M_PI * (t[j] - 1.0))).margin(1e-12));
+  }
+  // The larger amplitude needs the larger torque.
+  CHECK(sum.stages[2].summary.torque_amplitudes.at(0) > sum.stages[1].summary.torque_amplitudes.at(0));
+  const auto table = io::read_csv(dir / "run" / "protocol.csv");
+  CHECK(table.text_column("stage") == std::vector<std::string>{"preshear", "phi0_0.100", "phi0_0.300"});
+  CHECK(table.numeric_column("torque_amplitude_last_N_m")[2] ==
+        Approx(sum.stages[2].summary.torque_amplitudes.back()).epsilon(1e-5));
+  // A branch as its own process from the checkpoint: the same state hash.
+  pipeline::SimJobOptions b = o;
+  b.output_dir = dir / "alone";
+  b.restart = dir / "run" / "preshear" / "checkpoint.h5";
+  b.branch_phi0_rad = 0.3;
+  b.branch_f_Hz = 2;
+  b.branch_cycles = 1;
+  CHECK(pipeline::run_sim_job(b, core::standard_metadata("test")).state_hash == sum.stages[2].summary.state_hash);
+  // Every folder is checked before the first step.
+  CHECK_THROWS_WITH(pipeline::run_sim_protocol(o, {}), Contains("preshear exists: give --force"));
+  o.output_dir = dir / "run2";
+  std::filesystem::create_directories(dir / "run2" / "phi0_0.300");
+  CHECK_THROWS_WITH(pipeline::run_sim_protocol(o, {}), Contains("phi0_0.300 exists"));
+  CHECK(testing::list_dir(dir / "run2") == std::vector<std::string>{"phi0_0.300"});
+  // A protocol is a whole run: not with --restart or --phi0.
+  o.restart = b.restart;
+  CHECK_THROWS_WITH(pipeline::run_sim_protocol(o, {}), Contains("run one branch"));
+}
+
+TEST_CASE("protocol scene refusals: one line naming the key", "[pipeline][sim][vane]") {
+  const std::string p = protocol_cup();
+  CHECK_THAT(scene_error(with(p, "[sim]\n", "[sim]\nduration_s = 1\n")),
+             Contains("key \"sim.duration_s\": set by [protocol]"));
+  CHECK_THAT(scene_error(with(p, "height_m = 0.02\n[fill]", "height_m = 0.02\nf_Hz = 1\n[fill]")),
+             Contains("key \"vane.f_Hz\": set by [protocol]"));
+  CHECK_THAT(scene_error(with(p, "phi0_rad = [0.1, 0.3]\n", "")), Contains("[protocol] needs phi0_rad"));
+  CHECK_THAT(scene_error(with(p, "phi0_rad = [0.1, 0.3]", "phi0_rad = [0.1, 0.1]")),
+             Contains("0.1 appears twice (branch folder phi0_0.100)"));
+  CHECK_THAT(scene_error(with(p, "phi0_rad = [0.1, 0.3]", "phi0_rad = [0.1, -0.3]")),
+             Contains("key \"protocol.phi0_rad\": -0.3 (expected 0 < phi0 <= 100 rad)"));
+  CHECK_THAT(scene_error(with(p, "phi0_rad = [0.1, 0.3]", "phi0_rad = []")), Contains("no amplitude"));
+  CHECK_THAT(scene_error(with(p, "cycles = 1", "cycles = 0")), Contains("protocol.cycles"));
+  CHECK_THAT(scene_error(with(p, "[vane]\nradius_m = 0.01\nheight_m = 0.02\n", "")),
+             Contains("[protocol] drives a vane"));
+  // Branch folders: three decimals when they hold the amplitude, else its exact form.
+  CHECK(sim::SceneProtocol::branch_folder(0.3) == "phi0_0.300");
+  CHECK(sim::SceneProtocol::branch_folder(0.0025) == "phi0_0.0025");
 }

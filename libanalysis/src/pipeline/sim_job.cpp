@@ -266,6 +266,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
               fmt::format("{:.3f}", std::chrono::duration<double>(now - cycle_wall).count())});
           cycle_wall = now;
           amplitudes.push_back(amp);
+          sum.torque_amplitudes.push_back(amp);
           ++sum.cycles_done;
           cyc = CycleSums{};
           current_cycle = now_cycle;
@@ -316,6 +317,91 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   sum.iteration_cap_hits = w.iteration_cap_hits() - cap0;
   sum.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return sum;
+}
+
+bool scene_has_protocol(const std::filesystem::path& scene) {
+  return sim::load_scene(scene, true).protocol.has_value();
+}
+
+SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata& header,
+                                    const core::ProgressCallback& progress,
+                                    const std::function<void(const SimProtocolStage&)>& on_stage) {
+  if (!o.restart.empty() || !std::isnan(o.branch_phi0_rad) || !std::isnan(o.branch_f_Hz) ||
+      !std::isnan(o.branch_cycles))
+    throw ConfigError("the whole protocol starts from the scene: --restart, --phi0, --f-hz and --cycles run one "
+                      "branch of it");
+  const sim::LoadedScene checked = sim::load_scene(o.scene, true);
+  if (!checked.protocol)
+    throw ConfigError(fmt::format("{}: no [protocol] section (docs/sim.md)", o.scene.string()));
+  const sim::SceneProtocol& p = *checked.protocol;
+  namespace fs = std::filesystem;
+  // Every folder is checked before the first step: hours of pre-shear must not end in a
+  // refused branch folder.
+  std::vector<std::string> names{"preshear"};
+  for (const double a : p.phi0_rad) names.push_back(sim::SceneProtocol::branch_folder(a));
+  if (!o.force) {
+    for (const std::string& n : names)
+      if (fs::exists(o.output_dir / n))
+        throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / n).string()));
+    if (fs::exists(o.output_dir / "protocol.csv"))
+      throw ConfigError(fmt::format("{} exists: give --force to replace it",
+                                    (o.output_dir / "protocol.csv").string()));
+  }
+
+  SimProtocolSummary out;
+  out.checkpoint = o.output_dir / "preshear" / "checkpoint.h5";
+  {
+    SimJobOptions pre = o;
+    pre.output_dir = o.output_dir / "preshear";
+    core::Metadata h = header;
+    h.emplace_back("protocol_stage",
+                   fmt::format("pre-shear: phi = {} sin(2 pi {} t) for {} s (stop_change {})",
+                               io::format_number(p.preshear_phi0_rad), io::format_number(p.preshear_f_Hz),
+                               io::format_number(p.preshear_s), io::format_number(p.stop_change)));
+    SimProtocolStage st{"preshear", p.preshear_phi0_rad, p.preshear_f_Hz, run_sim_job(pre, h, progress)};
+    if (on_stage) on_stage(st);
+    out.stages.push_back(std::move(st));
+  }
+  for (std::size_t k = 0; k < p.phi0_rad.size(); ++k) {
+    SimJobOptions br = o;
+    br.output_dir = o.output_dir / names[k + 1];
+    br.restart = out.checkpoint;
+    br.branch_phi0_rad = p.phi0_rad[k];
+    br.branch_f_Hz = p.f_Hz;
+    br.branch_cycles = p.cycles;
+    core::Metadata h = header;
+    h.emplace_back("protocol_stage", fmt::format("amplitude branch {} of {}", k + 1, p.phi0_rad.size()));
+    SimProtocolStage st{names[k + 1], p.phi0_rad[k], p.f_Hz, run_sim_job(br, h, progress)};
+    if (on_stage) on_stage(st);
+    out.stages.push_back(std::move(st));
+  }
+
+  io::AtomicOutputSet set(o.output_dir, o.force);
+  core::Metadata m = header;
+  m.emplace_back("scene", o.scene.string());
+  m.emplace_back("stage", "preshear (from the settled fill), then one amplitude branch per folder, each restarted "
+                          "from preshear/checkpoint.h5");
+  m.emplace_back("torque_amplitude_mean_N_m", "mean over the stage's whole cycles of the fundamental amplitude "
+                                              "of the motor torque (cycles.csv)");
+  io::CsvWriter csv(set.add("protocol.csv").stream(), m,
+                    std::vector<std::string>{"stage", "phi0_rad", "f_Hz", "cycles", "steps", "end_time_s",
+                                             "torque_amplitude_mean_N_m", "torque_amplitude_last_N_m",
+                                             "iteration_cap_hits", "max_overlap_over_d", "wall_s", "state_hash"});
+  for (const SimProtocolStage& st : out.stages) {
+    const SimJobSummary& s = st.summary;
+    double mean = 0.0;
+    for (const double a : s.torque_amplitudes) mean += a;
+    const bool has = !s.torque_amplitudes.empty();
+    if (has) mean /= static_cast<double>(s.torque_amplitudes.size());
+    csv.row(std::vector<std::string>{
+        st.name, io::format_number(st.phi0_rad), io::format_number(st.f_Hz), std::to_string(s.cycles_done),
+        std::to_string(s.steps), io::format_number(s.time_s), has ? io::format_number(mean) : "",
+        has ? io::format_number(s.torque_amplitudes.back()) : "", std::to_string(s.iteration_cap_hits),
+        io::format_number(s.max_overlap_over_d), fmt::format("{:.3f}", s.wall_seconds),
+        fmt::format("{:016x}", s.state_hash)});
+  }
+  set.commit_all();
+  return out;
 }
 
 }  // namespace shearzone::pipeline

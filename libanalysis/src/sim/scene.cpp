@@ -46,7 +46,10 @@ const std::vector<std::string> kKeys = {
     "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
     "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
     "camera.fps",             "camera.m_per_px",        "camera.spacing_px",
-    "vane.stop_change"};
+    "vane.stop_change",
+    "protocol.preshear_phi0_rad", "protocol.preshear_f_Hz", "protocol.preshear_s",
+    "protocol.stop_change",   "protocol.phi0_rad",      "protocol.f_Hz",
+    "protocol.cycles"};
 
 // The settle/relax keys of [fill]; they only mean something with fill.settle = true.
 const std::vector<std::string> kSettleKeys = {
@@ -135,15 +138,52 @@ class Scene {
   io::TomlConfig t_;
 };
 
-SceneCadence read_cadence(const Scene& s) {
+/// [protocol]: the paper's fill -> pre-shear -> amplitude branches (one scene, one command).
+std::optional<SceneProtocol> read_protocol(const Scene& s) {
+  const bool any = s.has("protocol.preshear_phi0_rad") || s.has("protocol.preshear_f_Hz") ||
+                   s.has("protocol.preshear_s") || s.has("protocol.stop_change") || s.has("protocol.phi0_rad") ||
+                   s.has("protocol.f_Hz") || s.has("protocol.cycles");
+  if (!any) return std::nullopt;
+  if (!s.has("protocol.phi0_rad")) s.fail_file("[protocol] needs phi0_rad (the branches' amplitudes, rad)");
+  if (!s.has("vane.radius_m")) s.fail_file("[protocol] drives a vane: give [vane] radius_m and height_m");
+  // One source for each number: the protocol sets the vane's drive and the durations.
+  for (const char* k : {"sim.duration_s", "vane.phi0_rad", "vane.f_Hz", "vane.phase_rad", "vane.stop_change"})
+    if (s.has(k))
+      s.fail(k, "set by [protocol] in a protocol scene (preshear_s, preshear_phi0_rad, preshear_f_Hz, "
+                "stop_change): remove it");
+  SceneProtocol p;
+  p.preshear_phi0_rad = s.within("protocol.preshear_phi0_rad", p.preshear_phi0_rad, 0.0, 100.0, true);
+  p.preshear_f_Hz = s.within("protocol.preshear_f_Hz", p.preshear_f_Hz, 0.0, 1000.0, true);
+  p.preshear_s = s.within("protocol.preshear_s", p.preshear_s, 0.0, 1e7);
+  p.stop_change = s.within("protocol.stop_change", p.stop_change, 0.0, 1.0);
+  p.f_Hz = s.within("protocol.f_Hz", p.f_Hz, 0.0, 1000.0, true);
+  p.cycles = s.within("protocol.cycles", p.cycles, 0.0, 1e6, true);
+  p.phi0_rad = s.numbers("protocol.phi0_rad");
+  if (p.phi0_rad.empty()) s.fail("protocol.phi0_rad", "no amplitude (expected a list such as [0.02, 0.3])");
+  std::vector<std::string> names;
+  for (const double a : p.phi0_rad) {
+    if (!(a > 0.0 && a <= 100.0)) s.fail("protocol.phi0_rad", fmt::format("{} (expected 0 < phi0 <= 100 rad)", a));
+    const std::string name = SceneProtocol::branch_folder(a);
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      s.fail("protocol.phi0_rad", fmt::format("{} appears twice (branch folder {})", a, name));
+    names.push_back(name);
+  }
+  return p;
+}
+
+SceneCadence read_cadence(const Scene& s, const std::optional<SceneProtocol>& protocol) {
   SceneCadence c;
+  c.snapshot_every = s.integer("output.snapshot_every", c.snapshot_every, 0);
+  c.checkpoint_every = s.integer("output.checkpoint_every", c.checkpoint_every, 0);
+  c.diagnostics_every = s.integer("output.diagnostics_every", c.diagnostics_every, 1);
+  if (protocol) {
+    c.duration_s = protocol->preshear_s;
+    return c;
+  }
   if (!s.has("sim.duration_s")) s.fail_file("key \"sim.duration_s\" is required");
   c.duration_s = s.num("sim.duration_s", 0.0);
   if (!(c.duration_s >= 0.0) || !std::isfinite(c.duration_s))
     s.fail("sim.duration_s", fmt::format("{} (expected >= 0)", c.duration_s));
-  c.snapshot_every = s.integer("output.snapshot_every", c.snapshot_every, 0);
-  c.checkpoint_every = s.integer("output.checkpoint_every", c.checkpoint_every, 0);
-  c.diagnostics_every = s.integer("output.diagnostics_every", c.diagnostics_every, 1);
   return c;
 }
 
@@ -493,9 +533,15 @@ void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
 
 /// Builds the world of a scene. `check_only` (restart): reads and checks every section
 /// but places, drops and relaxes nothing. The fill stage's report goes to the result's `fill`.
-LoadedScene build_world(const Scene& s, bool check_only) {
+LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& protocol, bool check_only) {
   const Options opt = read_options(s);
-  const SceneBodies b = read_bodies(s);
+  SceneBodies b = read_bodies(s);
+  if (protocol) {  // the pre-shear drives the vane; the branches restart from its checkpoint
+    b.vane_phi0 = protocol->preshear_phi0_rad;
+    b.vane_f = protocol->preshear_f_Hz;
+    b.vane_phase = 0.0;
+    b.vane_stop_change = protocol->stop_change;
+  }
   // fill raises the drop column along +z: the beads must fall down it.
   if (b.settle && !(opt.gravity.z() < 0.0))
     s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
@@ -635,11 +681,19 @@ void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene)
 
 }  // namespace
 
+std::string SceneProtocol::branch_folder(double phi0_rad) {
+  const std::string three = fmt::format("{:.3f}", phi0_rad);
+  // Three decimals when they hold the value (0.300), else its shortest exact form.
+  return "phi0_" + (std::stod(three) == phi0_rad ? three : fmt::format("{}", phi0_rad));
+}
+
 LoadedScene load_scene(const std::filesystem::path& path, bool check_only) {
   const Scene scene(path);
-  const SceneCadence cadence = read_cadence(scene);
-  LoadedScene out = build_world(scene, check_only);
+  const std::optional<SceneProtocol> protocol = read_protocol(scene);
+  const SceneCadence cadence = read_cadence(scene, protocol);
+  LoadedScene out = build_world(scene, protocol, check_only);
   out.cadence = cadence;
+  out.protocol = protocol;
   if (!check_only) refuse_initial_overlaps(*out.world, path);
   return out;
 }

@@ -8,7 +8,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
@@ -46,6 +49,7 @@ struct SimJobSummary {
   double max_overlap_over_d = 0.0;      ///< over the run
   double wall_seconds = 0.0;  ///< the run (the fill stage: fill.seconds)
   std::uint64_t state_hash = 0;  ///< World::state_hash() at the end
+  std::vector<double> torque_amplitudes;  ///< per whole drive cycle (cycles.csv), N m
   int threads = 1;               ///< sweep threads of the run (sim::Options::threads)
   std::int64_t cycles_done = 0;  ///< whole drive cycles in this run (a vane)
   bool stopped_steady = false;   ///< vane.stop_change met: the run stopped early
@@ -59,5 +63,32 @@ struct SimJobSummary {
 /// periodic checkpoint) are committed before the error propagates.
 SimJobSummary run_sim_job(const SimJobOptions& options, const core::Metadata& header,
                           const core::ProgressCallback& progress = {});
+
+/// One stage of a protocol: "preshear" or a branch's folder name (phi0_0.300).
+struct SimProtocolStage {
+  std::string name;
+  double phi0_rad = 0.0, f_Hz = 0.0;
+  SimJobSummary summary;
+};
+struct SimProtocolSummary {
+  std::vector<SimProtocolStage> stages;  ///< the pre-shear, then the branches in scene order
+  std::filesystem::path checkpoint;      ///< the pre-sheared state the branches restart from
+};
+
+/// True when the scene file has a [protocol] section (sim/scene.hpp).
+bool scene_has_protocol(const std::filesystem::path& scene);
+
+/// `shearzone sim scene.toml -o run/` on a scene with [protocol]: the fill (fill.settle),
+/// the pre-shear into run/preshear/ (a run_sim_job of the scene: torque.csv, cycles.csv,
+/// surface.h5 with a [camera], checkpoint.h5), then per amplitude a branch restarted
+/// from run/preshear/checkpoint.h5 into run/<SceneProtocol::branch_folder> (exactly what
+/// `shearzone sim scene.toml --restart run/preshear/checkpoint.h5 --phi0 A --f-hz F
+/// --cycles K -o run/phi0_A/` does), and run/protocol.csv (a row per stage). Every
+/// folder is checked before the first step (ConfigError if one exists without force);
+/// each stage commits its own folder, so a failing branch leaves the earlier ones whole
+/// (and no protocol.csv). `on_stage` is told when each stage ends.
+SimProtocolSummary run_sim_protocol(const SimJobOptions& options, const core::Metadata& header,
+                                    const core::ProgressCallback& progress = {},
+                                    const std::function<void(const SimProtocolStage&)>& on_stage = {});
 
 }  // namespace shearzone::pipeline

@@ -1,7 +1,7 @@
 // shearzone/sim/scene.hpp: the scene TOML of `shearzone sim`, read and built here only.
 //
 // Scene TOML (strict keys; SI units in the names):
-//     [sim]      duration_s (required), time_step_s, gravity_m_per_s2 = [x, y, z],
+//     [sim]      duration_s (required; not with [protocol]), time_step_s, gravity_m_per_s2 = [x, y, z],
 //                friction, tolerance, max_iterations, alert_margin, max_overlap,
 //                max_rope_excess, max_angle_excess_deg,
 //                freeze_sweeps (integer in [0, 1e6], default 16: sweeps a quiet
@@ -62,6 +62,13 @@
 //                looking down into the [cylinder] (required): the sim job writes the
 //                surface field surface.h5 in the PIV field layout, one pair per frame
 //                interval (sim/surface.hpp), masked on the vane and outside the cup.
+//     [protocol] phi0_rad = [a0, a1, ...] (required, each in (0, 100] rad),
+//                f_Hz (0.1), cycles (3), preshear_phi0_rad (pi/50), preshear_f_Hz (1),
+//                preshear_s (240), stop_change (0.01; 0: the whole pre-shear): the
+//                paper's protocol (SceneProtocol, pipeline::run_sim_protocol). Needs a
+//                [vane]; sim.duration_s and vane.phi0_rad, f_Hz, phase_rad and stop_change
+//                are refused (the protocol sets them): the world is built with the
+//                pre-shear drive and duration_s = preshear_s.
 // Bodies are numbered: cylinder wall beads, fixed beads, kinematic beads, explicit mobile
 // chains, fill chains; every fixed or kinematic bead is a chain of its own (chain_id).
 // Bad values (out of range, wrong type, wrong count) are one ConfigError line naming
@@ -75,6 +82,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "shearzone/sim/surface.hpp"
@@ -105,7 +113,26 @@ struct SceneCamera {
   SurfaceCameraOptions options;  ///< the image covers the cylinder, its axis at the centre
 };
 
+/// [protocol]: the paper's protocol in one scene (pipeline::run_sim_protocol): fill and
+/// relax (fill.settle), pre-shear phi = preshear_phi0_rad sin(2 pi preshear_f_Hz t) for
+/// preshear_s (stopped early once the torque amplitude is steady to stop_change over 3
+/// cycles; 0: never), checkpoint, then per amplitude in phi0_rad a branch of `cycles`
+/// cycles at f_Hz restarted from that checkpoint, in its own folder (branch_folder).
+struct SceneProtocol {
+  double preshear_phi0_rad = 3.14159265358979323846 / 50.0;
+  double preshear_f_Hz = 1.0;
+  double preshear_s = 240.0;
+  double stop_change = 0.01;
+  std::vector<double> phi0_rad;  ///< > 0, distinct folder names
+  double f_Hz = 0.1;
+  double cycles = 3.0;
+  /// The branch's folder: phi0_0.300 (three decimals when they hold the value exactly,
+  /// else the shortest exact form, e.g. phi0_0.0025).
+  static std::string branch_folder(double phi0_rad);
+};
+
 struct LoadedScene {
+  std::optional<SceneProtocol> protocol;  ///< the scene has a [protocol]
   std::optional<SceneCamera> camera;  ///< the scene has a [camera]
   SceneCadence cadence;
   bool vane = false;               ///< the scene has a [vane] (rotor 0 of the world)
