@@ -41,7 +41,8 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   pr->add_flag("--keep-fields", po->keep_fields, "Keep the generated zone_fields.h5 (about 10 bytes per vector)");
   auto so = std::make_shared<pipeline::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
-  CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap");
+  CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap; "
+                                             "--scene cup: the sheared vane cup");
   s->add_option("-o,--output", *sout, "Output folder for the CSV files")->required();
   s->add_flag("--force", so->force, "Replace existing files");
   s->add_flag("--quick", so->quick, "Small packings and few steps (a smoke run)");
@@ -68,6 +69,17 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
                 "Most relaxation steps before timing; range: 0..1000000")
       ->capture_default_str();
   s->add_option("--steps", so->steps, "Timed steps per bead count; range: 1..100000")->capture_default_str();
+  s->add_option("--warmup-steps", so->warmup_steps, "Untimed steps before the timing; range: 0..100000")
+      ->capture_default_str();
+  s->add_option("--scene", so->scene,
+                "Shear a vane cup instead: cup (the paper's cup, sim_cup.csv) or a scene .toml with a [vane]");
+  s->add_option("--N", so->chain_lengths, "Chain lengths of --scene cup; range: 1 to 32 values, each 1..1000")
+      ->delimiter(',')
+      ->capture_default_str();
+  s->add_option("--cup-beads", so->cup_beads, "Beads of --scene cup; range: 10..1000000")->capture_default_str();
+  s->add_option("--phi0", so->phi0_rad, "Vane amplitude of --scene, rad; range: 0 < phi0 <= 100")
+      ->capture_default_str();
+  s->add_option("--f-hz", so->f_Hz, "Vane frequency of --scene, Hz; range: 0 < f <= 1000")->capture_default_str();
   s->add_option("--accuracy-beads", so->accuracy_beads,
                 "Bead count of the accuracy packing; range: 1..1000000")
       ->capture_default_str();
@@ -104,7 +116,8 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
                for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
-               std::printf("plot: /usr/bin/python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
+               if (so->scene.empty())
+                 std::printf("plot: /usr/bin/python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
              }
              (void)s;
              return kExitOk;

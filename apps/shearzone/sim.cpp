@@ -20,10 +20,11 @@ struct SimCli {
 void print_summary(const pipeline::SimJobSummary& sum, const std::string& output, const Context& ctx) {
   if (ctx.level != core::LogLevel::kQuiet) {
     if (sum.fill.settled)
-      std::printf("sim: fill settled: %lld drop steps (%lld iteration-cap hits), %lld relaxation steps, "
+      std::printf("sim: fill settled: %lld drop steps (%lld iteration-cap hits%s), %lld relaxation steps, "
                   "%s (kinetic energy %.3g m g d per bead) in %.3g s; the run starts from it at step 0\n",
                   static_cast<long long>(sum.fill.settle_steps),
                   static_cast<long long>(sum.fill.settle_cap_hits),
+                  sum.fill.settle_plateau ? "; ended on its kinetic-energy plateau" : "",
                   static_cast<long long>(sum.fill.relax_steps),
                   sum.fill.relaxed ? "relaxed" : "NOT relaxed (fill.relax_max_steps reached)",
                   sum.fill.kinetic_energy, sum.fill.seconds);
@@ -50,6 +51,12 @@ int run_sim(SimCli& s, const Context& ctx) {
   s.job.scene = s.scene;
   s.job.output_dir = s.output;
   s.job.restart = s.restart;
+  core::ProgressReporter drop("sim: fill drop steps", ctx.level), relax("sim: fill relaxation steps", ctx.level);
+  const sim::FillProgress fill{[&](std::size_t k, std::size_t n) { drop.update(k, n); },
+                               [&](std::size_t k, std::size_t n) {
+                                 drop.finish();
+                                 relax.update(k, n);
+                               }};
   if (s.restart.empty() && pipeline::scene_has_protocol(s.job.scene)) {
     // The whole protocol: pre-shear, then every amplitude branch, each in its own folder.
     auto progress = std::make_unique<core::ProgressReporter>("sim: preshear steps", ctx.level);
@@ -59,8 +66,13 @@ int run_sim(SimCli& s, const Context& ctx) {
       progress = std::make_unique<core::ProgressReporter>("sim: branch steps", ctx.level);
     };
     const auto sum =
-        pipeline::run_sim_protocol(s.job, ctx.header(), [&](std::size_t k, std::size_t n) { progress->callback()(k, n); },
-                                   stage);
+        pipeline::run_sim_protocol(s.job, ctx.header(),
+                                   [&](std::size_t k, std::size_t n) {
+                                     drop.finish();
+                                     relax.finish();
+                                     progress->update(k, n);
+                                   },
+                                   stage, fill);
     progress->finish();
     if (ctx.level != core::LogLevel::kQuiet)
       std::printf("sim: protocol done: pre-shear and %zu amplitude branches -> %s/protocol.csv\n",
@@ -68,7 +80,14 @@ int run_sim(SimCli& s, const Context& ctx) {
     return kExitOk;
   }
   core::ProgressReporter progress("sim: steps", ctx.level);
-  const auto sum = pipeline::run_sim_job(s.job, ctx.header(), progress.callback());
+  const auto sum = pipeline::run_sim_job(
+      s.job, ctx.header(),
+      [&](std::size_t k, std::size_t n) {
+        drop.finish();
+        relax.finish();
+        progress.update(k, n);
+      },
+      fill);
   progress.finish();
   print_summary(sum, s.output, ctx);
   return kExitOk;

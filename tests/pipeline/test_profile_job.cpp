@@ -1,10 +1,13 @@
 // profile and width jobs end to end: rendered frames -> PIV -> v(r) -> r_c.
 #include <cmath>
 #include <fstream>
+#include <limits>
+#include <string>
 
 #include <catch2/catch.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/metadata.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
@@ -265,7 +268,8 @@ namespace {
 
 /// The issue-15 clip (0.5 Hz, 150 pairs, 16 px grid, noise-free) as an HDF5 field file
 /// whose vane_phase_rad attribute says `phase_rad` while the beads follow phase 0.
-fs::path zone_clip(const fs::path& dir, double phase_rad) {
+fs::path zone_clip(const fs::path& dir, double phase_rad,
+                   double noise_sigma_px = std::numeric_limits<double>::quiet_NaN()) {
   synth::ZoneFieldOptions z;
   z.width_px = z.height_px = 688;
   z.centre_x_px = z.centre_y_px = 343.5;
@@ -282,6 +286,7 @@ fs::path zone_clip(const fs::path& dir, double phase_rad) {
   w.set_attribute("centre_x_px", z.centre_x_px);
   w.set_attribute("centre_y_px", z.centre_y_px);
   w.set_attribute("vane_phase_rad", phase_rad);
+  if (!std::isnan(noise_sigma_px)) w.set_attribute("noise_sigma_px", noise_sigma_px);
   w.close();
   // The rheometer's angle log: the true drive, phi = 0.3 sin(2 pi f t), at 100 Hz,
   // starting 1 s before the video (log time = field time + 1 s).
@@ -340,4 +345,36 @@ TEST_CASE("the drive phase: a 10 degree error in vane_phase_rad shows as cos 10 
   o.output = tmp / "bad.csv";
   CHECK_THROWS_AS(pipeline::run_profile_job(o, {}), ConfigError);
   CHECK_FALSE(fs::exists(o.output));
+}
+
+TEST_CASE("a field file's noise_sigma_px attribute sets the noise floor (the simulator's exact surface: 0)",
+          "[pipeline][profile]") {
+  TempDir tmp("known_noise");
+  pipeline::ProfileJobOptions o;
+  o.input = zone_clip(tmp / "in", 0.0, 0.05);
+  o.output = tmp / "known.csv";
+  o.vane_radius_px = 125;
+  o.cup_radius_px = 340;
+  o.bin_m = 1.2e-3;
+  const auto sum = pipeline::run_profile_job(o, {});
+  // sigma = 0.05 px x 1e-4 m/px x 25 fps per component; the floor of |v| is sigma sqrt(pi/2).
+  synth::ZoneFieldOptions z;
+  const double sigma = 0.05 * z.m_per_px * z.fps;
+  CHECK(sum.noise_floor_m_per_s == Approx(sigma * std::sqrt(M_PI / 2)).epsilon(1e-12));
+  const auto t = io::read_csv(o.output);
+  CHECK_THAT(core::metadata_value(t.metadata, "noise_method"), Contains("noise_sigma_px attribute"));
+  for (double v : t.numeric_column("v_noise_m_per_s")) CHECK(v == Approx(sigma * std::sqrt(M_PI / 2)).epsilon(1e-12));
+  // An explicit noise region wins over the attribute.
+  o.output = tmp / "region.csv";
+  o.noise_min_m = 0.030;
+  o.noise_max_m = 0.034;
+  (void)pipeline::run_profile_job(o, {});
+  CHECK_THAT(core::metadata_value(io::read_csv(o.output).metadata, "noise_method"), Contains("scatter of v_r"));
+  // A negative noise is refused, naming the file and the value.
+  pipeline::ProfileJobOptions bad = o;
+  bad.input = zone_clip(tmp / "neg", 0.0, -1.0);
+  bad.output = tmp / "neg.csv";
+  bad.noise_min_m = bad.noise_max_m = core::kUnset;
+  CHECK_THROWS_WITH(pipeline::run_profile_job(bad, {}), Contains("attribute noise_sigma_px = -1: expected >= 0 px"));
+  CHECK_FALSE(fs::exists(bad.output));
 }

@@ -18,6 +18,7 @@
 #include "shearzone/pipeline/laos_job.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/sim_job.hpp"
+#include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/sim/sim_io.hpp"
 #include "support/temp_dir.hpp"
 
@@ -451,4 +452,104 @@ TEST_CASE("protocol scene refusals: one line naming the key", "[pipeline][sim][v
   // Branch folders: three decimals when they hold the amplitude, else its exact form.
   CHECK(sim::SceneProtocol::branch_folder(0.3) == "phi0_0.300");
   CHECK(sim::SceneProtocol::branch_folder(0.0025) == "phi0_0.0025");
+}
+
+TEST_CASE("protocol physics: single beads after a short pre-shear, the shear zone at phi0 = 0.3 rad is at "
+          "least 3 d wider than at 0.02 rad (the paper's Fig. 2)",
+          "[pipeline][sim][vane][slow]") {
+  // The paper's cup in the plane (cup radius 14.5 d, vane radius 4.5 d, d = 2.4 mm steel,
+  // mu = 0.2) but shallow: 2 700 single beads, about 4 d deep. Pre-shear 2 s at 1 Hz,
+  // pi/50 rad; branches of 2 cycles at 1 Hz (the paper: 0.1 Hz; a quasi-static packing's
+  // velocities scale with f, so the paper's v_c = 4e-5 m/s at 0.1 Hz is 4e-4 m/s here).
+  TempDir dir("sim_protocol_physics");
+  const double d = 0.0024;
+  testing::write_file(dir / "cup.toml", R"([sim]
+time_step_s = 1e-3
+friction = 0.2
+tolerance = 1e-3
+max_iterations = 100
+[output]
+snapshot_every = 0
+[cylinder]
+radius_m = 0.0348
+height_m = 0.0168
+bead_diameter_m = 0.0024
+[beads]
+diameter_m = 0.0024
+density_kg_per_m3 = 7800
+[vane]
+radius_m = 0.0108
+height_m = 0.0168
+[fill]
+count = 2700
+settle = true
+[camera]
+fps = 25
+spacing_px = 8
+[protocol]
+preshear_s = 2
+phi0_rad = [0.02, 0.3]
+f_Hz = 1.0
+cycles = 2
+)");
+  pipeline::SimJobOptions o;
+  o.scene = dir / "cup.toml";
+  o.output_dir = dir / "run";
+  const auto sum = pipeline::run_sim_protocol(o, core::standard_metadata("test"));
+  REQUIRE(sum.stages.size() == 3);
+  double rc[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const std::string b = sum.stages[static_cast<std::size_t>(k + 1)].name;
+    pipeline::ProfileJobOptions po;
+    po.input = dir / "run" / b / "surface.h5";
+    po.output = dir / (b + "_profile.csv");
+    po.bead_diameter_m = d;
+    const auto ps = pipeline::run_profile_job(po, core::standard_metadata("test"));
+    CHECK(ps.noise_floor_m_per_s == 0.0);  // the simulator's surface is exact (noise_sigma_px = 0)
+    pipeline::WidthJobOptions wo;
+    wo.inputs = {po.output};
+    wo.output = dir / (b + "_widths.csv");
+    wo.width.v_c_m_per_s = 4e-4;
+    const auto rows = pipeline::run_width_job(wo, core::standard_metadata("test"));
+    REQUIRE(rows.size() == 1);
+    REQUIRE(rows[0].status == profile::WidthStatus::kOk);
+    rc[k] = rows[0].rc_m;
+    INFO(b << ": r_c = " << rc[k] << " m, torque amplitude "
+           << sum.stages[static_cast<std::size_t>(k + 1)].summary.torque_amplitudes.back() << " N m");
+  }
+  INFO("r_c(0.02) = " << rc[0] << " m, r_c(0.3) = " << rc[1] << " m");
+  CHECK(rc[0] > 0.0108);             // outside the vane tip
+  CHECK(rc[1] - rc[0] >= 3.0 * d);   // the paper: narrow at small amplitude, wide at large
+  CHECK(sum.stages[2].summary.torque_amplitudes.back() > sum.stages[1].summary.torque_amplitudes.back());
+}
+
+TEST_CASE("a rough floor: a layer of touching fixed beads; the fill and the vane start on its tops",
+          "[pipeline][sim][vane]") {
+  TempDir dir("sim_rough_floor");
+  const std::string scene = with(with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05"),
+                                 "bead_diameter_m = 0.004\n", "bead_diameter_m = 0.004\nrough_floor = true\n");
+  const auto smooth = run_scene(dir, with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05"), "smooth");
+  const auto rough = run_scene(dir, scene, "rough");
+  // Floor beads: the triangular lattice points within R = 24 mm (d = 4 mm).
+  int lattice = 0;
+  for (int j = -10; j <= 10; ++j)
+    for (int i = -10; i <= 10; ++i) {
+      const double x = i * 4.0 + (j % 2 != 0 ? 2.0 : 0.0), y = j * 4.0 * std::sqrt(3.0) / 2.0;
+      lattice += std::hypot(x, y) <= 24.0 ? 1 : 0;
+    }
+  CHECK(rough.fixed_bodies - smooth.fixed_bodies == lattice);
+  const auto st = sim::read_checkpoint(dir / "rough" / "checkpoint.h5");
+  double mobile_min_z = 1.0, kinematic_min_z = 1.0, floor_max_z = -1.0;
+  for (std::size_t k = 0; k < st.position.size(); ++k) {
+    const double z = st.position[k].z();
+    if (st.kind[k] == sim::BodyKind::mobile) mobile_min_z = std::min(mobile_min_z, z);
+    if (st.kind[k] == sim::BodyKind::kinematic) kinematic_min_z = std::min(kinematic_min_z, z);
+    if (st.kind[k] == sim::BodyKind::fixed && z < 1e-3) floor_max_z = std::max(floor_max_z, z);
+  }
+  CHECK(floor_max_z == 0.0);                                  // floor bead centres on the plane
+  CHECK(kinematic_min_z == Approx(0.004).epsilon(1e-12));     // the vane's first layer on the floor beads' tops
+  // Every mobile bead rests on floor beads, none on the plane (there it would sit at
+  // d/2): in a hollow of three touching floor beads at sqrt(2/3) d = 0.82 d, in the
+  // wider hollows at the rim's cut lattice lower (0.75 d seen).
+  CHECK(mobile_min_z > 0.7 * 0.004);
 }

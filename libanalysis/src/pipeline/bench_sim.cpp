@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -16,6 +17,7 @@
 #include "shearzone/io/csv.hpp"
 #include "shearzone/sim/builder.hpp"
 #include "shearzone/sim/scenario.hpp"
+#include "shearzone/sim/scene.hpp"
 #include "shearzone/sim/world.hpp"
 
 namespace shearzone::pipeline {
@@ -146,6 +148,139 @@ Run timed(sim::World& w, int steps) {
   return r;
 }
 
+/// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads.
+std::string cup_scene(const BenchSimOptions& o, int N) {
+  const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
+  const double fill_height =
+      o.cup_beads * std::numbers::pi / 6.0 * d * d * d / (0.6 * std::numbers::pi * (R * R - Rv * Rv));
+  const double height = fill_height + 3.0 * d;
+  return fmt::format(
+      "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
+      "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
+      "freeze_sweeps = {fs}\n[output]\nsnapshot_every = 0\n"
+      "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n"
+      "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
+      "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
+      "[vane]\nradius_m = {Rv}\nheight_m = {H}\n"
+      "[fill]\ncount = {count}\nseed = {seed}\nsettle = true\n",
+      fmt::arg("N", N), fmt::arg("h", io::format_number(o.time_step_s)), fmt::arg("tol", io::format_number(o.tolerance)),
+      fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
+      fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
+      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N)),
+      fmt::arg("seed", o.seed));
+}
+
+BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& header,
+                              const core::ProgressCallback& progress) {
+  const bool builtin = o.scene == "cup";
+  if (builtin) {
+    if (o.chain_lengths.empty() || o.chain_lengths.size() > 32)
+      throw ConfigError("bench sim --scene cup: --N needs 1 to 32 chain lengths");
+    for (const int n : o.chain_lengths)
+      if (n < 1 || n > 1000) throw ConfigError(fmt::format("bench sim: --N {}: expected 1..1000", n));
+    if (o.cup_beads < 10 || o.cup_beads > 1000000)
+      throw ConfigError(fmt::format("bench sim: --cup-beads {}: expected 10..1000000", o.cup_beads));
+  } else if (!std::filesystem::exists(o.scene)) {
+    throw InputError(fmt::format("bench sim --scene {}: no such file (expected cup or a scene .toml with a [vane])",
+                                 o.scene));
+  } else if (!sim::load_scene(o.scene, true).vane) {  // checked before the fill
+    throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", o.scene));
+  }
+  if (!(o.phi0_rad > 0 && o.phi0_rad <= 100) || !(o.f_Hz > 0 && o.f_Hz <= 1000))
+    throw ConfigError("bench sim: expected 0 < --phi0 <= 100 rad and 0 < --f-hz <= 1000");
+  if (o.steps < 1 || o.steps > 100000 || o.warmup_steps < 0 || o.warmup_steps > 100000)
+    throw ConfigError("bench sim: expected --steps 1..100000 and --warmup-steps 0..100000");
+  io::AtomicOutputSet out(o.out_dir, o.force);
+  io::AtomicOutput& csv_file = out.add("sim_cup.csv");
+  const std::vector<int> lengths = builtin ? o.chain_lengths : std::vector<int>{0};
+  std::vector<std::filesystem::path> scenes;
+  for (const int n : lengths) {
+    if (!builtin) {
+      scenes.emplace_back(o.scene);
+      continue;
+    }
+    io::AtomicOutput& f = out.add(fmt::format("cup_N{}.toml", n));
+    f.stream() << cup_scene(o, n);
+    f.stream().flush();
+    scenes.push_back(f.temp_path());
+  }
+
+  core::Metadata m = header;
+  m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
+  m.emplace_back("scene", builtin ? "the paper's cup (cup_N<N>.toml beside this file)" : o.scene);
+  m.emplace_back("drive", fmt::format("phi = {} sin(2 pi {} t) from the relaxed packing (t = 0: the vane at its "
+                                      "fastest, {} m/s at the tip of a 10.8 mm vane)",
+                                      io::format_number(o.phi0_rad), io::format_number(o.f_Hz),
+                                      io::format_number(o.phi0_rad * 2 * std::numbers::pi * o.f_Hz * 0.0108)));
+  m.emplace_back("timing", "warmup_steps untimed on one thread after the fill, then per thread count the same "
+                           "timed steps from that state; wall_s: the timed steps only");
+  m.emplace_back("cycle_wall_s", "wall time of one drive cycle (1/f) at this rate: wall_s / steps x 1 / (f h)");
+  io::CsvWriter csv(csv_file.stream(), m,
+                    std::vector<std::string>{"N", "beads", "threads", "time_step_s", "tolerance", "max_iterations",
+                                             "phi0_rad", "f_Hz", "fill_wall_s", "fill_drop_steps", "fill_relax_steps",
+                                             "warmup_steps", "steps", "wall_s", "steps_per_s",
+                                             "mean_sweeps_per_step", "median_sweeps_per_step", "max_sweeps",
+                                             "cap_hits", "max_overlap_over_d", "wall_s_per_simulated_s",
+                                             "cycle_wall_s"});
+  BenchSimSummary sum;
+  const std::size_t total = lengths.size() * o.threads.size();
+  std::size_t done = 0;
+  for (std::size_t i = 0; i < lengths.size(); ++i) {
+    sim::LoadedScene sc = sim::load_scene(scenes[i], false);
+    if (!sc.vane || sc.world->rotor_count() == 0)
+      throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", o.scene));
+    sim::World& w = *sc.world;
+    int mobile = 0;
+    for (int b = 0; b < w.body_count(); ++b) mobile += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+    w.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, w.time());
+    for (int k = 0; k < o.warmup_steps; ++k) (void)w.step();
+    const sim::WorldState sheared = w.state();
+    const double h = w.options().time_step;
+    for (const int t : o.threads) {
+      sim::WorldState st = sheared;
+      st.options.threads = t;
+      sim::World tw = sim::World::from_state(st);
+      std::vector<int> sweeps;
+      std::int64_t caps = 0;
+      double overlap = 0.0;
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int k = 0; k < o.steps; ++k) {
+        const sim::StepDiagnostics d = tw.step();
+        sweeps.push_back(d.iterations);
+        caps += d.hit_iteration_cap ? 1 : 0;
+        overlap = std::max(overlap, d.max_overlap);
+      }
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::vector<int> sorted = sweeps;
+      std::sort(sorted.begin(), sorted.end());
+      double mean = 0;
+      for (const int x : sweeps) mean += x;
+      mean /= static_cast<double>(sweeps.size());
+      const double median = sorted.size() % 2 ? sorted[sorted.size() / 2]
+                                              : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
+      const double per_step = wall / o.steps;
+      const int N = sc.beads_per_chain;
+      csv.row(std::vector<std::string>{
+          std::to_string(N), std::to_string(mobile), std::to_string(t), io::format_number(h),
+          io::format_number(w.options().tolerance), std::to_string(w.options().max_iterations),
+          io::format_number(o.phi0_rad), io::format_number(o.f_Hz), fixed(sc.fill.seconds, 2),
+          std::to_string(sc.fill.settle_steps), std::to_string(sc.fill.relax_steps),
+          std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
+          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(sorted.back()),
+          std::to_string(caps), sci(overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
+      sum.lines.push_back(fmt::format(
+          "cup N = {}: {} beads, {} thread{}: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "at the cap), {:.3g} s per simulated s, one {} s cycle {:.3g} s; fill {:.0f} s",
+          N, mobile, t, t == 1 ? "" : "s", per_step, mean, median, caps, o.steps, per_step / h,
+          io::format_number(1.0 / o.f_Hz), per_step / (o.f_Hz * h), sc.fill.seconds));
+      if (progress) progress(++done, total);
+    }
+  }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
+}
+
 }  // namespace
 
 BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
@@ -162,10 +297,13 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.settle_max_steps = 600;
     o.relax_min_steps = 5;
     o.relax_max_steps = 50;
+    o.cup_beads = 400;
+    o.chain_lengths = {1};
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
+  if (!o.scene.empty()) return run_cup_bench(o, header, progress);
   if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||
       o.max_iterations > 100000 || o.freeze_sweeps < 0 || o.relax_max_steps < 0 || o.relax_max_steps > 1000000 ||
       o.relax_min_steps < 0)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numbers>
 
@@ -357,6 +358,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   // Noise floor: a static reference, or a region of each profile.
   std::unique_ptr<profile::ProfileAccumulator> racc;
   std::string noise_method;
+  double known_noise_m_per_s = std::numeric_limits<double>::quiet_NaN();
   const double noise_lo = set(o.noise_min_m) ? o.noise_min_m : po.r_max_m - 0.15 * (po.r_max_m - po.r_min_m);
   const double noise_hi = set(o.noise_max_m) ? o.noise_max_m : po.r_max_m;
   if (!o.noise_ref.empty()) {
@@ -372,6 +374,17 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     }
     noise_method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)",
                                o.noise_ref.string(), ref->size());
+  } else if (const double known_px = src->attribute("noise_sigma_px");
+             set(known_px) && !set(o.noise_min_m) && !set(o.noise_max_m)) {
+    // The field file states its own measurement noise (the simulator's exact surface: 0);
+    // real radial motion of the beads is then motion, not noise.
+    if (!(known_px >= 0.0))
+      throw InputError(fmt::format("{}: attribute noise_sigma_px = {}: expected >= 0 px", o.input.string(),
+                                   format_number(known_px)));
+    known_noise_m_per_s = known_px * m_per_px / dt_median;
+    noise_method = fmt::format("sigma*sqrt(pi/2), sigma = {} px per component, the field file's noise_sigma_px "
+                               "attribute (exact fields: 0); --noise-region-m or --noise-ref override it",
+                               format_number(known_px));
   } else {
     noise_method = fmt::format("sigma*sqrt(pi/2), sigma = scatter of v_r in {} <= r <= {} m",
                                format_number(noise_lo), format_number(noise_hi));
@@ -428,8 +441,9 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     if (acc.num_pairs() == 0)
       throw NoResultError(fmt::format("{}: no pair in phase bin {} ({}-{} deg): use fewer --phase-bins",
                                       o.input.string(), ph, format_number(plo), format_number(phi)));
-    const profile::RadialProfile p = racc ? acc.finish_with_reference_noise(*racc)
-                                          : acc.finish_with_region_noise(noise_lo, noise_hi);
+    const profile::RadialProfile p = racc                         ? acc.finish_with_reference_noise(*racc)
+                                     : set(known_noise_m_per_s) ? acc.finish_with_known_noise(known_noise_m_per_s)
+                                                                : acc.finish_with_region_noise(noise_lo, noise_hi);
     sum.groups += p.n_groups;
     if (ph == 0) {
       sum.noise_floor_m_per_s = p.bins.empty() ? 0 : p.bins.front().v_noise;

@@ -26,11 +26,11 @@
 namespace shearzone::pipeline {
 
 SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
-                          const core::ProgressCallback& progress) {
+                          const core::ProgressCallback& progress, const sim::FillProgress& fill_progress) {
   SimJobSummary sum;
   std::vector<std::int64_t> chain_ids;
   std::optional<sim::World> built;
-  sim::LoadedScene scene = sim::load_scene(o.scene, !o.restart.empty());
+  sim::LoadedScene scene = sim::load_scene(o.scene, !o.restart.empty(), fill_progress);
   const sim::SceneCadence cad = scene.cadence;
   if (o.restart.empty()) {
     built.emplace(std::move(*scene.world));
@@ -102,6 +102,10 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   if (sum.fill.settled) {
     meta.emplace_back("fill_settle_steps", std::to_string(sum.fill.settle_steps));
     meta.emplace_back("fill_settle_cap_hits", std::to_string(sum.fill.settle_cap_hits));
+    meta.emplace_back("fill_drop_end", sum.fill.settle_plateau
+                                           ? "plateau (the drop's kinetic energy stopped falling)"
+                                           : "settle_kinetic_energy reached");
+    meta.emplace_back("fill_wall_s", fmt::format("{:.3f}", sum.fill.seconds));
     meta.emplace_back("fill_relax_steps", std::to_string(sum.fill.relax_steps));
     meta.emplace_back("fill_relaxed", sum.fill.relaxed ? "true" : "false");
     meta.emplace_back("fill_kinetic_energy_per_bead_over_mgd", io::format_number(sum.fill.kinetic_energy));
@@ -212,6 +216,9 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       surface->set_attribute("vane_phase_rad", r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start);
     }
     surface->set_attribute("source", "shearzone sim: virtual top camera (exact surface motion)");
+    // No measurement noise (float32 rounding only: 6e-8 relative): profile takes the
+    // beads' radial motion as motion, not as the noise floor.
+    surface->set_attribute("noise_sigma_px", 0.0);
     std::string conv;
     for (const auto& [k, v] : meta) conv += k + ": " + v + "\n";
     surface->set_attribute("options", conv);
@@ -325,7 +332,8 @@ bool scene_has_protocol(const std::filesystem::path& scene) {
 
 SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata& header,
                                     const core::ProgressCallback& progress,
-                                    const std::function<void(const SimProtocolStage&)>& on_stage) {
+                                    const std::function<void(const SimProtocolStage&)>& on_stage,
+                                    const sim::FillProgress& fill_progress) {
   if (!o.restart.empty() || !std::isnan(o.branch_phi0_rad) || !std::isnan(o.branch_f_Hz) ||
       !std::isnan(o.branch_cycles))
     throw ConfigError("the whole protocol starts from the scene: --restart, --phi0, --f-hz and --cycles run one "
@@ -358,7 +366,7 @@ SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata
                    fmt::format("pre-shear: phi = {} sin(2 pi {} t) for {} s (stop_change {})",
                                io::format_number(p.preshear_phi0_rad), io::format_number(p.preshear_f_Hz),
                                io::format_number(p.preshear_s), io::format_number(p.stop_change)));
-    SimProtocolStage st{"preshear", p.preshear_phi0_rad, p.preshear_f_Hz, run_sim_job(pre, h, progress)};
+    SimProtocolStage st{"preshear", p.preshear_phi0_rad, p.preshear_f_Hz, run_sim_job(pre, h, progress, fill_progress)};
     if (on_stage) on_stage(st);
     out.stages.push_back(std::move(st));
   }

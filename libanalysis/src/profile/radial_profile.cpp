@@ -205,6 +205,15 @@ RadialProfile ProfileAccumulator::finish_with_reference_noise(const ProfileAccum
   return p;
 }
 
+RadialProfile ProfileAccumulator::finish_with_known_noise(double sigma_m_per_s) const {
+  if (!(sigma_m_per_s >= 0.0) || !std::isfinite(sigma_m_per_s))
+    throw ConfigError(fmt::format("profile: known noise {} m/s: expected a finite value >= 0", sigma_m_per_s));
+  RadialProfile p = finish_common();
+  p.noise_sigma_m_per_s = sigma_m_per_s;
+  for (auto& b : p.bins) b.v_noise = sigma_m_per_s * std::sqrt(std::numbers::pi / 2.0);
+  return p;
+}
+
 CyclePhase cycle_phase(double t_s, double f_Hz, double t0_s) {
   const double c = (t_s - t0_s) * f_Hz;
   if (!(std::abs(c) < 1e9))

@@ -32,7 +32,7 @@ const std::vector<std::string> kKeys = {
     "box.min_m",              "box.max_m",              "box.friction",
     "box.lid",
     "cylinder.radius_m",      "cylinder.height_m",      "cylinder.bead_diameter_m",
-    "cylinder.centre_m",      "cylinder.floor_friction",
+    "cylinder.centre_m",      "cylinder.floor_friction", "cylinder.rough_floor",
     "beads.diameter_m",       "beads.density_kg_per_m3", "beads.positions_m",
     "beads.fixed_positions_m", "beads.kinematic_positions_m",
     "beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s",
@@ -41,7 +41,7 @@ const std::vector<std::string> kKeys = {
     "fill.seed",              "fill.clearance",         "fill.settle",
     "fill.insert_fraction",   "fill.settle_tolerance",  "fill.settle_max_iterations",
     "fill.settle_max_steps",  "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
-    "fill.relax_max_steps",
+    "fill.relax_max_steps",   "fill.plateau_ratio",
     "vane.blades",            "vane.radius_m",          "vane.height_m",
     "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
     "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
@@ -55,7 +55,7 @@ const std::vector<std::string> kKeys = {
 const std::vector<std::string> kSettleKeys = {
     "fill.insert_fraction",  "fill.settle_tolerance",      "fill.settle_max_iterations",
     "fill.settle_max_steps", "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
-    "fill.relax_max_steps"};
+    "fill.relax_max_steps",  "fill.plateau_ratio"};
 
 constexpr long long kMaxSweeps = 100000;      // NLGS sweeps per step (sim.max_iterations)
 constexpr long long kMaxFillSteps = 10000000;  // fill.settle_max_steps, fill.relax_max_steps
@@ -227,6 +227,8 @@ struct SceneBodies {
   bool cylinder = false;
   double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
   double cyl_cx = 0.0, cyl_cy = 0.0;
+  bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
+  double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
   // Beads.
   double diameter = 0.0, density = 2500.0;
   std::vector<Vec3> fixed, kinematic, mobile;
@@ -273,8 +275,15 @@ SceneBodies read_bodies(const Scene& s) {
       b.cyl_cy = c[1];
     }
     b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", 0.5);
+    b.rough_floor = s.flag("cylinder.rough_floor", false);
+    if (b.rough_floor) {
+      b.floor_top = 0.5 * b.cyl_bead;
+      // The floor beads: a triangular lattice of touching beads, about 1.155 R^2 / d^2.
+      if (!(1.2 * b.cyl_radius * b.cyl_radius / (b.cyl_bead * b.cyl_bead) <= kMaxWallBeads))
+        s.fail("cylinder.rough_floor", "the floor would hold more than 1e6 beads (a larger bead_diameter_m)");
+    }
   } else if (s.has("cylinder.height_m") || s.has("cylinder.bead_diameter_m") || s.has("cylinder.centre_m") ||
-             s.has("cylinder.floor_friction")) {
+             s.has("cylinder.floor_friction") || s.has("cylinder.rough_floor")) {
     s.fail_file("[cylinder] needs radius_m");
   }
 
@@ -342,8 +351,9 @@ SceneBodies read_bodies(const Scene& s) {
     if (b.vane_stop_change > 0 && !(b.vane_f > 0)) s.fail("vane.stop_change", "needs vane.f_Hz > 0 (whole cycles)");
     // A hub bead on the axis and, per blade, touching beads at r = d, 2d, ... while the
     // tip bead's outer edge stays within radius_m; layers from the floor up to height_m.
-    for (int layer = 0; (0.5 + layer) * d <= height; ++layer) {
-      const double z = (0.5 + layer) * d;
+    // Layers from the floor up (on a rough floor, from the floor beads' tops).
+    for (int layer = 0; b.floor_top + (0.5 + layer) * d <= height; ++layer) {
+      const double z = b.floor_top + (0.5 + layer) * d;
       b.vane.push_back(b.vane_centre + Vec3(0, 0, z));
       for (int j = 0; j < blades; ++j) {
         const double a = 2.0 * std::numbers::pi * j / blades;
@@ -387,8 +397,9 @@ SceneBodies read_bodies(const Scene& s) {
     c.cx = b.cyl_cx;
     c.cy = b.cyl_cy;
     c.radius = b.cyl_radius;
-    c.z0 = 0.0;
+    c.z0 = b.floor_top;
     c.z1 = s.positive("fill.height_m", b.cyl_height);
+    if (!(c.z1 > c.z0)) s.fail("fill.height_m", fmt::format("{} m: expected above the rough floor's top {} m", c.z1, c.z0));
     if (!b.vane.empty()) {
       if (std::hypot(b.vane_centre.x() - b.cyl_cx, b.vane_centre.y() - b.cyl_cy) > 1e-12 * b.cyl_radius)
         s.fail("vane.centre_m", "a cylinder fill around a vane needs the vane on the cylinder's axis");
@@ -482,6 +493,7 @@ SceneBodies read_bodies(const Scene& s) {
   fo.settle_kinetic_energy = s.positive("fill.settle_kinetic_energy", fo.settle_kinetic_energy);
   fo.relax_kinetic_energy = s.positive("fill.relax_kinetic_energy", fo.relax_kinetic_energy);
   fo.relax_max_steps = s.integer("fill.relax_max_steps", fo.relax_max_steps, 0, kMaxFillSteps);
+  fo.plateau_ratio = s.within("fill.plateau_ratio", fo.plateau_ratio, 0.0, 1.0);
   // Under a lid the drop column must fit, or beads would start above the lid.
   if (b.lid && placed_top > b.box->hi.z())
     s.fail("fill.settle", fmt::format("the drop column reaches z = {:.6g} m, above the lid at {:.6g} m (raise "
@@ -501,6 +513,21 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
   if (b.cylinder) {
     const double dw = b.cyl_bead;
     w.add_wall(Wall{Vec3(b.cyl_cx, b.cyl_cy, 0.0), Vec3::UnitZ(), b.cyl_floor_friction});
+    if (b.rough_floor) {
+      // Touching fixed beads on a triangular lattice, centres on the floor plane up to
+      // the wall beads' inner surface (so no hole a bead could reach the plane through
+      // is left at the rim; fixed beads may overlap): a rough floor.
+      const double row = dw * std::sqrt(3.0) / 2.0, rmax = b.cyl_radius;
+      const int rows = static_cast<int>(std::floor(rmax / row));
+      for (int j = -rows; j <= rows; ++j) {
+        const double y = j * row, off = (j % 2 != 0) ? 0.5 * dw : 0.0;
+        const int cols = static_cast<int>(std::floor(rmax / dw)) + 1;
+        for (int i = -cols; i <= cols; ++i) {
+          const double x = i * dw + off;
+          if (std::hypot(x, y) <= rmax) w.add_sphere(Vec3(b.cyl_cx + x, b.cyl_cy + y, 0.0), dw, b.density, BodyKind::fixed);
+        }
+      }
+    }
     const double rc = b.cyl_radius + 0.5 * dw;  // bead centres: the beads' inner surface at r
     const auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
     for (int layer = 0; (0.5 + layer) * dw <= b.cyl_height; ++layer)
@@ -533,7 +560,8 @@ void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
 
 /// Builds the world of a scene. `check_only` (restart): reads and checks every section
 /// but places, drops and relaxes nothing. The fill stage's report goes to the result's `fill`.
-LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& protocol, bool check_only) {
+LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& protocol, bool check_only,
+                        const FillProgress& progress) {
   const Options opt = read_options(s);
   SceneBodies b = read_bodies(s);
   if (protocol) {  // the pre-shear drives the vane; the branches restart from its checkpoint
@@ -588,8 +616,12 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
 
   if (b.settle) {
     const auto t0 = std::chrono::steady_clock::now();
-    FillResult r = fill(opt, b.settle_options, [&b](World& w) { add_container(w, b, false); });
+    FillOptions fo = b.settle_options;
+    fo.drop_progress = progress.drop;
+    fo.relax_progress = progress.relax;
+    FillResult r = fill(opt, fo, [&b](World& w) { add_container(w, b, false); });
     out.fill.settled = true;
+    out.fill.settle_plateau = r.settle_plateau;
     out.fill.settle_steps = r.settle_steps;
     out.fill.relax_steps = r.relax_steps;
     out.fill.settle_cap_hits = r.settle_cap_hits;
@@ -687,11 +719,11 @@ std::string SceneProtocol::branch_folder(double phi0_rad) {
   return "phi0_" + (std::stod(three) == phi0_rad ? three : fmt::format("{}", phi0_rad));
 }
 
-LoadedScene load_scene(const std::filesystem::path& path, bool check_only) {
+LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {
   const Scene scene(path);
   const std::optional<SceneProtocol> protocol = read_protocol(scene);
   const SceneCadence cadence = read_cadence(scene, protocol);
-  LoadedScene out = build_world(scene, protocol, check_only);
+  LoadedScene out = build_world(scene, protocol, check_only, progress);
   out.cadence = cadence;
   out.protocol = protocol;
   if (!check_only) refuse_initial_overlaps(*out.world, path);

@@ -22,6 +22,19 @@
 //     from the same settled state: mean sweeps and final residual per step, the largest
 //     overlap / d over the run, the kinetic energy at its end and the seconds per step.
 // The accuracy table runs on one thread.
+//
+// With `scene` set (`shearzone bench sim --scene cup|FILE`), the sheared vane cup instead
+// (sim_cup.csv, run_cup_bench): per chain length N, the cup is filled and relaxed (the
+// scene's settled fill, one thread: its wall time and steps are reported), the vane is
+// set to phi = phi0 sin(2 pi f t) from the relaxed packing (t = 0: the vane at its fastest),
+// `warmup_steps` steps run untimed on one thread, then from that sheared state each
+// thread count runs `steps` timed steps (h, tolerance, cap and freeze_sweeps of the
+// speed table). "cup" is the paper's cup: d = 2.4 mm steel
+// beads (7800 kg/m³), mu = 0.2, cup radius 14.5 d, vane radius 4.5 d (four blades),
+// chains of N beads (l_max = 0.4 mm, theta_max = 40 deg), cup_beads beads in all, filled
+// to a height of cup_beads (pi/6) d³ / (0.6 pi (R² - R_v²)) (about 22 d for 15 000), wall
+// and vane 3 d taller; its scene is written beside the CSV (cup_N<N>.toml) so a run can
+// repeat it with `shearzone sim`. A FILE is any scene with a [vane] (its own N).
 #pragma once
 
 #include <cstdint>
@@ -52,6 +65,11 @@ struct BenchSimOptions {
   int freeze_sweeps = 16;              ///< engine freeze_sweeps (0: no freezing)
   std::uint64_t seed = 1;
   bool quick = false;  ///< a smoke run: small packings, few steps (overrides the above)
+  // The sheared cup (scene non-empty): "cup" or a scene file with a [vane].
+  std::string scene;
+  std::vector<int> chain_lengths = {1, 9};  ///< N of the built-in cup
+  int cup_beads = 15000;                    ///< beads of the built-in cup
+  double phi0_rad = 0.3, f_Hz = 0.1;        ///< the vane's drive
   std::filesystem::path out_dir;
   bool force = false;
 };

@@ -62,7 +62,7 @@ struct SimJobSummary {
 /// then the files written so far (diagnostics to the failing step, snapshots, the last
 /// periodic checkpoint) are committed before the error propagates.
 SimJobSummary run_sim_job(const SimJobOptions& options, const core::Metadata& header,
-                          const core::ProgressCallback& progress = {});
+                          const core::ProgressCallback& progress = {}, const sim::FillProgress& fill_progress = {});
 
 /// One stage of a protocol: "preshear" or a branch's folder name (phi0_0.300).
 struct SimProtocolStage {
@@ -89,6 +89,7 @@ bool scene_has_protocol(const std::filesystem::path& scene);
 /// (and no protocol.csv). `on_stage` is told when each stage ends.
 SimProtocolSummary run_sim_protocol(const SimJobOptions& options, const core::Metadata& header,
                                     const core::ProgressCallback& progress = {},
-                                    const std::function<void(const SimProtocolStage&)>& on_stage = {});
+                                    const std::function<void(const SimProtocolStage&)>& on_stage = {},
+                                    const sim::FillProgress& fill_progress = {});
 
 }  // namespace shearzone::pipeline

@@ -113,6 +113,9 @@ class ProfileAccumulator {
   /// Noise per bin as the mean |v| of `reference` (a static measurement processed
   /// with the same options); bins the reference does not cover get its overall mean.
   RadialProfile finish_with_reference_noise(const ProfileAccumulator& reference) const;
+  /// Noise known in advance: Gaussian scatter `sigma_m_per_s` per velocity component
+  /// (0 for exact fields such as a simulator's truth): floor sigma sqrt(pi/2).
+  RadialProfile finish_with_known_noise(double sigma_m_per_s) const;
 
  private:
   struct Sums {

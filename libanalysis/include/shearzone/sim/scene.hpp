@@ -13,9 +13,12 @@
 //                diagnostics_every (steps)
 //     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):
 //                floor, four sides (and a lid) as half-space walls
-//     [cylinder] radius_m, height_m, bead_diameter_m, centre_m = [x, y], floor_friction:
-//                a wall of fixed beads outside radius_m (rings touching, layers from z = 0)
-//                and a floor plane at z = 0
+//     [cylinder] radius_m, height_m, bead_diameter_m, centre_m = [x, y], floor_friction,
+//                rough_floor (false): a wall of fixed beads outside radius_m (rings
+//                touching, layers from z = 0) and a floor plane at z = 0; rough_floor
+//                adds a layer of touching fixed beads (triangular lattice, centres on the
+//                plane, centres within radius_m), and the fill and the vane's layers then
+//                start at their tops (z = bead_diameter_m / 2)
 //     [beads]    diameter_m, density_kg_per_m3, positions_m = [x0, y0, z0, x1, ...]
 //                (mobile, explicit), fixed_positions_m = [...] (fixed beads),
 //                kinematic_positions_m = [...] (kinematic beads, prescribed motion),
@@ -36,7 +39,9 @@
 //                settle_max_iterations 30) until ½ m v² per bead < settle_kinetic_energy
 //                (1e-3) m g d or settle_max_steps (20000), then relaxed with the [sim]
 //                options until ½ m v² per bead < relax_kinetic_energy (1e-5) m g d or
-//                relax_max_steps (20000). The container ([box] walls with their lid, or the
+//                relax_max_steps (20000); the drop also ends once its kinetic energy
+//                stops falling after the fall time (plateau_ratio 0.7, 0: off; see
+//                sim::FillOptions). The container ([box] walls with their lid, or the
 //                [cylinder] beads and floor, fixed and kinematic beads) is the same in the
 //                drop and relaxation worlds; kinematic beads stand still during the fill.
 //                The run then starts from the relaxed packing at step 0, t = 0 (the fill's
@@ -85,6 +90,7 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/core/progress.hpp"
 #include "shearzone/sim/surface.hpp"
 #include "shearzone/sim/world.hpp"
 
@@ -101,6 +107,7 @@ struct SceneFillReport {
   bool settled = false;               ///< the fill stage ran
   std::int64_t settle_steps = 0;      ///< drop steps (cheap solver)
   std::int64_t settle_cap_hits = 0;   ///< iteration-cap hits of the drop (expected)
+  bool settle_plateau = false;        ///< the drop ended on its plateau (FillOptions::plateau_ratio)
   std::int64_t relax_steps = 0;       ///< relaxation steps ([sim] options)
   bool relaxed = false;               ///< relax_kinetic_energy reached
   double kinetic_energy = 0.0;        ///< final ½ m v² per bead / (m g d)
@@ -150,6 +157,11 @@ struct LoadedScene {
 /// reads and checks every section but places, drops and relaxes nothing. Throws
 /// ConfigError naming file:line and key for a bad value, and InputError for beads that
 /// overlap at the start (a fresh scene only).
-LoadedScene load_scene(const std::filesystem::path& scene, bool check_only);
+/// Progress of the fill stage (sim::fill's drop and relaxation steps).
+struct FillProgress {
+  core::ProgressCallback drop, relax;
+};
+
+LoadedScene load_scene(const std::filesystem::path& scene, bool check_only, const FillProgress& progress = {});
 
 }  // namespace shearzone::sim
