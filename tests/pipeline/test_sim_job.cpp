@@ -553,3 +553,23 @@ TEST_CASE("a rough floor: a layer of touching fixed beads; the fill and the vane
   // wider hollows at the rim's cut lattice lower (0.75 d seen).
   CHECK(mobile_min_z > 0.7 * 0.004);
 }
+
+TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit; both or neither refused",
+          "[pipeline][sim][vane]") {
+  TempDir dir("sim_lengths_d");
+  const std::string metres = with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05");
+  // d = 4 mm: cylinder radius 6 d, height 5 d; vane radius 2.5 d, height 5 d.
+  std::string diameters = with(with(metres, "radius_m = 0.024\nheight_m = 0.02\nbead_diameter_m = 0.004\n",
+                                    "radius_d = 6\nheight_d = 5\n"),
+                               "radius_m = 0.01\nheight_m = 0.02\n", "radius_d = 2.5\nheight_d = 5\n");
+  const auto a = run_scene(dir, metres, "m");
+  const auto b = run_scene(dir, diameters, "d");
+  CHECK(a.bodies == b.bodies);
+  CHECK(a.state_hash == b.state_hash);
+  CHECK_THAT(scene_error(with(diameters, "radius_d = 6\n", "radius_d = 6\nradius_m = 0.024\n")),
+             Contains("key \"cylinder.radius_d\": give either cylinder.radius_m (m) or cylinder.radius_d"));
+  CHECK_THAT(scene_error(with(diameters, "height_d = 5\n[beads]", "[beads]")),
+             Contains("[cylinder] needs height_m (or height_d)"));
+  CHECK_THAT(scene_error(with(diameters, "radius_d = 2.5\n", "radius_d = 1\n")),
+             Contains("key \"vane.radius_d\": 0.004 m: expected at least 1.5 bead diameters"));
+}

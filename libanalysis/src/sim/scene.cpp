@@ -49,7 +49,13 @@ const std::vector<std::string> kKeys = {
     "vane.stop_change",
     "protocol.preshear_phi0_rad", "protocol.preshear_f_Hz", "protocol.preshear_s",
     "protocol.stop_change",   "protocol.phi0_rad",      "protocol.f_Hz",
-    "protocol.cycles"};
+    "protocol.cycles",
+    "cylinder.radius_d",      "cylinder.height_d",      "vane.radius_d",
+    "vane.height_d",          "fill.height_d"};
+
+// Lengths that may also be given in bead diameters (beads.diameter_m): key_d for key_m.
+const std::vector<std::string> kLengthKeys = {"cylinder.radius_m", "cylinder.height_m", "vane.radius_m",
+                                              "vane.height_m", "fill.height_m"};
 
 // The settle/relax keys of [fill]; they only mean something with fill.settle = true.
 const std::vector<std::string> kSettleKeys = {
@@ -68,8 +74,17 @@ class Scene {
   explicit Scene(const std::filesystem::path& path) : t_(io::TomlConfig::load(path)) {
     t_.require_known(kKeys);
   }
-  bool has(const std::string& k) const { return t_.has(k); }
-  double num(const std::string& k, double fallback) const { return t_.has(k) ? t_.get_double(k) : fallback; }
+  bool has(const std::string& k) const { return t_.has(k) || (is_length(k) && t_.has(in_d(k))); }
+  /// A number; a length key (kLengthKeys) given as key_d instead comes back in metres.
+  double num(const std::string& k, double fallback) const {
+    if (is_length(k) && t_.has(in_d(k))) {
+      if (t_.has(k)) fail(in_d(k), fmt::format("give either {} (m) or {} (bead diameters), not both", k, in_d(k)));
+      if (!t_.has("beads.diameter_m"))
+        fail(in_d(k), "a length in bead diameters needs beads.diameter_m");
+      return t_.get_double(in_d(k)) * t_.get_double("beads.diameter_m");
+    }
+    return t_.has(k) ? t_.get_double(k) : fallback;
+  }
   long long integer(const std::string& k, long long fallback, long long min,
                     long long max = std::numeric_limits<long long>::max()) const {
     if (!t_.has(k)) return fallback;
@@ -127,7 +142,9 @@ class Scene {
     for (std::size_t i = 0; i < v.size(); i += 3) out.emplace_back(v[i], v[i + 1], v[i + 2]);
     return out;
   }
-  [[noreturn]] void fail(const std::string& k, const std::string& what) const {
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    // A length given in bead diameters is named as written.
+    const std::string k = is_length(key) && !t_.has(key) && t_.has(in_d(key)) ? in_d(key) : key;
     throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", t_.source(), t_.line(k), k, what));
   }
   [[noreturn]] void fail_file(const std::string& what) const {
@@ -135,6 +152,10 @@ class Scene {
   }
 
  private:
+  static bool is_length(const std::string& k) {
+    return std::find(kLengthKeys.begin(), kLengthKeys.end(), k) != kLengthKeys.end();
+  }
+  static std::string in_d(const std::string& k) { return k.substr(0, k.size() - 2) + "_d"; }
   io::TomlConfig t_;
 };
 
@@ -259,8 +280,12 @@ SceneBodies read_bodies(const Scene& s) {
   b.density = s.positive("beads.density_kg_per_m3", 2500.0);
   if (b.cylinder) {
     b.cyl_radius = s.positive("cylinder.radius_m", 1.0);
+    if (!s.has("cylinder.height_m")) s.fail_file("[cylinder] needs height_m (or height_d)");
     b.cyl_height = s.positive("cylinder.height_m", 1.0);
-    b.cyl_bead = s.positive("cylinder.bead_diameter_m", 1.0);
+    // The wall beads: cylinder.bead_diameter_m, by default the beads' own diameter.
+    if (!s.has("cylinder.bead_diameter_m") && !s.has("beads.diameter_m"))
+      s.fail_file("[cylinder] needs bead_diameter_m (or beads.diameter_m)");
+    b.cyl_bead = s.positive("cylinder.bead_diameter_m", s.num("beads.diameter_m", 1.0));
     {  // the wall beads add_container() places: rings of ceil(2 pi (R + d/2) / d) beads
       const double per_ring = std::ceil(2.0 * std::numbers::pi * (b.cyl_radius + 0.5 * b.cyl_bead) / b.cyl_bead);
       const double layers = std::max(0.0, std::floor(b.cyl_height / b.cyl_bead - 0.5) + 1.0);
@@ -284,7 +309,7 @@ SceneBodies read_bodies(const Scene& s) {
     }
   } else if (s.has("cylinder.height_m") || s.has("cylinder.bead_diameter_m") || s.has("cylinder.centre_m") ||
              s.has("cylinder.floor_friction") || s.has("cylinder.rough_floor")) {
-    s.fail_file("[cylinder] needs radius_m");
+    s.fail_file("[cylinder] needs radius_m (or radius_d)");
   }
 
   for (const char* k : {"beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s"})
@@ -322,7 +347,8 @@ SceneBodies read_bodies(const Scene& s) {
   if (s.has("beads.kinematic_angular_velocity_rad_per_s"))
     b.kinematic_omega = s.vec3("beads.kinematic_angular_velocity_rad_per_s");
   if (s.has("vane.radius_m") || s.has("vane.height_m")) {
-    if (!s.has("vane.radius_m") || !s.has("vane.height_m")) s.fail_file("[vane] needs radius_m and height_m");
+    if (!s.has("vane.radius_m") || !s.has("vane.height_m"))
+      s.fail_file("[vane] needs radius_m and height_m (or radius_d, height_d)");
     const double d = b.diameter;
     const double radius = s.positive("vane.radius_m", 1.0), height = s.positive("vane.height_m", 1.0);
     const auto blades = static_cast<int>(s.integer("vane.blades", 4, 1, 64));

@@ -76,6 +76,10 @@
 //                pre-shear drive and duration_s = preshear_s.
 // Bodies are numbered: cylinder wall beads, fixed beads, kinematic beads, explicit mobile
 // chains, fill chains; every fixed or kinematic bead is a chain of its own (chain_id).
+// Lengths in bead diameters: cylinder.radius_d, cylinder.height_d, vane.radius_d,
+// vane.height_d and fill.height_d may replace the _m key (× beads.diameter_m; one of
+// the two). cylinder.height_m is required; cylinder.bead_diameter_m defaults to
+// beads.diameter_m.
 // Bad values (out of range, wrong type, wrong count) are one ConfigError line naming
 // file:line and key.
 // With `restart`, the world (bodies, walls, chains, options including threads and
