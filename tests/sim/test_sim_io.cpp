@@ -24,8 +24,9 @@ namespace {
 
 /// A box of walls with a fixed bead, a kinematic bead, two angle-limited chains and
 /// single beads falling onto each other: every kind of row and body.
-World make_scene() {
+World make_scene(bool alternate = true) {
   Options o;
+  o.alternate_sweeps = alternate;
   o.time_step = 5e-4;
   o.tolerance = 1e-5;
   o.max_iterations = 60;  // low enough that the cap is hit now and then
@@ -106,8 +107,9 @@ std::vector<std::size_t> parse_dims(const std::string& s) {
 }  // namespace
 
 TEST_CASE("A restart from a checkpoint continues bit-identically", "[sim]") {
+  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders
   TempDir dir("sim_ckpt");
-  World a = make_scene();
+  World a = make_scene(alternate);
   for (int k = 0; k < 300; ++k) a.step();
   REQUIRE_FALSE(a.contacts().empty());
   REQUIRE(a.rope_count() == 8);
@@ -172,18 +174,20 @@ TEST_CASE("Checkpoint reading rejects bad files and inconsistent states", "[sim]
   CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("freeze_sweeps"));
 }
 
-TEST_CASE("A checkpoint keeps the orientations, the thread count and the freeze setting", "[sim]") {
+TEST_CASE("A checkpoint keeps the orientations, the thread count, the freeze setting and the sweep order", "[sim]") {
   TempDir dir("sim_ckpt_v2");
   World a = make_scene();
   for (int k = 0; k < 30; ++k) a.step();
   WorldState s = a.state();
   s.options.threads = 2;
   s.options.freeze_sweeps = 5;
+  s.options.alternate_sweeps = false;
   const World b = World::from_state(s);
   write_checkpoint(dir / "c.h5", b);
   const WorldState r = read_checkpoint(dir / "c.h5");
   CHECK(r.options.threads == 2);
   CHECK(r.options.freeze_sweeps == 5);
+  CHECK_FALSE(r.options.alternate_sweeps);
   REQUIRE(r.orientation.size() == s.orientation.size());
   for (std::size_t k = 0; k < r.orientation.size(); ++k)
     CHECK(r.orientation[k].coeffs() == s.orientation[k].coeffs());  // bit-exact

@@ -105,7 +105,7 @@ Packing pour(int count, std::uint64_t seed, std::int64_t max_steps) {
 /// A world on the settled state with the given h, tolerance and cap; the contact
 /// impulses (P = h R) are scaled to the new time step so the warm start stays a force.
 sim::World restart(const sim::WorldState& settled, double h, double tolerance, int cap, int threads,
-                   int freeze_sweeps) {
+                   int freeze_sweeps, bool alternate = true) {
   sim::WorldState s = settled;
   const double ratio = h / s.options.time_step;
   s.options.time_step = h;
@@ -113,6 +113,7 @@ sim::World restart(const sim::WorldState& settled, double h, double tolerance, i
   s.options.max_iterations = cap;
   s.options.threads = threads;
   s.options.freeze_sweeps = freeze_sweeps;
+  s.options.alternate_sweeps = alternate;
   s.step = 0;
   s.iteration_cap_hits = 0;
   for (auto& c : s.contacts) {
@@ -157,7 +158,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
   return fmt::format(
       "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
       "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
-      "freeze_sweeps = {fs}\n[output]\nsnapshot_every = 0\n"
+      "freeze_sweeps = {fs}\nsweep_order = \"{order}\"\n[output]\nsnapshot_every = 0\n"
       "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n"
       "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
       "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
@@ -167,7 +168,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
       fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N)),
-      fmt::arg("seed", o.seed));
+      fmt::arg("seed", o.seed), fmt::arg("order", "alternate"));
 }
 
 BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& header,
@@ -216,14 +217,14 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
                            "timed steps from that state; wall_s: the timed steps only");
   m.emplace_back("cycle_wall_s", "wall time of one drive cycle (1/f) at this rate: wall_s / steps x 1 / (f h)");
   io::CsvWriter csv(csv_file.stream(), m,
-                    std::vector<std::string>{"N", "beads", "threads", "time_step_s", "tolerance", "max_iterations",
+                    std::vector<std::string>{"N", "beads", "threads", "sweep_order", "time_step_s", "tolerance", "max_iterations",
                                              "phi0_rad", "f_Hz", "fill_wall_s", "fill_drop_steps", "fill_relax_steps",
                                              "warmup_steps", "steps", "wall_s", "steps_per_s",
                                              "mean_sweeps_per_step", "median_sweeps_per_step", "max_sweeps",
                                              "cap_hits", "max_overlap_over_d", "wall_s_per_simulated_s",
                                              "cycle_wall_s"});
   BenchSimSummary sum;
-  const std::size_t total = lengths.size() * o.threads.size();
+  const std::size_t total = lengths.size() * o.threads.size() * o.sweep_orders.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
     sim::LoadedScene sc = sim::load_scene(scenes[i], false);
@@ -236,9 +237,11 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
     for (int k = 0; k < o.warmup_steps; ++k) (void)w.step();
     const sim::WorldState sheared = w.state();
     const double h = w.options().time_step;
+    for (const bool alternate : o.sweep_orders)
     for (const int t : o.threads) {
       sim::WorldState st = sheared;
       st.options.threads = t;
+      st.options.alternate_sweeps = alternate;
       sim::World tw = sim::World::from_state(st);
       std::vector<int> sweeps;
       std::int64_t caps = 0;
@@ -261,7 +264,8 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
       const double per_step = wall / o.steps;
       const int N = sc.beads_per_chain;
       csv.row(std::vector<std::string>{
-          std::to_string(N), std::to_string(mobile), std::to_string(t), io::format_number(h),
+          std::to_string(N), std::to_string(mobile), std::to_string(t),
+          alternate ? "alternate" : "forward", io::format_number(h),
           io::format_number(w.options().tolerance), std::to_string(w.options().max_iterations),
           io::format_number(o.phi0_rad), io::format_number(o.f_Hz), fixed(sc.fill.seconds, 2),
           std::to_string(sc.fill.settle_steps), std::to_string(sc.fill.relax_steps),
@@ -269,9 +273,9 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
           fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(sorted.back()),
           std::to_string(caps), sci(overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
       sum.lines.push_back(fmt::format(
-          "cup N = {}: {} beads, {} thread{}: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "cup N = {}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s, one {} s cycle {:.3g} s; fill {:.0f} s",
-          N, mobile, t, t == 1 ? "" : "s", per_step, mean, median, caps, o.steps, per_step / h,
+          N, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps, per_step / h,
           io::format_number(1.0 / o.f_Hz), per_step / (o.f_Hz * h), sc.fill.seconds));
       if (progress) progress(++done, total);
     }
@@ -301,6 +305,8 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.chain_lengths = {1};
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
+  if (o.sweep_orders.empty() || o.sweep_orders.size() > 2)
+    throw ConfigError("bench sim: --sweep-order needs one or two orders (alternate, forward)");
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
   if (!o.scene.empty()) return run_cup_bench(o, header, progress);
@@ -333,7 +339,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
       Packing p = pour(count, o.seed, o.settle_max_steps);
       // Relax with the measured solver (one thread): the cheap drop leaves the beads
       // jiggling (non-converged steps act like elasticity), which is not a packing at rest.
-      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, 1, o.freeze_sweeps);
+      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, 1, o.freeze_sweeps, o.sweep_orders.front());
       const double d = kDiameter;
       const double mgd = kDensity * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
       for (std::int64_t k = 1; k <= o.relax_max_steps; ++k) {
@@ -386,7 +392,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   for (int count : o.beads) {
     const Packing& p = packing(count);
     for (int threads : o.threads) {
-      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, threads, o.freeze_sweeps);
+      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, threads, o.freeze_sweeps, o.sweep_orders.front());
       if (o.warmup_steps > 0) (void)timed(w, o.warmup_steps);
       const Run r = timed(w, o.steps);
       const double sps = r.steps / r.seconds;
@@ -428,7 +434,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   for (double h : o.accuracy_time_steps_s)
     for (int cap : o.accuracy_max_iterations) {
       if (!(h > 0.0) || cap < 1) throw ConfigError("bench sim: accuracy grid needs h > 0 and cap >= 1");
-      sim::World w = restart(ap.state, h, o.tolerance, cap, 1, o.freeze_sweeps);
+      sim::World w = restart(ap.state, h, o.tolerance, cap, 1, o.freeze_sweeps, o.sweep_orders.front());
       const int steps = std::max(1, static_cast<int>(std::lround(o.accuracy_duration_s / h)));
       const Run r = timed(w, steps);
       acc_rows.push_back({sci(h), std::to_string(cap), sci(o.tolerance),

@@ -28,6 +28,7 @@ const std::vector<std::string> kKeys = {
     "sim.friction",           "sim.tolerance",          "sim.max_iterations",
     "sim.alert_margin",       "sim.max_overlap",        "sim.max_rope_excess",
     "sim.max_angle_excess_deg", "sim.freeze_sweeps",    "sim.threads",
+    "sim.sweep_order",
     "output.snapshot_every",  "output.checkpoint_every", "output.diagnostics_every",
     "box.min_m",              "box.max_m",              "box.friction",
     "box.lid",
@@ -113,6 +114,7 @@ class Scene {
     return v;
   }
   bool flag(const std::string& k, bool fallback) const { return t_.has(k) ? t_.get_bool(k) : fallback; }
+  std::string text(const std::string& k) const { return t_.get_string(k); }
   std::vector<double> numbers(const std::string& k) const {
     std::vector<double> out;
     if (!t_.has(k)) return out;
@@ -228,6 +230,12 @@ Options read_options(const Scene& s) {
   if (s.has("sim.max_angle_excess_deg")) o.max_angle_excess = deg(s.positive("sim.max_angle_excess_deg", 2.0));
   o.freeze_sweeps = static_cast<int>(s.integer("sim.freeze_sweeps", o.freeze_sweeps, 0, 1000000));
   o.threads = static_cast<int>(s.integer("sim.threads", o.threads, 1, 256));
+  if (s.has("sim.sweep_order")) {
+    const std::string order = s.text("sim.sweep_order");
+    if (order != "alternate" && order != "forward")
+      s.fail("sim.sweep_order", fmt::format("\"{}\" (expected \"alternate\" or \"forward\")", order));
+    o.alternate_sweeps = order == "alternate";
+  }
   return o;
 }
 

@@ -96,6 +96,7 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
   f.set_attribute("/", "option_max_angle_excess_rad", o.max_angle_excess);
   f.set_attribute("/", "option_freeze_sweeps", static_cast<std::int64_t>(o.freeze_sweeps));
   f.set_attribute("/", "option_threads", static_cast<std::int64_t>(o.threads));
+  f.set_attribute("/", "option_sweep_order", std::string(o.alternate_sweeps ? "alternate" : "forward"));
   write_metadata(f, metadata);
 
   const std::size_t n = s.position.size();
@@ -251,6 +252,13 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
       throw InputError(fmt::format("{}: attribute \"option_threads\": {}", f.path(), threads));
     o.freeze_sweeps = static_cast<int>(freeze);
     o.threads = static_cast<int>(threads);
+  }
+  if (f.has_attribute("/", "option_sweep_order")) {  // absent in older files: alternate
+    const std::string order = f.attribute_string("/", "option_sweep_order");
+    if (order != "alternate" && order != "forward")
+      throw InputError(fmt::format("{}: attribute \"option_sweep_order\": \"{}\" (expected alternate or forward)",
+                                   f.path(), order));
+    o.alternate_sweeps = order == "alternate";
   }
 
   const std::size_t n = count_attr(f, "n_bodies");

@@ -803,7 +803,7 @@ void World::add_free_velocities() {
 void World::sweep_serial(detail::SweepControl& c) {
   for (int sweep = 1;; ++sweep) {
     c.part[0] = SweepTotals{};
-    sweep_lists(lists_[0], sweep % 2 == 1, sweep, c.check, c.part[0]);
+    sweep_lists(lists_[0], !opt_.alternate_sweeps || sweep % 2 == 1, sweep, c.check, c.part[0]);
     if (c.finish_sweep(sweep)) break;
   }
 }
@@ -829,7 +829,7 @@ void World::sweep_parallel(detail::SweepControl& c, int rows) {
     const int nthreads = omp_get_num_threads();
     const int me = omp_get_thread_num();
     for (int sweep = 1;; ++sweep) {
-      const bool forward = sweep % 2 == 1;
+      const bool forward = !opt_.alternate_sweeps || sweep % 2 == 1;
       if (!forward) {
         if (me == 0) sweep_lists(lists_[boundary], false, sweep, c.check, c.part[boundary]);
         barrier.wait();

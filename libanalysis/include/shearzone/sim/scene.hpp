@@ -8,7 +8,9 @@
 //                zero-impulse row is skipped; 0: never freeze),
 //                threads (integer in [1, 256], default 1: the engine's slab-parallel
 //                sweep; bit-identical runs for a fixed count, another count is another
-//                Gauss–Seidel order)
+//                Gauss–Seidel order), sweep_order ("alternate": forward and backward
+//                in turn, the default; "forward": always forward, fewer sweeps under
+//                shear)
 //     [output]   snapshot_every, checkpoint_every (steps; 0: none / only at the end),
 //                diagnostics_every (steps)
 //     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):

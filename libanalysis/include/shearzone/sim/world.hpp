@@ -85,6 +85,9 @@ struct Options {
   double max_angle_excess = 0.034906585039886591;  ///< divergence: θ − θ_max (rad), 2°
   int freeze_sweeps = 16; ///< sweeps a quiet zero-impulse row is skipped (0: never freeze)
   int threads = 1;        ///< sweep threads (slabs); 1 = serial
+  /// Sweep order: forward and backward in turn (true, the classic symmetric NLGS) or
+  /// always forward (false; under shear fewer sweeps to the tolerance, see docs/sim.md).
+  bool alternate_sweeps = true;
   /// With threads > 1, the slabs run on one thread when the step has fewer rows than this
   /// times `threads` (waking the pool costs more than it saves there). The result is the
   /// same bits either way (the slabs share no body); not stored in checkpoints.
