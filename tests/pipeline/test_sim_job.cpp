@@ -573,3 +573,16 @@ TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit; bo
   CHECK_THAT(scene_error(with(diameters, "radius_d = 2.5\n", "radius_d = 1\n")),
              Contains("key \"vane.radius_d\": 0.004 m: expected at least 1.5 bead diameters"));
 }
+
+TEST_CASE("a vane cup's friction defaults to the paper's oiled chains (mu = 0.2), beads and floor",
+          "[pipeline][sim][vane]") {
+  TempDir dir("sim_cup_friction");
+  (void)run_scene(dir, with(with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05"), "friction = 0.3\n", ""), "run");
+  const auto st = sim::read_checkpoint(dir / "run" / "checkpoint.h5");
+  CHECK(st.options.friction == 0.2);
+  REQUIRE(st.walls.size() == 1);
+  CHECK(st.walls[0].friction == 0.2);
+  // Without a vane the engine's default stays.
+  (void)run_scene(dir, with(kPush, "duration_s = 0.1", "duration_s = 0.001"), "push");
+  CHECK(sim::read_checkpoint(dir / "push" / "checkpoint.h5").options.friction == 0.5);
+}

@@ -194,6 +194,10 @@ std::optional<SceneProtocol> read_protocol(const Scene& s) {
   return p;
 }
 
+/// The friction of a vane cup when the scene does not say: the paper's chains, oiled.
+constexpr double kCupFriction = 0.2;
+bool vane_scene(const Scene& s) { return s.has("vane.radius_m") || s.has("vane.height_m"); }
+
 SceneCadence read_cadence(const Scene& s, const std::optional<SceneProtocol>& protocol) {
   SceneCadence c;
   c.snapshot_every = s.integer("output.snapshot_every", c.snapshot_every, 0);
@@ -221,7 +225,8 @@ Options read_options(const Scene& s) {
     if (!(o.gravity.norm() <= 1000.0))
       s.fail("sim.gravity_m_per_s2", fmt::format("|g| = {} m/s^2 (expected at most 1000)", o.gravity.norm()));
   }
-  o.friction = s.non_negative("sim.friction", o.friction);
+  // A vane cup's beads are the paper's oiled steel (mu ~ 0.2); other scenes the engine's 0.5.
+  o.friction = s.non_negative("sim.friction", vane_scene(s) ? kCupFriction : o.friction);
   o.tolerance = s.positive("sim.tolerance", o.tolerance);
   o.max_iterations = static_cast<int>(s.integer("sim.max_iterations", o.max_iterations, 1, kMaxSweeps));
   o.alert_margin = s.within("sim.alert_margin", o.alert_margin, 0.0, 1.0);
@@ -307,7 +312,7 @@ SceneBodies read_bodies(const Scene& s) {
       b.cyl_cx = c[0];
       b.cyl_cy = c[1];
     }
-    b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", 0.5);
+    b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", vane_scene(s) ? kCupFriction : 0.5);
     b.rough_floor = s.flag("cylinder.rough_floor", false);
     if (b.rough_floor) {
       b.floor_top = 0.5 * b.cyl_bead;

@@ -1,8 +1,10 @@
 // shearzone/sim/scene.hpp: the scene TOML of `shearzone sim`, read and built here only.
 //
 // Scene TOML (strict keys; SI units in the names):
-//     [sim]      duration_s (required; not with [protocol]), time_step_s, gravity_m_per_s2 = [x, y, z],
-//                friction, tolerance, max_iterations, alert_margin, max_overlap,
+//     [sim]      duration_s (required; not with [protocol]), time_step_s,
+//                gravity_m_per_s2 = [x, y, z], friction (0.5; 0.2 in a scene with a
+//                [vane], as cylinder.floor_friction: the paper's oiled chains),
+//                tolerance, max_iterations, alert_margin, max_overlap,
 //                max_rope_excess, max_angle_excess_deg,
 //                freeze_sweeps (integer in [0, 1e6], default 16: sweeps a quiet
 //                zero-impulse row is skipped; 0: never freeze),
