@@ -79,11 +79,13 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   s->add_option("--warmup-steps", so->warmup_steps, "Untimed steps before the timing; range: 0..100000")
       ->capture_default_str();
   s->add_option("--scene", so->scene,
-                "Shear a vane cup instead: cup (the paper's cup, sim_cup.csv) or a scene .toml with a [vane]");
+                "Shear a vane cup instead: cup (the paper's cup, sim_cup.csv) or a scene .toml with a [vane]; "
+                "stir: the peer benchmark's stirred box (sim_stir.csv)");
   s->add_option("--N", so->chain_lengths, "Chain lengths of --scene cup; range: 1 to 32 values, each 1..1000")
       ->delimiter(',')
       ->capture_default_str();
   s->add_option("--cup-beads", so->cup_beads, "Beads of --scene cup; range: 10..1000000")->capture_default_str();
+  s->add_option("--stir-beads", so->stir_beads, "Beads of --scene stir; range: 10..1000000")->capture_default_str();
   s->add_option("--phi0", so->phi0_rad, "Vane amplitude of --scene, rad; range: 0 < phi0 <= 100")
       ->capture_default_str();
   s->add_option("--f-hz", so->f_Hz, "Vane frequency of --scene, Hz; range: 0 < f <= 1000")->capture_default_str();

@@ -285,6 +285,160 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
   return sum;
 }
 
+/// The peer benchmark's stirred box (research: the same scene LAMMPS, LIGGGHTS and YADE
+/// ran): `stir_beads` single beads (d = 2.4 mm steel, mu = 0.2 with beads and walls)
+/// settled in a 25 d x 25 d box, then a rod of 25 kinematic beads along y, its centres
+/// 1 d below the 99.5th-percentile bead height at x = 3 d, pushed along +x at 5 mm/s;
+/// mobile beads overlapping the rod are removed.
+BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& header,
+                               const core::ProgressCallback& progress) {
+  if (o.stir_beads < 10 || o.stir_beads > 1000000)
+    throw ConfigError(fmt::format("bench sim: --stir-beads {}: expected 10..1000000", o.stir_beads));
+  const double d = 2.4e-3, side = 25 * d, rod_speed = 5e-3;
+  // Tall enough for the packing (random loose packing ~0.6) and its drop column.
+  const double height = o.stir_beads * std::numbers::pi / 6.0 * d * d * d / (0.55 * side * side) + 3 * d;
+  io::AtomicOutputSet out(o.out_dir, o.force);
+  io::AtomicOutput& csv_file = out.add("sim_stir.csv");
+  io::AtomicOutput& scene_file = out.add("stir.toml");
+  scene_file.stream() << fmt::format(
+      "# shearzone bench sim --scene stir: the peer benchmark's box, settled (the rod is added by the bench)\n"
+      "[sim]\nduration_s = 0\ntime_step_s = {}\nfriction = 0.2\ntolerance = {}\nmax_iterations = {}\n"
+      "freeze_sweeps = {}\n[output]\nsnapshot_every = 0\n"
+      "[box]\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nfriction = 0.2\n"
+      "[beads]\ndiameter_m = {}\ndensity_kg_per_m3 = 7800\n"
+      "[fill]\ncount = {}\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nseed = {}\nsettle = true\n",
+      io::format_number(o.time_step_s), io::format_number(o.tolerance), o.max_iterations, o.freeze_sweeps,
+      io::format_number(side), io::format_number(side), io::format_number(height), io::format_number(d),
+      o.stir_beads, io::format_number(side), io::format_number(side), io::format_number(height), o.seed);
+  scene_file.stream().flush();
+  sim::LoadedScene sc = sim::load_scene(scene_file.temp_path(), false);
+  const sim::WorldState settled = sc.world->state();
+
+  // The rod: 1 d below the 99.5th percentile of the bead heights, at x = 3 d.
+  std::vector<double> z;
+  for (std::size_t b = 0; b < settled.position.size(); ++b)
+    if (settled.kind[b] == sim::BodyKind::mobile) z.push_back(settled.position[b].z());
+  std::sort(z.begin(), z.end());
+  const double z_rod = z[static_cast<std::size_t>(0.995 * static_cast<double>(z.size() - 1))] - d;
+  if (!(z_rod >= 0.5 * d))
+    throw NoResultError(fmt::format("bench sim --scene stir: the settled packing is too shallow for the rod ({} m "
+                                    "below the floor's top): give more --stir-beads (at least ~1500)",
+                                    io::format_number(0.5 * d - z_rod)));
+  std::vector<sim::Vec3> rod;
+  for (int k = 0; k < 25; ++k) rod.emplace_back(3 * d, (k + 0.5) * d, z_rod);
+  sim::WorldState st = settled;
+  std::vector<int> new_index(settled.position.size(), -1);
+  st.position.clear();
+  st.velocity.clear();
+  st.angular_velocity.clear();
+  st.orientation.clear();
+  st.diameter.clear();
+  st.mass.clear();
+  st.inertia.clear();
+  st.kind.clear();
+  auto keep = [&](std::size_t b) {
+    new_index[b] = static_cast<int>(st.position.size());
+    st.position.push_back(settled.position[b]);
+    st.velocity.push_back(settled.velocity[b]);
+    st.angular_velocity.push_back(settled.angular_velocity[b]);
+    st.orientation.push_back(settled.orientation[b]);
+    st.diameter.push_back(settled.diameter[b]);
+    st.mass.push_back(settled.mass[b]);
+    st.inertia.push_back(settled.inertia[b]);
+    st.kind.push_back(settled.kind[b]);
+  };
+  int removed = 0;
+  for (std::size_t b = 0; b < settled.position.size(); ++b) {
+    bool hit = false;
+    for (const sim::Vec3& r : rod) hit = hit || (settled.position[b] - r).norm() < d;
+    if (hit && settled.kind[b] == sim::BodyKind::mobile) ++removed;
+    else keep(b);
+  }
+  const std::size_t template_bead = 0;
+  for (const sim::Vec3& r : rod) {
+    st.position.push_back(r);
+    st.velocity.emplace_back(rod_speed, 0.0, 0.0);
+    st.angular_velocity.push_back(sim::Vec3::Zero());
+    st.orientation.push_back(Eigen::Quaterniond::Identity());
+    st.diameter.push_back(d);
+    st.mass.push_back(settled.mass[template_bead]);
+    st.inertia.push_back(settled.inertia[template_bead]);
+    st.kind.push_back(sim::BodyKind::kinematic);
+  }
+  // Warm start: the contacts between surviving bodies, renumbered.
+  st.contacts.clear();
+  for (sim::ContactRecord c : settled.contacts) {
+    if ((c.body_i >= 0 && new_index[static_cast<std::size_t>(c.body_i)] < 0) ||
+        (c.body_j >= 0 && new_index[static_cast<std::size_t>(c.body_j)] < 0))
+      continue;
+    if (c.body_i >= 0) c.body_i = new_index[static_cast<std::size_t>(c.body_i)];
+    if (c.body_j >= 0) c.body_j = new_index[static_cast<std::size_t>(c.body_j)];
+    st.contacts.push_back(c);
+  }
+  const int mobile = o.stir_beads - removed;
+  sim::World w = sim::World::from_state(st);
+  for (int k = 0; k < o.warmup_steps; ++k) (void)w.step();
+  const sim::WorldState stirred = w.state();
+
+  core::Metadata m = header;
+  m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
+  m.emplace_back("scene", fmt::format("the peer benchmark's stirred box: {} single beads settled (stir.toml), a rod of "
+                                      "25 kinematic beads at x = 3 d, z = {} m (1 d below the 99.5th percentile), "
+                                      "+x at 5 mm/s; {} mobile beads overlapping it removed",
+                                      o.stir_beads, io::format_number(z_rod), removed));
+  m.emplace_back("peer", "LAMMPS, Hertz-Mindlin softened to E = 200 MPa, 2 cores: 266 s per simulated second on "
+                         "the same scene (full 1.0 s run), 477 s on 1 core (static)");
+  io::CsvWriter csv(csv_file.stream(), m,
+                    std::vector<std::string>{"mobile_beads", "threads", "sweep_order", "time_step_s", "tolerance",
+                                             "max_iterations", "fill_wall_s", "warmup_steps", "steps", "wall_s",
+                                             "steps_per_s", "mean_sweeps_per_step", "median_sweeps_per_step",
+                                             "cap_hits", "max_overlap_over_d", "wall_s_per_simulated_s"});
+  BenchSimSummary sum;
+  const std::size_t total = o.threads.size() * o.sweep_orders.size();
+  std::size_t done = 0;
+  for (const bool alternate : o.sweep_orders)
+    for (const int t : o.threads) {
+      sim::WorldState s2 = stirred;
+      s2.options.threads = t;
+      s2.options.alternate_sweeps = alternate;
+      sim::World tw = sim::World::from_state(s2);
+      std::vector<int> sweeps;
+      std::int64_t caps = 0;
+      double overlap = 0.0;
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int k = 0; k < o.steps; ++k) {
+        const sim::StepDiagnostics dg = tw.step();
+        sweeps.push_back(dg.iterations);
+        caps += dg.hit_iteration_cap ? 1 : 0;
+        overlap = std::max(overlap, dg.max_overlap);
+      }
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::vector<int> sorted = sweeps;
+      std::sort(sorted.begin(), sorted.end());
+      double mean = 0;
+      for (const int x : sweeps) mean += x;
+      mean /= static_cast<double>(sweeps.size());
+      const double median = sorted.size() % 2 ? sorted[sorted.size() / 2]
+                                              : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
+      const double per_step = wall / o.steps, h = tw.options().time_step;
+      csv.row(std::vector<std::string>{
+          std::to_string(mobile), std::to_string(t), alternate ? "alternate" : "forward", io::format_number(h),
+          io::format_number(tw.options().tolerance), std::to_string(tw.options().max_iterations),
+          fixed(sc.fill.seconds, 2), std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
+          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(caps), sci(overlap),
+          fixed(per_step / h, 1)});
+      sum.lines.push_back(fmt::format(
+          "stir: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "at the cap), {:.3g} s per simulated s (LAMMPS softened, 2 cores: 266)",
+          mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps,
+          per_step / h));
+      if (progress) progress(++done, total);
+    }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
+}
+
 }  // namespace
 
 BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
@@ -302,6 +456,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.relax_min_steps = 5;
     o.relax_max_steps = 50;
     o.cup_beads = 400;
+    o.stir_beads = 1500;
     o.chain_lengths = {1};
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
@@ -309,6 +464,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError("bench sim: --sweep-order needs one or two orders (alternate, forward)");
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
+  if (o.scene == "stir") return run_stir_bench(o, header, progress);
   if (!o.scene.empty()) return run_cup_bench(o, header, progress);
   if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||
       o.max_iterations > 100000 || o.freeze_sweeps < 0 || o.relax_max_steps < 0 || o.relax_max_steps > 1000000 ||

@@ -35,6 +35,11 @@
 // to a height of cup_beads (pi/6) d³ / (0.6 pi (R² - R_v²)) (about 22 d for 15 000), wall
 // and vane 3 d taller; its scene is written beside the CSV (cup_N<N>.toml) so a run can
 // repeat it with `shearzone sim`. A FILE is any scene with a [vane] (its own N).
+// `--scene stir` is the peer benchmark's stirred box instead (sim_stir.csv,
+// run_stir_bench): stir_beads single beads (d = 2.4 mm steel, mu = 0.2) settled in a
+// 25 d x 25 d box, a rod of 25 kinematic beads along y at x = 3 d, 1 d below the 99.5th
+// percentile of the bead heights, pushed along +x at 5 mm/s (mobile beads overlapping it
+// removed), timed like the cup.
 #pragma once
 
 #include <cstdint>
@@ -72,6 +77,7 @@ struct BenchSimOptions {
   std::string scene;
   std::vector<int> chain_lengths = {1, 9};  ///< N of the built-in cup
   int cup_beads = 15000;                    ///< beads of the built-in cup
+  int stir_beads = 10000;                   ///< beads of --scene stir (the peer benchmark's box)
   double phi0_rad = 0.3, f_Hz = 0.1;        ///< the vane's drive
   std::filesystem::path out_dir;
   bool force = false;
