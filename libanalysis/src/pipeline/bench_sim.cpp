@@ -294,7 +294,8 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
                                const core::ProgressCallback& progress) {
   if (o.stir_beads < 10 || o.stir_beads > 1000000)
     throw ConfigError(fmt::format("bench sim: --stir-beads {}: expected 10..1000000", o.stir_beads));
-  const double d = 2.4e-3, side = 25 * d, rod_speed = 5e-3;
+  const double d = 2.4e-3, side = o.stir_side_d * d, rod_speed = 5e-3;
+  const int rod_beads = static_cast<int>(o.stir_side_d);
   // Tall enough for the packing (random loose packing ~0.6) and its drop column.
   const double height = o.stir_beads * std::numbers::pi / 6.0 * d * d * d / (0.55 * side * side) + 3 * d;
   io::AtomicOutputSet out(o.out_dir, o.force);
@@ -325,7 +326,7 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
                                     "below the floor's top): give more --stir-beads (at least ~1500)",
                                     io::format_number(0.5 * d - z_rod)));
   std::vector<sim::Vec3> rod;
-  for (int k = 0; k < 25; ++k) rod.emplace_back(3 * d, (k + 0.5) * d, z_rod);
+  for (int k = 0; k < rod_beads; ++k) rod.emplace_back(3 * d, (k + 0.5) * d, z_rod);
   sim::WorldState st = settled;
   std::vector<int> new_index(settled.position.size(), -1);
   st.position.clear();
@@ -382,10 +383,10 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
 
   core::Metadata m = header;
   m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
-  m.emplace_back("scene", fmt::format("the peer benchmark's stirred box: {} single beads settled (stir.toml), a rod of "
-                                      "25 kinematic beads at x = 3 d, z = {} m (1 d below the 99.5th percentile), "
-                                      "+x at 5 mm/s; {} mobile beads overlapping it removed",
-                                      o.stir_beads, io::format_number(z_rod), removed));
+  m.emplace_back("scene", fmt::format("the peer benchmark's stirred box ({} d wide): {} single beads settled "
+                                      "(stir.toml), a rod of {} kinematic beads at x = 3 d, z = {} m (1 d below the "
+                                      "99.5th percentile), +x at 5 mm/s; {} mobile beads overlapping it removed",
+                                      o.stir_side_d, o.stir_beads, rod_beads, io::format_number(z_rod), removed));
   m.emplace_back("peer", "LAMMPS, Hertz-Mindlin softened to E = 200 MPa, 2 cores: 266 s per simulated second on "
                          "the same scene (full 1.0 s run), 477 s on 1 core (static)");
   io::CsvWriter csv(csv_file.stream(), m,
@@ -456,7 +457,8 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.relax_min_steps = 5;
     o.relax_max_steps = 50;
     o.cup_beads = 400;
-    o.stir_beads = 1500;
+    o.stir_beads = 300;
+    o.stir_side_d = 10;
     o.chain_lengths = {1};
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");

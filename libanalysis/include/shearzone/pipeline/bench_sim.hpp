@@ -78,6 +78,7 @@ struct BenchSimOptions {
   std::vector<int> chain_lengths = {1, 9};  ///< N of the built-in cup
   int cup_beads = 15000;                    ///< beads of the built-in cup
   int stir_beads = 10000;                   ///< beads of --scene stir (the peer benchmark's box)
+  int stir_side_d = 25;                     ///< its box side and rod length, d (--quick: 10)
   double phi0_rad = 0.3, f_Hz = 0.1;        ///< the vane's drive
   std::filesystem::path out_dir;
   bool force = false;
