@@ -149,6 +149,37 @@ Run timed(sim::World& w, int steps) {
   return r;
 }
 
+/// `steps` timed steps from `state` with the thread count and sweep order given: sweeps
+/// per step (mean, median, max), cap hits, the largest overlap, wall seconds.
+struct SweepStats {
+  double wall = 0.0, mean = 0.0, median = 0.0, overlap = 0.0;
+  int max = 0;
+  std::int64_t caps = 0;
+};
+SweepStats time_sheared(const sim::WorldState& state, int threads, bool alternate, int steps) {
+  sim::WorldState st = state;
+  st.options.threads = threads;
+  st.options.alternate_sweeps = alternate;
+  sim::World w = sim::World::from_state(st);
+  std::vector<int> sweeps;
+  SweepStats r;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 0; k < steps; ++k) {
+    const sim::StepDiagnostics d = w.step();
+    sweeps.push_back(d.iterations);
+    r.caps += d.hit_iteration_cap ? 1 : 0;
+    r.overlap = std::max(r.overlap, d.max_overlap);
+  }
+  r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::sort(sweeps.begin(), sweeps.end());
+  for (const int x : sweeps) r.mean += x;
+  r.mean /= static_cast<double>(sweeps.size());
+  const std::size_t n = sweeps.size();
+  r.median = n % 2 ? sweeps[n / 2] : 0.5 * (sweeps[n / 2 - 1] + sweeps[n / 2]);
+  r.max = sweeps.back();
+  return r;
+}
+
 /// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads.
 std::string cup_scene(const BenchSimOptions& o, int N) {
   const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
@@ -239,28 +270,9 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
     const double h = w.options().time_step;
     for (const bool alternate : o.sweep_orders)
     for (const int t : o.threads) {
-      sim::WorldState st = sheared;
-      st.options.threads = t;
-      st.options.alternate_sweeps = alternate;
-      sim::World tw = sim::World::from_state(st);
-      std::vector<int> sweeps;
-      std::int64_t caps = 0;
-      double overlap = 0.0;
-      const auto t0 = std::chrono::steady_clock::now();
-      for (int k = 0; k < o.steps; ++k) {
-        const sim::StepDiagnostics d = tw.step();
-        sweeps.push_back(d.iterations);
-        caps += d.hit_iteration_cap ? 1 : 0;
-        overlap = std::max(overlap, d.max_overlap);
-      }
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::vector<int> sorted = sweeps;
-      std::sort(sorted.begin(), sorted.end());
-      double mean = 0;
-      for (const int x : sweeps) mean += x;
-      mean /= static_cast<double>(sweeps.size());
-      const double median = sorted.size() % 2 ? sorted[sorted.size() / 2]
-                                              : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
+      const SweepStats r = time_sheared(sheared, t, alternate, o.steps);
+      const double wall = r.wall, mean = r.mean, median = r.median, overlap = r.overlap;
+      const std::int64_t caps = r.caps;
       const double per_step = wall / o.steps;
       const int N = sc.beads_per_chain;
       csv.row(std::vector<std::string>{
@@ -270,7 +282,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
           io::format_number(o.phi0_rad), io::format_number(o.f_Hz), fixed(sc.fill.seconds, 2),
           std::to_string(sc.fill.settle_steps), std::to_string(sc.fill.relax_steps),
           std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
-          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(sorted.back()),
+          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(r.max),
           std::to_string(caps), sci(overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
       sum.lines.push_back(fmt::format(
           "cup N = {}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
@@ -399,32 +411,13 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   std::size_t done = 0;
   for (const bool alternate : o.sweep_orders)
     for (const int t : o.threads) {
-      sim::WorldState s2 = stirred;
-      s2.options.threads = t;
-      s2.options.alternate_sweeps = alternate;
-      sim::World tw = sim::World::from_state(s2);
-      std::vector<int> sweeps;
-      std::int64_t caps = 0;
-      double overlap = 0.0;
-      const auto t0 = std::chrono::steady_clock::now();
-      for (int k = 0; k < o.steps; ++k) {
-        const sim::StepDiagnostics dg = tw.step();
-        sweeps.push_back(dg.iterations);
-        caps += dg.hit_iteration_cap ? 1 : 0;
-        overlap = std::max(overlap, dg.max_overlap);
-      }
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::vector<int> sorted = sweeps;
-      std::sort(sorted.begin(), sorted.end());
-      double mean = 0;
-      for (const int x : sweeps) mean += x;
-      mean /= static_cast<double>(sweeps.size());
-      const double median = sorted.size() % 2 ? sorted[sorted.size() / 2]
-                                              : 0.5 * (sorted[sorted.size() / 2 - 1] + sorted[sorted.size() / 2]);
-      const double per_step = wall / o.steps, h = tw.options().time_step;
+      const SweepStats r = time_sheared(stirred, t, alternate, o.steps);
+      const double wall = r.wall, mean = r.mean, median = r.median, overlap = r.overlap;
+      const std::int64_t caps = r.caps;
+      const double per_step = wall / o.steps, h = stirred.options.time_step;
       csv.row(std::vector<std::string>{
           std::to_string(mobile), std::to_string(t), alternate ? "alternate" : "forward", io::format_number(h),
-          io::format_number(tw.options().tolerance), std::to_string(tw.options().max_iterations),
+          io::format_number(stirred.options.tolerance), std::to_string(stirred.options.max_iterations),
           fixed(sc.fill.seconds, 2), std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
           fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(caps), sci(overlap),
           fixed(per_step / h, 1)});
