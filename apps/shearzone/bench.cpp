@@ -80,7 +80,8 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   s->add_option("--scene", so->scene,
                 "Shear a vane cup instead: cup (the paper's cup, sim_cup.csv) or a scene .toml with a [vane]; "
-                "stir: the peer benchmark's stirred box (sim_stir.csv)");
+                "stir: the peer benchmark's stirred box (sim_stir.csv); plow: the box plowed by a full-height wall "
+                "(sim_plow.csv)");
   s->add_option("--N", so->chain_lengths, "Chain lengths of --scene cup; range: 1 to 32 values, each 1..1000")
       ->delimiter(',')
       ->capture_default_str();

@@ -302,8 +302,11 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
 /// settled in a 25 d x 25 d box, then a rod of 25 kinematic beads along y, its centres
 /// 1 d below the 99.5th-percentile bead height at x = 3 d, pushed along +x at 5 mm/s;
 /// mobile beads overlapping the rod are removed.
+/// `plow`: the rod becomes a full-height wall of kinematic beads (columns from the floor
+/// up to the rod's height at x = 3 d), the plowed packing of the solver issue.
 BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& header,
-                               const core::ProgressCallback& progress) {
+                               const core::ProgressCallback& progress, bool plow) {
+  const std::string name = plow ? "plow" : "stir";
   if (o.stir_beads < 10 || o.stir_beads > 1000000)
     throw ConfigError(fmt::format("bench sim: --stir-beads {}: expected 10..1000000", o.stir_beads));
   const double d = 2.4e-3, side = o.stir_side_d * d, rod_speed = 5e-3;
@@ -311,16 +314,16 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   // Tall enough for the packing (random loose packing ~0.6) and its drop column.
   const double height = o.stir_beads * std::numbers::pi / 6.0 * d * d * d / (0.55 * side * side) + 3 * d;
   io::AtomicOutputSet out(o.out_dir, o.force);
-  io::AtomicOutput& csv_file = out.add("sim_stir.csv");
-  io::AtomicOutput& scene_file = out.add("stir.toml");
+  io::AtomicOutput& csv_file = out.add("sim_" + name + ".csv");
+  io::AtomicOutput& scene_file = out.add(name + ".toml");
   scene_file.stream() << fmt::format(
-      "# shearzone bench sim --scene stir: the peer benchmark's box, settled (the rod is added by the bench)\n"
+      "# shearzone bench sim --scene {}: the peer benchmark's box, settled (the rod is added by the bench)\n"
       "[sim]\nduration_s = 0\ntime_step_s = {}\nfriction = 0.2\ntolerance = {}\nmax_iterations = {}\n"
       "freeze_sweeps = {}\n[output]\nsnapshot_every = 0\n"
       "[box]\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nfriction = 0.2\n"
       "[beads]\ndiameter_m = {}\ndensity_kg_per_m3 = 7800\n"
       "[fill]\ncount = {}\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nseed = {}\nsettle = true\n",
-      io::format_number(o.time_step_s), io::format_number(o.tolerance), o.max_iterations, o.freeze_sweeps,
+      name, io::format_number(o.time_step_s), io::format_number(o.tolerance), o.max_iterations, o.freeze_sweeps,
       io::format_number(side), io::format_number(side), io::format_number(height), io::format_number(d),
       o.stir_beads, io::format_number(side), io::format_number(side), io::format_number(height), o.seed);
   scene_file.stream().flush();
@@ -334,11 +337,15 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   std::sort(z.begin(), z.end());
   const double z_rod = z[static_cast<std::size_t>(0.995 * static_cast<double>(z.size() - 1))] - d;
   if (!(z_rod >= 0.5 * d))
-    throw NoResultError(fmt::format("bench sim --scene stir: the settled packing is too shallow for the rod ({} m "
+    throw NoResultError(fmt::format("bench sim --scene {}: the settled packing is too shallow for the rod ({} m "
                                     "below the floor's top): give more --stir-beads (at least ~1500)",
-                                    io::format_number(0.5 * d - z_rod)));
+                                    name, io::format_number(0.5 * d - z_rod)));
   std::vector<sim::Vec3> rod;
-  for (int k = 0; k < rod_beads; ++k) rod.emplace_back(3 * d, (k + 0.5) * d, z_rod);
+  for (int k = 0; k < rod_beads; ++k) {
+    rod.emplace_back(3 * d, (k + 0.5) * d, z_rod);
+    if (plow)  // the column below it, down to the floor
+      for (double zc = z_rod - d; zc >= 0.5 * d - 1e-12; zc -= d) rod.emplace_back(3 * d, (k + 0.5) * d, zc);
+  }
   sim::WorldState st = settled;
   std::vector<int> new_index(settled.position.size(), -1);
   st.position.clear();
@@ -396,9 +403,10 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   core::Metadata m = header;
   m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
   m.emplace_back("scene", fmt::format("the peer benchmark's stirred box ({} d wide): {} single beads settled "
-                                      "(stir.toml), a rod of {} kinematic beads at x = 3 d, z = {} m (1 d below the "
+                                      "({}.toml), {} of {} kinematic beads at x = 3 d, top at z = {} m (1 d below the "
                                       "99.5th percentile), +x at 5 mm/s; {} mobile beads overlapping it removed",
-                                      o.stir_side_d, o.stir_beads, rod_beads, io::format_number(z_rod), removed));
+                                      o.stir_side_d, o.stir_beads, name, plow ? "a full-height wall" : "a rod",
+                                      rod.size(), io::format_number(z_rod), removed));
   m.emplace_back("peer", "LAMMPS, Hertz-Mindlin softened to E = 200 MPa, 2 cores: 266 s per simulated second on "
                          "the same scene (full 1.0 s run), 477 s on 1 core (static)");
   io::CsvWriter csv(csv_file.stream(), m,
@@ -422,9 +430,9 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
           fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(caps), sci(overlap),
           fixed(per_step / h, 1)});
       sum.lines.push_back(fmt::format(
-          "stir: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "{}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s (LAMMPS softened, 2 cores: 266)",
-          mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps,
+          name, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps,
           per_step / h));
       if (progress) progress(++done, total);
     }
@@ -459,7 +467,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError("bench sim: --sweep-order needs one or two orders (alternate, forward)");
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
-  if (o.scene == "stir") return run_stir_bench(o, header, progress);
+  if (o.scene == "stir" || o.scene == "plow") return run_stir_bench(o, header, progress, o.scene == "plow");
   if (!o.scene.empty()) return run_cup_bench(o, header, progress);
   if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||
       o.max_iterations > 100000 || o.freeze_sweeps < 0 || o.relax_max_steps < 0 || o.relax_max_steps > 1000000 ||

@@ -39,7 +39,9 @@
 // run_stir_bench): stir_beads single beads (d = 2.4 mm steel, mu = 0.2) settled in a
 // 25 d x 25 d box, a rod of 25 kinematic beads along y at x = 3 d, 1 d below the 99.5th
 // percentile of the bead heights, pushed along +x at 5 mm/s (mobile beads overlapping it
-// removed), timed like the cup.
+// removed), timed like the cup. `--scene plow`: the same with a full-height wall (the
+// rod and the columns of beads below it down to the floor) instead of the rod
+// (sim_plow.csv).
 #pragma once
 
 #include <cstdint>
