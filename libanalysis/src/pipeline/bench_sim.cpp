@@ -189,7 +189,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
   return fmt::format(
       "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
       "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
-      "freeze_sweeps = {fs}\nsweep_order = \"{order}\"\n[output]\nsnapshot_every = 0\n"
+      "freeze_sweeps = {fs}\nsweep_order = \"alternate\"\n[output]\nsnapshot_every = 0\n"
       "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n"
       "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
       "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
@@ -199,7 +199,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
       fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N)),
-      fmt::arg("seed", o.seed), fmt::arg("order", "alternate"));
+      fmt::arg("seed", o.seed));
 }
 
 BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& header,
@@ -271,9 +271,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
     for (const bool alternate : o.sweep_orders)
     for (const int t : o.threads) {
       const SweepStats r = time_sheared(sheared, t, alternate, o.steps);
-      const double wall = r.wall, mean = r.mean, median = r.median, overlap = r.overlap;
-      const std::int64_t caps = r.caps;
-      const double per_step = wall / o.steps;
+      const double per_step = r.wall / o.steps;
       const int N = sc.beads_per_chain;
       csv.row(std::vector<std::string>{
           std::to_string(N), std::to_string(mobile), std::to_string(t),
@@ -281,13 +279,13 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
           io::format_number(w.options().tolerance), std::to_string(w.options().max_iterations),
           io::format_number(o.phi0_rad), io::format_number(o.f_Hz), fixed(sc.fill.seconds, 2),
           std::to_string(sc.fill.settle_steps), std::to_string(sc.fill.relax_steps),
-          std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
-          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(r.max),
-          std::to_string(caps), sci(overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
+          std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(r.wall, 3),
+          fixed(o.steps / r.wall, 3), fixed(r.mean, 1), fixed(r.median, 1), std::to_string(r.max),
+          std::to_string(r.caps), sci(r.overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
       sum.lines.push_back(fmt::format(
           "cup N = {}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s, one {} s cycle {:.3g} s; fill {:.0f} s",
-          N, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps, per_step / h,
+          N, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, r.mean, r.median, r.caps, o.steps, per_step / h,
           io::format_number(1.0 / o.f_Hz), per_step / (o.f_Hz * h), sc.fill.seconds));
       if (progress) progress(++done, total);
     }
@@ -420,19 +418,17 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   for (const bool alternate : o.sweep_orders)
     for (const int t : o.threads) {
       const SweepStats r = time_sheared(stirred, t, alternate, o.steps);
-      const double wall = r.wall, mean = r.mean, median = r.median, overlap = r.overlap;
-      const std::int64_t caps = r.caps;
-      const double per_step = wall / o.steps, h = stirred.options.time_step;
+      const double per_step = r.wall / o.steps, h = stirred.options.time_step;
       csv.row(std::vector<std::string>{
           std::to_string(mobile), std::to_string(t), alternate ? "alternate" : "forward", io::format_number(h),
           io::format_number(stirred.options.tolerance), std::to_string(stirred.options.max_iterations),
-          fixed(sc.fill.seconds, 2), std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(wall, 3),
-          fixed(o.steps / wall, 3), fixed(mean, 1), fixed(median, 1), std::to_string(caps), sci(overlap),
+          fixed(sc.fill.seconds, 2), std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(r.wall, 3),
+          fixed(o.steps / r.wall, 3), fixed(r.mean, 1), fixed(r.median, 1), std::to_string(r.caps), sci(r.overlap),
           fixed(per_step / h, 1)});
       sum.lines.push_back(fmt::format(
           "{}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s (LAMMPS softened, 2 cores: 266)",
-          name, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, mean, median, caps, o.steps,
+          name, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, r.mean, r.median, r.caps, o.steps,
           per_step / h));
       if (progress) progress(++done, total);
     }

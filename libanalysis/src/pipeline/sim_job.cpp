@@ -184,7 +184,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     return static_cast<std::int64_t>(std::floor(r.f_Hz * (t - r.t_start) + 1e-9));
   };
   std::int64_t current_cycle = cycling ? cycle_of(w.time()) : 0;
-  std::vector<double> amplitudes;
+  std::vector<double>& amplitudes = sum.torque_amplitudes;  // per whole cycle
   auto cycle_wall = std::chrono::steady_clock::now();
 
   sim::SnapshotWriter snaps(snap_file.temp_path(), w, meta, chain_ids);
@@ -274,7 +274,6 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
               fmt::format("{:.3f}", std::chrono::duration<double>(now - cycle_wall).count())});
           cycle_wall = now;
           amplitudes.push_back(amp);
-          sum.torque_amplitudes.push_back(amp);
           ++sum.cycles_done;
           cyc = CycleSums{};
           current_cycle = now_cycle;
