@@ -41,7 +41,6 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   pr->add_flag("--keep-fields", po->keep_fields, "Keep the generated zone_fields.h5 (about 10 bytes per vector)");
   auto so = std::make_shared<pipeline::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
-  auto sorder = std::make_shared<std::vector<std::string>>(std::vector<std::string>{"alternate"});
   CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap; "
                                              "--scene cup: the sheared vane cup");
   s->add_option("-o,--output", *sout, "Output folder for the CSV files")->required();
@@ -70,11 +69,14 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
                 "Most relaxation steps before timing; range: 0..1000000")
       ->capture_default_str();
   s->add_option("--steps", so->steps, "Timed steps per bead count; range: 1..100000")->capture_default_str();
-  s->add_option("--sweep-order", *sorder,
-                "NLGS sweep orders: alternate (forward, backward) and/or forward; the packing tables use the first, "
-                "--scene times each")
+  s->add_option("--solver", so->solvers,
+                "Engine solvers: alternate (NLGS, forward and backward sweeps), forward (NLGS, forward sweeps), "
+                "anderson (forward sweeps + Anderson acceleration); the packing tables use the first, --scene times "
+                "each")
       ->delimiter(',')
-      ->check(CLI::IsMember({"alternate", "forward"}))
+      ->check(CLI::IsMember({"alternate", "forward", "anderson"}))
+      ->capture_default_str();
+  s->add_option("--anderson-depth", so->anderson_depth, "Columns of --solver anderson; range: 1..10")
       ->capture_default_str();
   s->add_option("--warmup-steps", so->warmup_steps, "Untimed steps before the timing; range: 0..100000")
       ->capture_default_str();
@@ -118,10 +120,8 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
              (void)pr;
              return kExitOk;
            }},
-          {s, [s, so, sout, sorder, &ctx] {
+          {s, [s, so, sout, &ctx] {
              so->out_dir = *sout;
-             so->sweep_orders.clear();
-             for (const std::string& order : *sorder) so->sweep_orders.push_back(order == "alternate");
              core::ProgressReporter progress("bench sim", ctx.level);
              const auto sum = pipeline::run_sim_bench(*so, ctx.header(), progress.callback());
              progress.finish();

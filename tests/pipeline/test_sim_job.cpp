@@ -572,6 +572,8 @@ TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit; bo
              Contains("[cylinder] needs height_m (or height_d)"));
   CHECK_THAT(scene_error(with(metres, "max_iterations = 100\n", "max_iterations = 100\nsweep_order = \"backward\"\n")),
              Contains("key \"sim.sweep_order\": \"backward\" (expected \"alternate\" or \"forward\")"));
+  CHECK_THAT(scene_error(with(metres, "max_iterations = 100\n", "max_iterations = 100\nanderson_depth = 11\n")),
+             Contains("key \"sim.anderson_depth\": 11"));
   CHECK_THAT(scene_error(with(diameters, "radius_d = 2.5\n", "radius_d = 1\n")),
              Contains("key \"vane.radius_d\": 0.004 m: expected at least 1.5 bead diameters"));
 }

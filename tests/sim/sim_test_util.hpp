@@ -15,6 +15,14 @@ inline constexpr double kG = 9.81;      ///< (m/s²)
 
 inline double deg(double a) { return a * std::numbers::pi / 180.0; }
 
+/// The engine's solver variants, each test that validates the solver runs all of them.
+enum class Solver { alternate, forward, anderson };
+/// NLGS alternating or forward sweeps; anderson: forward sweeps with Anderson(3).
+inline void set_solver(shearzone::sim::Options& o, Solver s) {
+  o.alternate_sweeps = s == Solver::alternate;
+  o.anderson_depth = s == Solver::anderson ? 3 : 0;
+}
+
 inline bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol * std::abs(b); }
 
 /// Three fixed beads touching each other in an equilateral triangle at z = 0 (indices

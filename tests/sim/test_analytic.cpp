@@ -24,9 +24,9 @@ struct InclineResult {
 };
 
 // Plane z = 0 with friction μ, gravity tilted by α (same as a plane inclined at α).
-InclineResult incline(double alpha, double mu, bool alternate) {
+InclineResult incline(double alpha, double mu, Solver solver) {
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = 1e-4;
   o.gravity = kG * Vec3(std::sin(alpha), 0.0, -std::cos(alpha));
   o.tolerance = 1e-12;
@@ -45,11 +45,11 @@ InclineResult incline(double alpha, double mu, bool alternate) {
 
 TEST_CASE("A sphere on an incline with tan a <= 3.5 mu rolls without slip, a = 5/7 g sin a",
           "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   for (const auto& [alpha_deg, mu] : {std::pair{20.0, 0.5}, std::pair{30.0, 0.2}, std::pair{40.0, 0.24}}) {
     const double alpha = deg(alpha_deg);
     REQUIRE(std::tan(alpha) <= 3.5 * mu);
-    const InclineResult r = incline(alpha, mu, alternate);
+    const InclineResult r = incline(alpha, mu, solver);
     const double expected = 5.0 / 7.0 * kG * std::sin(alpha);
     INFO("alpha " << alpha_deg << " mu " << mu << " a " << r.a << " expected " << expected
                   << " rel err " << std::abs(r.a / expected - 1.0));
@@ -60,11 +60,11 @@ TEST_CASE("A sphere on an incline with tan a <= 3.5 mu rolls without slip, a = 5
 }
 
 TEST_CASE("A sphere on an incline with tan a > 3.5 mu slides, a = g(sin a - mu cos a)", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   for (const auto& [alpha_deg, mu] : {std::pair{40.0, 0.1}, std::pair{60.0, 0.3}, std::pair{30.0, 0.0}}) {
     const double alpha = deg(alpha_deg);
     REQUIRE(std::tan(alpha) > 3.5 * mu);
-    const InclineResult r = incline(alpha, mu, alternate);
+    const InclineResult r = incline(alpha, mu, solver);
     const double a = kG * (std::sin(alpha) - mu * std::cos(alpha));
     const double alpha_dot = 5.0 * mu * kG * std::cos(alpha) / kD;  // 5 μ g cos α /(2R)
     INFO("alpha " << alpha_deg << " mu " << mu << " a " << r.a << " expected " << a
@@ -80,10 +80,10 @@ TEST_CASE("A sphere on an incline with tan a > 3.5 mu slides, a = g(sin a - mu c
 }
 
 TEST_CASE("A sphere launched on a plane rolls at 5/7 v0 from t* = 2 v0 /(7 mu g)", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const double v0 = 0.5, mu = 0.3, h = 1e-5;
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = h;
   o.tolerance = 1e-12;
   World w(o);
@@ -111,11 +111,11 @@ TEST_CASE("A sphere launched on a plane rolls at 5/7 v0 from t* = 2 v0 /(7 mu g)
 }
 
 TEST_CASE("A column at rest: the support impulse per step equals M g h", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const int n_beads = 12;
   for (const bool pocket : {false, true}) {
     Options o;
-    o.alternate_sweeps = alternate;
+    set_solver(o, solver);
     o.time_step = 1e-3;
     o.tolerance = 1e-8;
     o.max_iterations = 20000;
@@ -145,9 +145,9 @@ TEST_CASE("A column at rest: the support impulse per step equals M g h", "[sim]"
 }
 
 TEST_CASE("A bead in a pocket of fixed beads stays put over 1e4 steps", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = 1e-3;
   o.tolerance = 1e-6;
   o.friction = 0.3;

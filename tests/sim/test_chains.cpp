@@ -18,11 +18,11 @@ constexpr double kTension = 1e-4;
 }  // namespace
 
 TEST_CASE("A hanging chain: the rope tension at the top equals the weight below", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const int n = 10;
   const double bond = 1.2 * kD;  // d + l_max with l_max = 0.2 d
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = 1e-3;
   o.tolerance = 1e-10;
   o.max_iterations = 20000;
@@ -49,13 +49,13 @@ TEST_CASE("A hanging chain: the rope tension at the top equals the weight below"
 }
 
 TEST_CASE("A rope pendulum keeps its length and its period", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   // Small amplitude: period 2π√(L/g)(1 + θ0²/16). Length: with θ = 1 the new position
   // lies on the tangent of the circle, off by (v h)²/(2L) ≤ g h² θ0²... per step before
   // the next step's C/h term removes it: the bound is that chord error plus the solver's.
   const double L = 5.0 * kD, h = 1e-4, theta0 = deg(5.0);
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = h;
   o.tolerance = 1e-10;
   World w(o);
@@ -92,11 +92,11 @@ TEST_CASE("A rope pendulum keeps its length and its period", "[sim]") {
 }
 
 TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const double bond = 1.1 * kD, theta_max = deg(30.0);
   SECTION("a chain bent beyond the limit is straightened to it in one step") {
     Options o;
-    o.alternate_sweeps = alternate;
+    set_solver(o, solver);
     o.gravity = Vec3::Zero();
     o.time_step = 1e-3;
     o.tolerance = 1e-12;
@@ -121,7 +121,7 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
   SECTION("a chain swinging down from two fixed beads never exceeds the limit") {
     const double h = 1e-4;
     Options o;
-    o.alternate_sweeps = alternate;
+    set_solver(o, solver);
     o.time_step = h;
     o.tolerance = 1e-8;
     o.max_iterations = 5000;
@@ -153,9 +153,9 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
 }
 
 TEST_CASE("A straight chain falls freely: angle rows stay inactive (W_a guard)", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders (Options::alternate_sweeps)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = 1e-3;
   World w(o);
   std::vector<int> beads;

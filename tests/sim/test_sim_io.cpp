@@ -24,9 +24,9 @@ namespace {
 
 /// A box of walls with a fixed bead, a kinematic bead, two angle-limited chains and
 /// single beads falling onto each other: every kind of row and body.
-World make_scene(bool alternate = true) {
+World make_scene(Solver solver = Solver::alternate) {
   Options o;
-  o.alternate_sweeps = alternate;
+  set_solver(o, solver);
   o.time_step = 5e-4;
   o.tolerance = 1e-5;
   o.max_iterations = 60;  // low enough that the cap is hit now and then
@@ -107,9 +107,9 @@ std::vector<std::size_t> parse_dims(const std::string& s) {
 }  // namespace
 
 TEST_CASE("A restart from a checkpoint continues bit-identically", "[sim]") {
-  const bool alternate = GENERATE(true, false);  // both NLGS sweep orders
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   TempDir dir("sim_ckpt");
-  World a = make_scene(alternate);
+  World a = make_scene(solver);
   for (int k = 0; k < 300; ++k) a.step();
   REQUIRE_FALSE(a.contacts().empty());
   REQUIRE(a.rope_count() == 8);
@@ -174,7 +174,7 @@ TEST_CASE("Checkpoint reading rejects bad files and inconsistent states", "[sim]
   CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("freeze_sweeps"));
 }
 
-TEST_CASE("A checkpoint keeps the orientations, the thread count, the freeze setting and the sweep order", "[sim]") {
+TEST_CASE("A checkpoint keeps the orientations, the thread count, the freeze setting, the sweep order and the Anderson depth", "[sim]") {
   TempDir dir("sim_ckpt_v2");
   World a = make_scene();
   for (int k = 0; k < 30; ++k) a.step();
@@ -182,12 +182,14 @@ TEST_CASE("A checkpoint keeps the orientations, the thread count, the freeze set
   s.options.threads = 2;
   s.options.freeze_sweeps = 5;
   s.options.alternate_sweeps = false;
+  s.options.anderson_depth = 4;
   const World b = World::from_state(s);
   write_checkpoint(dir / "c.h5", b);
   const WorldState r = read_checkpoint(dir / "c.h5");
   CHECK(r.options.threads == 2);
   CHECK(r.options.freeze_sweeps == 5);
   CHECK_FALSE(r.options.alternate_sweeps);
+  CHECK(r.options.anderson_depth == 4);
   REQUIRE(r.orientation.size() == s.orientation.size());
   for (std::size_t k = 0; k < r.orientation.size(); ++k)
     CHECK(r.orientation[k].coeffs() == s.orientation[k].coeffs());  // bit-exact

@@ -16,8 +16,9 @@ namespace {
 
 // 60 beads dropped into a box of five planes (floor and four sides).
 World pour(int steps, StepDiagnostics* last = nullptr, int threads = 1, int freeze_sweeps = 16,
-           double tolerance = 1e-4, int parallel_min_rows_per_thread = 2000) {
+           double tolerance = 1e-4, int parallel_min_rows_per_thread = 2000, Solver solver = Solver::alternate) {
   Options o;
+  set_solver(o, solver);
   o.parallel_min_rows_per_thread = parallel_min_rows_per_thread;
   o.time_step = 5e-4;
   o.tolerance = tolerance;
@@ -157,19 +158,20 @@ TEST_CASE("Bad options and bodies are configuration errors", "[sim]") {
 }
 
 TEST_CASE("The slab-parallel sweep is deterministic for a fixed thread count", "[sim]") {
-  const World a = pour(300, nullptr, 2);
-  const World b = pour(300, nullptr, 2);
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
+  const World a = pour(300, nullptr, 2, 16, 1e-4, 2000, solver);
+  const World b = pour(300, nullptr, 2, 16, 1e-4, 2000, solver);
   CHECK(a.state_hash() == b.state_hash());
   CHECK(a.iteration_cap_hits() == 0);
   // More slabs than cores works the same way (a thread takes several slabs).
-  const World c = pour(300, nullptr, 3);
-  const World c2 = pour(300, nullptr, 3);
+  const World c = pour(300, nullptr, 3, 16, 1e-4, 2000, solver);
+  const World c2 = pour(300, nullptr, 3, 16, 1e-4, 2000, solver);
   CHECK(c.state_hash() == c2.state_hash());
   // A different thread count is another Gauss–Seidel order: another solution within the
   // tolerance, not the same bits. The pour is chaotic, so only the outcome is compared:
   // both settle into the same box with the same number of beads resting on the floor
   // within a few.
-  const World s = pour(300);
+  const World s = pour(300, nullptr, 1, 16, 1e-4, 2000, solver);
   auto on_floor = [](const World& w) {
     int n = 0;
     for (int k = 0; k < w.body_count(); ++k) n += w.position(k).z() < 0.55 * kD ? 1 : 0;
@@ -187,16 +189,18 @@ TEST_CASE("The slabs give the same bits on one worker and on T threads", "[sim]"
   // and the totals are summed in slab order. 150 steps: the lowest layer has landed and
   // the others are colliding (contacts in every slab and across them); 3 threads on a
   // 2-core machine spin on their barriers, so longer runs only cost time.
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   for (int threads : {2, 3}) {
-    const World one = pour(150, nullptr, threads);
-    const World pool = pour(150, nullptr, threads, 16, 1e-4, 0);
+    const World one = pour(150, nullptr, threads, 16, 1e-4, 2000, solver);
+    const World pool = pour(150, nullptr, threads, 16, 1e-4, 0, solver);
     INFO(threads << " slabs");
     CHECK(one.state_hash() == pool.state_hash());
   }
 }
 
 TEST_CASE("A checkpointed state continues bit-identically with two threads", "[sim]") {
-  World a = pour(150, nullptr, 2, 16, 1e-4, 0);  // on two threads (the pool forced)
+  const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
+  World a = pour(150, nullptr, 2, 16, 1e-4, 0, solver);  // on two threads (the pool forced)
   World b = World::from_state(a.state());
   for (int k = 0; k < 50; ++k) {
     a.step();
@@ -224,6 +228,19 @@ TEST_CASE("Freezing skips quiet rows and changes nothing beyond the solver toler
   // frozen row would have closed earlier than its re-check; measured: not at all here
   // (identical positions, and the same 4 of 150 steps at the 200-sweep cap for 1e-8).
   CHECK(a.iteration_cap_hits() == b.iteration_cap_hits());
+}
+
+TEST_CASE("Anderson acceleration reaches the NLGS solution: the same pour to 1e-8 ends where NLGS ends", "[sim]") {
+  // Both solve every step to r <= 1e-8 (the sweep's own change, the same test for both),
+  // so the positions may differ only by what that tolerance allows, as with freezing.
+  StepDiagnostics aa, nlgs;
+  const World a = pour(150, &aa, 1, 16, 1e-8, 2000, Solver::anderson);
+  const World b = pour(150, &nlgs, 1, 16, 1e-8, 2000, Solver::forward);
+  const double diff = max_position_difference(a, b);
+  INFO("max position difference " << diff / kD << " d; last step sweeps: Anderson " << aa.iterations << ", NLGS "
+                                  << nlgs.iterations);
+  CHECK(diff < 1e-6 * kD);
+  CHECK(aa.residual <= 1e-8);
 }
 
 TEST_CASE("Orientations follow the angular velocity", "[sim]") {

@@ -102,10 +102,31 @@ Packing pour(int count, std::uint64_t seed, std::int64_t max_steps) {
   return p;
 }
 
+/// One engine solver of BenchSimOptions::solvers.
+struct SolverChoice {
+  std::string name;  // alternate, forward, anderson
+  int depth = 0;     // Anderson depth (anderson only)
+  void set(sim::Options& o) const {
+    o.alternate_sweeps = name == "alternate";
+    o.anderson_depth = name == "anderson" ? depth : 0;
+  }
+  [[nodiscard]] std::string label() const { return name == "anderson" ? fmt::format("anderson{}", depth) : name; }
+  [[nodiscard]] std::string words() const {
+    return name == "alternate" ? "alternating sweeps"
+           : name == "forward" ? "forward sweeps"
+                               : fmt::format("forward sweeps + Anderson({})", depth);
+  }
+};
+std::vector<SolverChoice> solver_choices(const BenchSimOptions& o) {
+  std::vector<SolverChoice> r;
+  for (const std::string& n : o.solvers) r.push_back({n, n == "anderson" ? o.anderson_depth : 0});
+  return r;
+}
+
 /// A world on the settled state with the given h, tolerance and cap; the contact
 /// impulses (P = h R) are scaled to the new time step so the warm start stays a force.
 sim::World restart(const sim::WorldState& settled, double h, double tolerance, int cap, int threads,
-                   int freeze_sweeps, bool alternate = true) {
+                   int freeze_sweeps, const SolverChoice& solver) {
   sim::WorldState s = settled;
   const double ratio = h / s.options.time_step;
   s.options.time_step = h;
@@ -113,7 +134,7 @@ sim::World restart(const sim::WorldState& settled, double h, double tolerance, i
   s.options.max_iterations = cap;
   s.options.threads = threads;
   s.options.freeze_sweeps = freeze_sweeps;
-  s.options.alternate_sweeps = alternate;
+  solver.set(s.options);
   s.step = 0;
   s.iteration_cap_hits = 0;
   for (auto& c : s.contacts) {
@@ -156,10 +177,10 @@ struct SweepStats {
   int max = 0;
   std::int64_t caps = 0;
 };
-SweepStats time_sheared(const sim::WorldState& state, int threads, bool alternate, int steps) {
+SweepStats time_sheared(const sim::WorldState& state, int threads, const SolverChoice& solver, int steps) {
   sim::WorldState st = state;
   st.options.threads = threads;
-  st.options.alternate_sweeps = alternate;
+  solver.set(st.options);
   sim::World w = sim::World::from_state(st);
   std::vector<int> sweeps;
   SweepStats r;
@@ -248,14 +269,15 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
                            "timed steps from that state; wall_s: the timed steps only");
   m.emplace_back("cycle_wall_s", "wall time of one drive cycle (1/f) at this rate: wall_s / steps x 1 / (f h)");
   io::CsvWriter csv(csv_file.stream(), m,
-                    std::vector<std::string>{"N", "beads", "threads", "sweep_order", "time_step_s", "tolerance", "max_iterations",
+                    std::vector<std::string>{"N", "beads", "threads", "solver", "time_step_s", "tolerance", "max_iterations",
                                              "phi0_rad", "f_Hz", "fill_wall_s", "fill_drop_steps", "fill_relax_steps",
                                              "warmup_steps", "steps", "wall_s", "steps_per_s",
                                              "mean_sweeps_per_step", "median_sweeps_per_step", "max_sweeps",
                                              "cap_hits", "max_overlap_over_d", "wall_s_per_simulated_s",
                                              "cycle_wall_s"});
   BenchSimSummary sum;
-  const std::size_t total = lengths.size() * o.threads.size() * o.sweep_orders.size();
+  const std::vector<SolverChoice> solvers = solver_choices(o);
+  const std::size_t total = lengths.size() * o.threads.size() * solvers.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
     sim::LoadedScene sc = sim::load_scene(scenes[i], false);
@@ -268,14 +290,14 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
     for (int k = 0; k < o.warmup_steps; ++k) (void)w.step();
     const sim::WorldState sheared = w.state();
     const double h = w.options().time_step;
-    for (const bool alternate : o.sweep_orders)
+    for (const SolverChoice& solver : solvers)
     for (const int t : o.threads) {
-      const SweepStats r = time_sheared(sheared, t, alternate, o.steps);
+      const SweepStats r = time_sheared(sheared, t, solver, o.steps);
       const double per_step = r.wall / o.steps;
       const int N = sc.beads_per_chain;
       csv.row(std::vector<std::string>{
           std::to_string(N), std::to_string(mobile), std::to_string(t),
-          alternate ? "alternate" : "forward", io::format_number(h),
+          solver.label(), io::format_number(h),
           io::format_number(w.options().tolerance), std::to_string(w.options().max_iterations),
           io::format_number(o.phi0_rad), io::format_number(o.f_Hz), fixed(sc.fill.seconds, 2),
           std::to_string(sc.fill.settle_steps), std::to_string(sc.fill.relax_steps),
@@ -283,9 +305,9 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
           fixed(o.steps / r.wall, 3), fixed(r.mean, 1), fixed(r.median, 1), std::to_string(r.max),
           std::to_string(r.caps), sci(r.overlap), fixed(per_step / h, 1), fixed(per_step / (o.f_Hz * h), 0)});
       sum.lines.push_back(fmt::format(
-          "cup N = {}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "cup N = {}: {} beads, {} thread{}, {}: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s, one {} s cycle {:.3g} s; fill {:.0f} s",
-          N, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, r.mean, r.median, r.caps, o.steps, per_step / h,
+          N, mobile, t, t == 1 ? "" : "s", solver.words(), per_step, r.mean, r.median, r.caps, o.steps, per_step / h,
           io::format_number(1.0 / o.f_Hz), per_step / (o.f_Hz * h), sc.fill.seconds));
       if (progress) progress(++done, total);
     }
@@ -408,27 +430,28 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   m.emplace_back("peer", "LAMMPS, Hertz-Mindlin softened to E = 200 MPa, 2 cores: 266 s per simulated second on "
                          "the same scene (full 1.0 s run), 477 s on 1 core (static)");
   io::CsvWriter csv(csv_file.stream(), m,
-                    std::vector<std::string>{"mobile_beads", "threads", "sweep_order", "time_step_s", "tolerance",
+                    std::vector<std::string>{"mobile_beads", "threads", "solver", "time_step_s", "tolerance",
                                              "max_iterations", "fill_wall_s", "warmup_steps", "steps", "wall_s",
                                              "steps_per_s", "mean_sweeps_per_step", "median_sweeps_per_step",
                                              "cap_hits", "max_overlap_over_d", "wall_s_per_simulated_s"});
   BenchSimSummary sum;
-  const std::size_t total = o.threads.size() * o.sweep_orders.size();
+  const std::vector<SolverChoice> solvers = solver_choices(o);
+  const std::size_t total = o.threads.size() * solvers.size();
   std::size_t done = 0;
-  for (const bool alternate : o.sweep_orders)
+  for (const SolverChoice& solver : solvers)
     for (const int t : o.threads) {
-      const SweepStats r = time_sheared(stirred, t, alternate, o.steps);
+      const SweepStats r = time_sheared(stirred, t, solver, o.steps);
       const double per_step = r.wall / o.steps, h = stirred.options.time_step;
       csv.row(std::vector<std::string>{
-          std::to_string(mobile), std::to_string(t), alternate ? "alternate" : "forward", io::format_number(h),
+          std::to_string(mobile), std::to_string(t), solver.label(), io::format_number(h),
           io::format_number(stirred.options.tolerance), std::to_string(stirred.options.max_iterations),
           fixed(sc.fill.seconds, 2), std::to_string(o.warmup_steps), std::to_string(o.steps), fixed(r.wall, 3),
           fixed(o.steps / r.wall, 3), fixed(r.mean, 1), fixed(r.median, 1), std::to_string(r.caps), sci(r.overlap),
           fixed(per_step / h, 1)});
       sum.lines.push_back(fmt::format(
-          "{}: {} beads, {} thread{}, {} sweeps: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
+          "{}: {} beads, {} thread{}, {}: {:.3g} s per step, {:.0f} sweeps per step (median {:.0f}, {} of {} "
           "at the cap), {:.3g} s per simulated s (LAMMPS softened, 2 cores: 266)",
-          name, mobile, t, t == 1 ? "" : "s", alternate ? "alternating" : "forward", per_step, r.mean, r.median, r.caps, o.steps,
+          name, mobile, t, t == 1 ? "" : "s", solver.words(), per_step, r.mean, r.median, r.caps, o.steps,
           per_step / h));
       if (progress) progress(++done, total);
     }
@@ -459,8 +482,13 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.chain_lengths = {1};
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
-  if (o.sweep_orders.empty() || o.sweep_orders.size() > 2)
-    throw ConfigError("bench sim: --sweep-order needs one or two orders (alternate, forward)");
+  if (o.solvers.empty() || o.solvers.size() > 3)
+    throw ConfigError("bench sim: --solver needs one to three solvers (alternate, forward, anderson)");
+  for (const std::string& n : o.solvers)
+    if (n != "alternate" && n != "forward" && n != "anderson")
+      throw ConfigError(fmt::format("bench sim: --solver {}: expected alternate, forward or anderson", n));
+  if (o.anderson_depth < 1 || o.anderson_depth > 10)
+    throw ConfigError(fmt::format("bench sim: --anderson-depth {}: out of [1, 10]", o.anderson_depth));
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
   if (o.scene == "stir" || o.scene == "plow") return run_stir_bench(o, header, progress, o.scene == "plow");
@@ -494,7 +522,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
       Packing p = pour(count, o.seed, o.settle_max_steps);
       // Relax with the measured solver (one thread): the cheap drop leaves the beads
       // jiggling (non-converged steps act like elasticity), which is not a packing at rest.
-      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, 1, o.freeze_sweeps, o.sweep_orders.front());
+      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, 1, o.freeze_sweeps, solver_choices(o).front());
       const double d = kDiameter;
       const double mgd = kDensity * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
       for (std::int64_t k = 1; k <= o.relax_max_steps; ++k) {
@@ -547,7 +575,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   for (int count : o.beads) {
     const Packing& p = packing(count);
     for (int threads : o.threads) {
-      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, threads, o.freeze_sweeps, o.sweep_orders.front());
+      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, threads, o.freeze_sweeps, solver_choices(o).front());
       if (o.warmup_steps > 0) (void)timed(w, o.warmup_steps);
       const Run r = timed(w, o.steps);
       const double sps = r.steps / r.seconds;
@@ -589,7 +617,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   for (double h : o.accuracy_time_steps_s)
     for (int cap : o.accuracy_max_iterations) {
       if (!(h > 0.0) || cap < 1) throw ConfigError("bench sim: accuracy grid needs h > 0 and cap >= 1");
-      sim::World w = restart(ap.state, h, o.tolerance, cap, 1, o.freeze_sweeps, o.sweep_orders.front());
+      sim::World w = restart(ap.state, h, o.tolerance, cap, 1, o.freeze_sweeps, solver_choices(o).front());
       const int steps = std::max(1, static_cast<int>(std::lround(o.accuracy_duration_s / h)));
       const Run r = timed(w, steps);
       acc_rows.push_back({sci(h), std::to_string(cap), sci(o.tolerance),

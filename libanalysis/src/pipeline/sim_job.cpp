@@ -98,6 +98,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   meta.emplace_back("threads", std::to_string(w.options().threads));
   meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
   meta.emplace_back("sweep_order", w.options().alternate_sweeps ? "alternate" : "forward");
+  meta.emplace_back("anderson_depth", std::to_string(w.options().anderson_depth));
   meta.emplace_back("bodies", std::to_string(w.body_count()));
   if (sum.kinematic_bodies > 0) meta.emplace_back("kinematic_bodies", std::to_string(sum.kinematic_bodies));
   if (sum.fill.settled) {

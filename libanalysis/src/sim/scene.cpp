@@ -28,7 +28,7 @@ const std::vector<std::string> kKeys = {
     "sim.friction",           "sim.tolerance",          "sim.max_iterations",
     "sim.alert_margin",       "sim.max_overlap",        "sim.max_rope_excess",
     "sim.max_angle_excess_deg", "sim.freeze_sweeps",    "sim.threads",
-    "sim.sweep_order",
+    "sim.sweep_order",        "sim.anderson_depth",
     "output.snapshot_every",  "output.checkpoint_every", "output.diagnostics_every",
     "box.min_m",              "box.max_m",              "box.friction",
     "box.lid",
@@ -241,6 +241,7 @@ Options read_options(const Scene& s) {
       s.fail("sim.sweep_order", fmt::format("\"{}\" (expected \"alternate\" or \"forward\")", order));
     o.alternate_sweeps = order == "alternate";
   }
+  o.anderson_depth = static_cast<int>(s.integer("sim.anderson_depth", o.anderson_depth, 0, 10));
   return o;
 }
 

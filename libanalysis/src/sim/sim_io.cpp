@@ -97,6 +97,7 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
   f.set_attribute("/", "option_freeze_sweeps", static_cast<std::int64_t>(o.freeze_sweeps));
   f.set_attribute("/", "option_threads", static_cast<std::int64_t>(o.threads));
   f.set_attribute("/", "option_sweep_order", std::string(o.alternate_sweeps ? "alternate" : "forward"));
+  f.set_attribute("/", "option_anderson_depth", static_cast<std::int64_t>(o.anderson_depth));
   write_metadata(f, metadata);
 
   const std::size_t n = s.position.size();
@@ -259,6 +260,12 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
       throw InputError(fmt::format("{}: attribute \"option_sweep_order\": \"{}\" (expected alternate or forward)",
                                    f.path(), order));
     o.alternate_sweeps = order == "alternate";
+  }
+  if (f.has_attribute("/", "option_anderson_depth")) {  // absent in older files: 0
+    const std::int64_t depth = f.attribute_int("/", "option_anderson_depth");
+    if (depth < 0 || depth > 10)
+      throw InputError(fmt::format("{}: attribute \"option_anderson_depth\": {} (expected 0 to 10)", f.path(), depth));
+    o.anderson_depth = static_cast<int>(depth);
   }
 
   const std::size_t n = count_attr(f, "n_bodies");

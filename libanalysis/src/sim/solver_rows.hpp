@@ -3,6 +3,7 @@
 // forward-declares them.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -70,6 +71,32 @@ struct RowLists {
     ropes.clear();
     angles.clear();
   }
+};
+// Anderson acceleration of the sweep (Options::anderson_depth; world.cpp). The impulses
+// of all rows form one vector: 4 entries per contact row (P_n, P_t), then one per rope
+// row, one per angle row (by row index). Scratch: the last sweep's residual F = G − P_in
+// and output G, and m columns of differences of consecutive F and G.
+struct Anderson {
+  int m = 0;               // depth (columns kept)
+  std::size_t stride = 0;  // entries of one vector
+  std::size_t ropes_at = 0, angles_at = 0;
+  std::vector<double> buf;  // fprev, gprev, then dF[0..m), dG[0..m)
+  int count = 0;            // columns held (slots 0 … count−1)
+  int newest = -1;          // slot of the newest column
+  int push = -1;            // slot the recording sweep writes (−1: none)
+  bool have_prev = false;   // fprev/gprev hold the previous sweep's
+  double best = 0.0;        // lowest residual since the last restart
+  double best_step = 0.0;   // lowest residual of the step
+  int since_best = 0;       // sweeps since best_step fell
+  bool off = false;         // stalled: plain NLGS for the rest of the step
+  double H[10][10] = {};    // Gram matrix of the columns, ΔFᵢᵀ D ΔFⱼ, by slot
+  double gamma[10] = {};    // coefficients by slot
+  std::vector<double> part;  // per part: 2m partial sums (new Gram row, ΔFᵀ D F)
+  [[nodiscard]] double* vec(int k) { return buf.data() + static_cast<std::size_t>(k) * stride; }
+  [[nodiscard]] double* fprev() { return vec(0); }
+  [[nodiscard]] double* gprev() { return vec(1); }
+  [[nodiscard]] double* dF(int slot) { return vec(2 + slot); }
+  [[nodiscard]] double* dG(int slot) { return vec(2 + m + slot); }
 };
 struct SweepTotals {
   double dv2 = 0.0, wp2 = 0.0;

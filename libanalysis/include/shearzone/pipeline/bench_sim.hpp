@@ -70,9 +70,12 @@ struct BenchSimOptions {
   std::int64_t relax_min_steps = 50;   ///< relaxation with the measured solver: at least
   std::int64_t relax_max_steps = 400;  ///< ... and at most this many steps
   int freeze_sweeps = 16;              ///< engine freeze_sweeps (0: no freezing)
-  /// Engine sweep orders (true: alternate forward and backward; false: always forward):
-  /// the packing tables use the first; the cup times each from the same sheared state.
-  std::vector<bool> sweep_orders = {true};
+  /// Engine solvers: "alternate" (NLGS, forward and backward sweeps in turn), "forward"
+  /// (NLGS, always forward), "anderson" (forward sweeps with Anderson acceleration of
+  /// depth `anderson_depth`). The packing tables use the first; the sheared scenes time
+  /// each from the same sheared state.
+  std::vector<std::string> solvers = {"alternate"};
+  int anderson_depth = 3;
   std::uint64_t seed = 1;
   bool quick = false;  ///< a smoke run: small packings, few steps (overrides the above)
   // The sheared cup (scene non-empty): "cup" or a scene file with a [vane].

@@ -12,7 +12,8 @@
 //                sweep; bit-identical runs for a fixed count, another count is another
 //                Gauss–Seidel order), sweep_order ("alternate": forward and backward
 //                in turn, the default; "forward": always forward, fewer sweeps under
-//                shear)
+//                shear), anderson_depth (integer in [0, 10], default 0: Anderson
+//                acceleration of the sweeps over this many columns; 0: plain NLGS)
 //     [output]   snapshot_every, checkpoint_every (steps; 0: none / only at the end),
 //                diagnostics_every (steps)
 //     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):
