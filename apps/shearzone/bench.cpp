@@ -92,6 +92,21 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   s->add_option("--phi0", so->phi0_rad, "Vane amplitude of --scene, rad; range: 0 < phi0 <= 100")
       ->capture_default_str();
   s->add_option("--f-hz", so->f_Hz, "Vane frequency of --scene, Hz; range: 0 < f <= 1000")->capture_default_str();
+  s->add_flag("--accuracy", so->cup_accuracy,
+              "With --scene cup or a scene .toml: the observables (torque amplitude, K'1, K''1, r_c, overlap) "
+              "against the solver's tolerance and time step (sim_cup_accuracy.csv)");
+  s->add_option("--tolerances", so->cup_tolerances, "Tolerances of --accuracy; range: 1 to 16 values in (0, 1]")
+      ->delimiter(',')
+      ->capture_default_str();
+  s->add_option("--time-steps", so->cup_time_steps_s, "Time steps of --accuracy, s; range: 1 to 16 values in (0, 0.1]")
+      ->delimiter(',')
+      ->capture_default_str();
+  s->add_option("--cycles", so->cycles, "Drive cycles per setting of --accuracy; range: 1..1000")->capture_default_str();
+  s->add_option("--preshear-cycles", so->preshear_cycles,
+                "Cycles at --time-step and --tolerance before the settings of --accuracy; range: 0..1000")
+      ->capture_default_str();
+  s->add_option("--accuracy-cap", so->accuracy_cap, "Sweep cap of --accuracy (cap hits are counted); range: 1..100000")
+      ->capture_default_str();
   s->add_option("--accuracy-beads", so->accuracy_beads,
                 "Bead count of the accuracy packing; range: 1..1000000")
       ->capture_default_str();

@@ -15,6 +15,7 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/laos/harmonics.hpp"
 #include "shearzone/sim/builder.hpp"
 #include "shearzone/sim/scenario.hpp"
 #include "shearzone/sim/scene.hpp"
@@ -210,7 +211,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
   return fmt::format(
       "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
       "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
-      "freeze_sweeps = {fs}\nsweep_order = \"alternate\"\n[output]\nsnapshot_every = 0\n"
+      "freeze_sweeps = {fs}\n[output]\nsnapshot_every = 0\n"
       "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n"
       "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
       "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
@@ -221,6 +222,199 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
       fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N)),
       fmt::arg("seed", o.seed));
+}
+
+/// Observables of one drive cycle of the sheared cup (run_cup_accuracy).
+struct CycleObservables {
+  double amplitude = 0.0, K1p = 0.0, K1pp = 0.0, r_c = std::numeric_limits<double>::quiet_NaN();
+  double mean_sweeps = 0.0, overlap = 0.0, rope_excess = 0.0, wall = 0.0;
+  std::int64_t caps = 0;
+};
+
+/// `cycles` whole drive cycles of the vane from `state` (φ = φ0 sin 2πf t from t = 0):
+/// per cycle the fundamental of the motor torque by the laos stage's harmonic fit
+/// (fit_harmonics, 5 harmonics and drift, trapezoid weights in θ = 2πf t), its amplitude
+/// |K*_1| φ0, and the surface: mobile beads within 1 d of the 99.5th percentile of the
+/// heights (at the start), their azimuthal speed |v_θ| about the vane's axis sampled every
+/// 10 steps and binned by radius (d/2 bins); r_c is where the cycle mean first falls below
+/// 1 % of the vane tip's mean speed 4 φ0 f R_v, outward from the vane (linear between bins;
+/// NaN when it never does).
+std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double phi0, double f, int cycles) {
+  sim::World w = sim::World::from_state(state);
+  w.set_rotor_drive(0, phi0, f, 0.0, w.time());
+  const sim::Rotor& rotor = w.rotor(0);
+  const sim::Vec3 c = rotor.centre, axis = rotor.axis;
+  double d = 0.0, rv = 0.0, rmax = 0.0;
+  std::vector<double> heights;
+  for (int b = 0; b < w.body_count(); ++b) {
+    const sim::Vec3 rel = w.position(b) - c;
+    const double r = (rel - rel.dot(axis) * axis).norm();
+    if (w.kind(b) == sim::BodyKind::kinematic) rv = std::max(rv, r + 0.5 * w.diameter(b));
+    if (w.kind(b) != sim::BodyKind::mobile) continue;
+    d = std::max(d, w.diameter(b));
+    rmax = std::max(rmax, r);
+    heights.push_back(rel.dot(axis));
+  }
+  if (heights.empty()) throw NoResultError("bench sim --accuracy: the cup holds no mobile bead");
+  std::sort(heights.begin(), heights.end());
+  const double top = heights[static_cast<std::size_t>(0.995 * static_cast<double>(heights.size() - 1))];
+  const double bin = 0.5 * d;
+  const std::size_t nbins = static_cast<std::size_t>(std::ceil((rmax + d - rv) / bin)) + 1;
+  const double h = w.options().time_step;
+  const std::int64_t per_cycle = std::llround(1.0 / (f * h));
+  const double v_c = 0.01 * 4.0 * phi0 * f * rv;
+  std::vector<CycleObservables> out;
+  for (int k = 0; k < cycles; ++k) {
+    CycleObservables o;
+    std::vector<double> theta, torque, vsum(nbins, 0.0), vcount(nbins, 0.0);
+    const auto t0 = std::chrono::steady_clock::now();
+    double sweeps = 0.0;
+    for (std::int64_t s = 0; s < per_cycle; ++s) {
+      const sim::StepDiagnostics dg = w.step();
+      theta.push_back(2.0 * std::numbers::pi * f * (w.time() - 0.5 * h));  // the step's torque acts over it
+      torque.push_back(w.rotor_torque(0));
+      sweeps += dg.iterations;
+      o.caps += dg.hit_iteration_cap ? 1 : 0;
+      o.overlap = std::max(o.overlap, dg.max_overlap);
+      o.rope_excess = std::max(o.rope_excess, dg.max_rope_excess);
+      if (s % 10 != 0) continue;
+      for (int b = 0; b < w.body_count(); ++b) {
+        if (w.kind(b) != sim::BodyKind::mobile) continue;
+        const sim::Vec3 rel = w.position(b) - c;
+        if (rel.dot(axis) < top - d) continue;
+        const sim::Vec3 radial = rel - rel.dot(axis) * axis;
+        const double r = radial.norm();
+        if (r <= rv || r <= 0.0) continue;
+        const double vt = std::abs(axis.cross(radial / r).dot(w.velocity(b)));
+        const std::size_t i = std::min(nbins - 1, static_cast<std::size_t>((r - rv) / bin));
+        vsum[i] += vt;
+        vcount[i] += 1.0;
+      }
+    }
+    o.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    o.mean_sweeps = sweeps / static_cast<double>(per_cycle);
+    const double a = 2.0 * std::numbers::pi * k, b = a + 2.0 * std::numbers::pi;
+    std::vector<double> wts(theta.size(), 0.0);
+    laos::add_trapezoid_weights(theta, std::max(a, theta.front()), std::min(b, theta.back()), wts);
+    const laos::HarmonicFit fit = laos::fit_harmonics(theta, torque, wts, phi0, laos::HarmonicFitOptions{5, true});
+    o.K1p = fit.Kp[1];
+    o.K1pp = fit.Kpp[1];
+    o.amplitude = phi0 * std::hypot(o.K1p, o.K1pp);
+    double prev_r = 0.0, prev_v = 0.0;
+    bool have_prev = false;
+    for (std::size_t i = 0; i < nbins; ++i) {
+      if (vcount[i] == 0.0) continue;
+      const double r = rv + (static_cast<double>(i) + 0.5) * bin, v = vsum[i] / vcount[i];
+      if (v < v_c) {
+        o.r_c = have_prev ? prev_r + (r - prev_r) * (prev_v - v_c) / (prev_v - v) : r;
+        break;
+      }
+      prev_r = r;
+      prev_v = v;
+      have_prev = true;
+    }
+    out.push_back(o);
+  }
+  return out;
+}
+
+/// --scene cup --accuracy: the observables of the sheared cup against the solver's
+/// tolerance and time step (sim_cup_accuracy.csv, a row per N, setting and cycle).
+BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std::filesystem::path>& scenes,
+                                 const std::vector<int>& lengths, io::AtomicOutputSet& out, io::AtomicOutput& csv_file,
+                                 core::Metadata m, const core::ProgressCallback& progress) {
+  const SolverChoice solver = solver_choices(o).front();
+  m.emplace_back("protocol", fmt::format("per N: the settled fill, {} pre-shear cycle(s) at h = {} s and tolerance {} "
+                                         "({}), then from that state {} cycle(s) per (time_step_s, tolerance), cap {}",
+                                         o.preshear_cycles, io::format_number(o.time_step_s),
+                                         io::format_number(o.tolerance), solver.words(), o.cycles, o.accuracy_cap));
+  m.emplace_back("K1p_N_m_per_rad", "K'_1 of the motor torque over the cycle (laos harmonic fit, 5 harmonics and "
+                                     "drift; tau > 0 towards +phi)");
+  m.emplace_back("torque_amplitude_N_m", "phi0 |K*_1|: the amplitude of the torque's fundamental");
+  m.emplace_back("r_c_m", "surface beads (within 1 d of the 99.5th height percentile): radius where the cycle mean "
+                          "|v_theta| first falls below 1 % of the vane tip's mean speed 4 phi0 f R_v (empty: never)");
+  io::CsvWriter csv(csv_file.stream(), m,
+                    std::vector<std::string>{"N", "beads", "solver", "time_step_s", "tolerance", "max_iterations",
+                                             "phi0_rad", "f_Hz", "cycle", "torque_amplitude_N_m", "K1p_N_m_per_rad",
+                                             "K1pp_N_m_per_rad", "r_c_m", "mean_sweeps_per_step", "cap_hits",
+                                             "max_overlap_over_d", "max_rope_excess_over_d", "wall_s"});
+  BenchSimSummary sum;
+  const std::size_t total = lengths.size() * o.cup_time_steps_s.size() * o.cup_tolerances.size();
+  std::size_t done = 0;
+  for (std::size_t i = 0; i < lengths.size(); ++i) {
+    sim::LoadedScene sc = sim::load_scene(scenes[i], false);
+    if (!sc.vane || sc.world->rotor_count() == 0)
+      throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", o.scene));
+    sim::World& w = *sc.world;
+    int mobile = 0;
+    for (int b = 0; b < w.body_count(); ++b) mobile += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+    sim::WorldState pre = restart(w.state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
+    if (o.preshear_cycles > 0) {
+      sim::World p = sim::World::from_state(pre);
+      p.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, 0.0);
+      const std::int64_t steps = std::llround(o.preshear_cycles / (o.f_Hz * o.time_step_s));
+      for (std::int64_t k = 0; k < steps; ++k) (void)p.step();
+      pre = p.state();
+    }
+    const int N = sc.beads_per_chain;
+    struct Mean {
+      double amp = 0, k1p = 0, k1pp = 0, rc = 0, cost = 0;
+      int rc_n = 0;
+      std::vector<double> amps;
+    };
+    std::vector<std::pair<std::string, Mean>> means;
+    for (const double h : o.cup_time_steps_s)
+      for (const double tol : o.cup_tolerances) {
+        const sim::WorldState st = restart(pre, h, tol, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
+        const std::vector<CycleObservables> cyc = run_cycles(st, o.phi0_rad, o.f_Hz, o.cycles);
+        Mean mean;
+        for (std::size_t k = 0; k < cyc.size(); ++k) {
+          const CycleObservables& c = cyc[k];
+          csv.row(std::vector<std::string>{
+              std::to_string(N), std::to_string(mobile), solver.label(), io::format_number(h), io::format_number(tol),
+              std::to_string(o.accuracy_cap), io::format_number(o.phi0_rad), io::format_number(o.f_Hz),
+              std::to_string(k), sci(c.amplitude), sci(c.K1p), sci(c.K1pp),
+              std::isnan(c.r_c) ? std::string() : sci(c.r_c), fixed(c.mean_sweeps, 1), std::to_string(c.caps),
+              sci(c.overlap), sci(c.rope_excess), fixed(c.wall, 2)});
+          mean.amps.push_back(c.amplitude);
+          mean.amp += c.amplitude / cyc.size();
+          mean.k1p += c.K1p / cyc.size();
+          mean.k1pp += c.K1pp / cyc.size();
+          mean.cost += c.wall / cyc.size();
+          if (!std::isnan(c.r_c)) {
+            mean.rc += c.r_c;
+            ++mean.rc_n;
+          }
+        }
+        if (mean.rc_n) mean.rc /= mean.rc_n;
+        means.emplace_back(fmt::format("h = {} s, tolerance {}", io::format_number(h), io::format_number(tol)), mean);
+        sum.lines.push_back(fmt::format(
+            "cup N = {}, h = {} s, tolerance {}: torque amplitude {:.4g} N m, K'1 {:.4g}, K''1 {:.4g} N m/rad, r_c {} "
+            "mm; {:.0f} s per cycle",
+            N, io::format_number(h), io::format_number(tol), mean.amp, mean.k1p, mean.k1pp,
+            mean.rc_n ? fmt::format("{:.1f}", 1e3 * mean.rc) : std::string("-"), mean.cost));
+        if (progress) progress(++done, total);
+      }
+    // The reference: the smallest time step at the tightest tolerance (the last of each list
+    // once sorted); the others against it, with its cycle-to-cycle scatter (s.d.).
+    const double h_ref = *std::min_element(o.cup_time_steps_s.begin(), o.cup_time_steps_s.end());
+    const double tol_ref = *std::min_element(o.cup_tolerances.begin(), o.cup_tolerances.end());
+    const std::string ref_name = fmt::format("h = {} s, tolerance {}", io::format_number(h_ref), io::format_number(tol_ref));
+    const auto ref = std::find_if(means.begin(), means.end(), [&](const auto& e) { return e.first == ref_name; });
+    if (ref != means.end() && ref->second.amps.size() > 1) {
+      const Mean& r = ref->second;
+      double var = 0.0;
+      for (const double a : r.amps) var += (a - r.amp) * (a - r.amp);
+      const double sd = std::sqrt(var / static_cast<double>(r.amps.size() - 1));
+      for (const auto& [name, mn] : means)
+        sum.lines.push_back(fmt::format("cup N = {}, {}: torque amplitude {:+.1f} % of the reference ({}; its "
+                                        "cycle-to-cycle s.d. {:.1f} %)",
+                                        N, name, 100.0 * (mn.amp / r.amp - 1.0), ref_name, 100.0 * sd / r.amp));
+    }
+  }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
 }
 
 BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& header,
@@ -244,7 +438,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
   if (o.steps < 1 || o.steps > 100000 || o.warmup_steps < 0 || o.warmup_steps > 100000)
     throw ConfigError("bench sim: expected --steps 1..100000 and --warmup-steps 0..100000");
   io::AtomicOutputSet out(o.out_dir, o.force);
-  io::AtomicOutput& csv_file = out.add("sim_cup.csv");
+  io::AtomicOutput& csv_file = out.add(o.cup_accuracy ? "sim_cup_accuracy.csv" : "sim_cup.csv");
   const std::vector<int> lengths = builtin ? o.chain_lengths : std::vector<int>{0};
   std::vector<std::filesystem::path> scenes;
   for (const int n : lengths) {
@@ -265,6 +459,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
                                       "fastest, {} m/s at the tip of a 10.8 mm vane)",
                                       io::format_number(o.phi0_rad), io::format_number(o.f_Hz),
                                       io::format_number(o.phi0_rad * 2 * std::numbers::pi * o.f_Hz * 0.0108)));
+  if (o.cup_accuracy) return run_cup_accuracy(o, scenes, lengths, out, csv_file, m, progress);
   m.emplace_back("timing", "warmup_steps untimed on one thread after the fill, then per thread count the same "
                            "timed steps from that state; wall_s: the timed steps only");
   m.emplace_back("cycle_wall_s", "wall time of one drive cycle (1/f) at this rate: wall_s / steps x 1 / (f h)");
@@ -480,6 +675,10 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.stir_beads = 300;
     o.stir_side_d = 10;
     o.chain_lengths = {1};
+    o.cup_tolerances = {1e-2, 1e-3};
+    o.cup_time_steps_s = {1e-3};
+    o.preshear_cycles = 0;
+    if (o.cup_accuracy) o.f_Hz = 10.0;  // 100 steps per cycle
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
   if (o.solvers.empty() || o.solvers.size() > 3)
@@ -491,6 +690,25 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError(fmt::format("bench sim: --anderson-depth {}: out of [1, 10]", o.anderson_depth));
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
+  if (o.cup_accuracy) {
+    if (o.scene.empty() || o.scene == "stir" || o.scene == "plow")
+      throw ConfigError("bench sim: --accuracy charts the sheared cup: give --scene cup or a scene .toml with a [vane]");
+    auto bad_list = [](const std::vector<double>& v, double hi) {
+      if (v.empty() || v.size() > 16) return true;
+      for (const double x : v)
+        if (!(x > 0.0 && x <= hi)) return true;
+      return false;
+    };
+    if (bad_list(o.cup_tolerances, 1.0))
+      throw ConfigError("bench sim: --tolerances needs 1 to 16 tolerances, each in (0, 1]");
+    if (bad_list(o.cup_time_steps_s, 0.1))
+      throw ConfigError("bench sim: --time-steps needs 1 to 16 time steps, each in (0, 0.1] s");
+    if (o.cycles < 1 || o.cycles > 1000 || o.preshear_cycles < 0 || o.preshear_cycles > 1000)
+      throw ConfigError(fmt::format("bench sim: --cycles {} / --preshear-cycles {}: expected 1..1000 and 0..1000",
+                                    o.cycles, o.preshear_cycles));
+    if (o.accuracy_cap < 1 || o.accuracy_cap > 100000)
+      throw ConfigError(fmt::format("bench sim: --accuracy-cap {}: expected 1..100000", o.accuracy_cap));
+  }
   if (o.scene == "stir" || o.scene == "plow") return run_stir_bench(o, header, progress, o.scene == "plow");
   if (!o.scene.empty()) return run_cup_bench(o, header, progress);
   if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||

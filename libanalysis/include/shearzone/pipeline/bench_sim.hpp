@@ -85,6 +85,16 @@ struct BenchSimOptions {
   int stir_beads = 10000;                   ///< beads of --scene stir (the peer benchmark's box)
   int stir_side_d = 25;                     ///< its box side and rod length, d (--quick: 10)
   double phi0_rad = 0.3, f_Hz = 0.1;        ///< the vane's drive
+  /// --scene cup --accuracy: the observables against the solver's settings (sim_cup_accuracy.csv).
+  /// Per N: the fill, `preshear_cycles` cycles at --time-step and --tolerance, then from
+  /// that state `cycles` cycles per (time step, tolerance) with the first solver and the
+  /// cap `accuracy_cap`.
+  bool cup_accuracy = false;
+  std::vector<double> cup_tolerances = {1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5};
+  std::vector<double> cup_time_steps_s = {1e-3, 5e-4};
+  int cycles = 2;
+  int preshear_cycles = 1;
+  int accuracy_cap = 5000;
   std::filesystem::path out_dir;
   bool force = false;
 };

@@ -13,7 +13,10 @@
 //                Gauss–Seidel order), sweep_order ("alternate": forward and backward
 //                in turn, the default; "forward": always forward, fewer sweeps under
 //                shear), anderson_depth (integer in [0, 10], default 0: Anderson
-//                acceleration of the sweeps over this many columns; 0: plain NLGS)
+//                acceleration of the sweeps over this many columns; 0: plain NLGS).
+//                A scene with a [vane] defaults to sweep_order = "forward" and
+//                anderson_depth = 3 (the sheared cup's fastest solver; each key still
+//                overrides)
 //     [output]   snapshot_every, checkpoint_every (steps; 0: none / only at the end),
 //                diagnostics_every (steps)
 //     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):
