@@ -47,6 +47,7 @@ L="$OUT/laos"
 "$SZ" fit power "$L/summary.csv" --x N --y tau_max_N_m --group phi0_nominal_rad -o "$L/tau_power.csv" -q
 "$SZ" bench piv --quick --repeats 1 -o "$OUT/bench_piv" -q
 "$SZ" bench sim --quick --threads 1,2 -o "$OUT/bench_sim" -q
+"$SZ" bench sim --scene cup --quick --accuracy --solver anderson -o "$OUT/bench_cup" -q
 
 # Figures (the same commands as scripts/demo.sh)
 "$PY" scripts/plot_piv.py "$OUT/beads_vane/piv_field.png" "$OUT/beads_vane/fields.h5" \
@@ -69,9 +70,10 @@ L="$OUT/laos"
     --image "$OUT/beads_vane/video.mp4" --every 2
 "$PY" scripts/plot_bench_piv.py "$OUT/bench_piv"
 "$PY" scripts/plot_bench_sim.py "$OUT/bench_sim"
+"$PY" scripts/plot_bench_sim.py "$OUT/bench_cup"
 
 # Every figure of the demo (check_figures.py's list) and the benchmark plots
 "$PY" scripts/check_figures.py "$OUT"
 "$PY" scripts/check_figures.py "$OUT" bench_piv/piv_speed_accuracy.png bench_piv/piv_failure_map.png \
-    bench_sim/sim_speed.png bench_sim/sim_accuracy.png
+    bench_sim/sim_speed.png bench_sim/sim_accuracy.png bench_cup/sim_cup_accuracy.png
 echo "test_figures: all figures rendered and valid in $OUT"

@@ -92,6 +92,15 @@ struct Anderson {
   double H[10][10] = {};    // Gram matrix of the columns, ΔFᵢᵀ D ΔFⱼ, by slot
   double gamma[10] = {};    // coefficients by slot
   std::vector<double> part;  // per part: 2m partial sums (new Gram row, ΔFᵀ D F)
+  // Quiet rows (F = 0 and G = 0: zero impulse, unchanged) are skipped where all their
+  // entries are zero already. zero_since: per row (contacts, ropes, angles), the
+  // recording sweep (iter) since which it has been quiet, kNever when it was not quiet at
+  // the last one. last_push: per slot, the sweep that last wrote it (0: not this step).
+  static constexpr std::int32_t kNever = 0x7fffffff;
+  std::vector<std::int32_t> zero_since;
+  std::int32_t iter = 0;            // recording sweeps of this step
+  std::int32_t last_push[10] = {};
+  std::int32_t skip_below = 0;      // a quiet row with zero_since ≤ this needs no recording
   [[nodiscard]] double* vec(int k) { return buf.data() + static_cast<std::size_t>(k) * stride; }
   [[nodiscard]] double* fprev() { return vec(0); }
   [[nodiscard]] double* gprev() { return vec(1); }

@@ -582,7 +582,10 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   const int nh = rec && dfp ? aa->count : 0;
   for (int h = 0; h < nh; ++h) held[h] = aa->dF(h);
   double hsum[10] = {}, bsum[10] = {};  // local: `sums` may share cache lines with other parts
-  auto record = [&](std::size_t at, int n, const double* f, const double* g, const double* w) {
+  std::int32_t* const zs = rec ? aa->zero_since.data() : nullptr;
+  const std::int32_t quiet_below = rec ? aa->skip_below : 0;
+  auto record = [&](std::size_t row, std::size_t at, int n, const double* f, const double* g, const double* w) {
+    zs[row] = detail::Anderson::kNever;
     for (int e = 0; e < n; ++e) {
       const std::size_t i = at + static_cast<std::size_t>(e);
       if (dfp) {
@@ -591,7 +594,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
         dgp[i] = g[e] - gprev[i];
         for (int h = 0; h < nh; ++h) {
           const double a = w[e] * held[h][i];
-          hsum[h] += a * df;
+          hsum[h] += a * dfp[i];
           bsum[h] += a * f[e];
         }
       }
@@ -600,8 +603,13 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     }
   };
   // A row left at zero impulse (skipped while frozen, or open and staying open): F = 0,
-  // G = 0. The weights are needed only when the previous sweep's F or G was not zero.
-  auto record_zero = [&](std::size_t at, int n, auto&& weights) {
+  // G = 0. A row quiet since before the previous sweep and before the last write of the
+  // slot this sweep overwrites (Anderson::skip_below) holds zeros in every vector entry
+  // it owns already: nothing to read or write. Otherwise its F and G are recorded as
+  // zeros (the weights matter only where the previous F or G was not zero).
+  auto record_zero = [&](std::size_t row, std::size_t at, int n, auto&& weights) {
+    if (zs[row] <= quiet_below) return;
+    if (zs[row] == detail::Anderson::kNever) zs[row] = aa->iter;
     bool was_zero = true;
     for (int e = 0; e < n; ++e) was_zero = was_zero && fprev[at + e] == 0.0 && gprev[at + e] == 0.0;
     if (was_zero) {
@@ -612,7 +620,9 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     double w[4];
     weights(w);
     const double zero[4] = {};
-    record(at, n, zero, zero, w);
+    const std::int32_t since = zs[row];
+    record(row, at, n, zero, zero, w);
+    zs[row] = since;
   };
   auto contact_weights = [](const ContactRow& r) {
     return [&r](double* w) {
@@ -642,9 +652,9 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   };
 
   auto contact = [&](ContactRow& r) {
-    const std::size_t at = 4 * static_cast<std::size_t>(&r - C);
+    const std::size_t row = static_cast<std::size_t>(&r - C), at = 4 * row;
     if (skip(r)) {
-      if (rec) record_zero(at, 4, contact_weights(r));
+      if (rec) record_zero(row, at, 4, contact_weights(r));
       return;
     }
     SolverBody& bi = B[r.i];
@@ -676,7 +686,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     if (dpn == 0.0 && dpt.squaredNorm() == 0.0) {
       if (pn == 0.0) {  // open, stays open
         stays_open(r, closed);
-        if (rec) record_zero(at, 4, contact_weights(r));
+        if (rec) record_zero(row, at, 4, contact_weights(r));
         return;
       }
     }
@@ -698,7 +708,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
       const double f[4] = {dpn, dpt.x(), dpt.y(), dpt.z()};
       const double g[4] = {pn, pt.x(), pt.y(), pt.z()};
       const double w[4] = {wn * wn, wt * wt, wt * wt, wt * wt};
-      record(at, 4, f, g, w);
+      record(row, at, 4, f, g, w);
     }
   };
 
@@ -707,7 +717,11 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   // the change on the bodies; `at` its entry in the Anderson vectors.
   auto finish_scalar = [&](auto& r, std::size_t at, double lam, bool closed, double w2, auto&& apply) {
     const double dl = lam - r.lambda;
-    if (rec) record(at, 1, &dl, &lam, &w2);
+    if (rec) {
+      const std::size_t row = at - 3 * contacts_.size();
+      if (dl == 0.0 && lam == 0.0) record_zero(row, at, 1, [w2](double* w) { w[0] = w2; });
+      else record(row, at, 1, &dl, &lam, &w2);
+    }
     if (dl == 0.0 && lam == 0.0) {
       stays_open(r, closed);
       return;
@@ -723,7 +737,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   auto rope = [&](RopeRow& r) {
     const std::size_t at = rec ? aa->ropes_at + static_cast<std::size_t>(&r - R) : 0;
     if (skip(r)) {
-      if (rec) record_zero(at, 1, [&r](double* w) { w[0] = r.wb * r.wb; });
+      if (rec) record_zero(at - 3 * contacts_.size(), at, 1, [&r](double* w) { w[0] = r.wb * r.wb; });
       return;
     }
     SolverBody& bi = B[r.i];
@@ -739,7 +753,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   auto angle = [&](AngleRow& r) {
     const std::size_t at = rec ? aa->angles_at + static_cast<std::size_t>(&r - A) : 0;
     if (skip(r)) {
-      if (rec) record_zero(at, 1, [&r](double* w) { w[0] = r.scale * r.scale * r.wa * r.wa; });
+      if (rec) record_zero(at - 3 * contacts_.size(), at, 1, [&r](double* w) { w[0] = r.scale * r.scale * r.wa * r.wa; });
       return;
     }
     SolverBody& ba = B[r.a];
@@ -786,6 +800,9 @@ void World::anderson_begin(detail::Anderson& a) {
   a.buf.swap(aa_buf_);
   a.buf.resize(a.stride * static_cast<std::size_t>(2 + 2 * a.m));
   a.part.assign(lists_.size() * static_cast<std::size_t>(2 * a.m), 0.0);
+  a.zero_since.assign(contacts_.size() + ropes_.size() + angles_.size(), detail::Anderson::kNever);
+  a.iter = 0;
+  std::fill(std::begin(a.last_push), std::end(a.last_push), 0);
 }
 
 void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep) {
@@ -798,6 +815,11 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
     gam[nh++] = a.gamma[j];
   }
   if (nh == 0) return;
+  // A row quiet since before every held column was written has zeros in them: P̃ = G = 0.
+  std::int32_t quiet_below = detail::Anderson::kNever;
+  for (int j = 0; j < a.count; ++j) quiet_below = std::min(quiet_below, a.last_push[j] - 1);
+  const std::int32_t* const zs = a.zero_since.data();
+  const std::size_t nc = contacts_.size();
   // Σ γ ΔG at entry i.
   auto shift = [&](std::size_t i) {
     double v = 0.0;
@@ -807,6 +829,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
   // A row frozen for the next sweep keeps G (zero impulse).
   SolverBody* const B = body_.data();
   for (int k : lists.contacts) {
+    if (zs[k] <= quiet_below) continue;
     ContactRow& r = contacts_[static_cast<std::size_t>(k)];
     if (r.frozen_until > sweep + 1) continue;
     const std::size_t at = 4 * static_cast<std::size_t>(k);
@@ -830,6 +853,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
     }
   }
   for (int k : lists.ropes) {
+    if (zs[nc + static_cast<std::size_t>(k)] <= quiet_below) continue;
     RopeRow& r = ropes_[static_cast<std::size_t>(k)];
     if (r.frozen_until > sweep + 1) continue;
     const double p = std::max(0.0, r.lambda - shift(a.ropes_at + static_cast<std::size_t>(k)));
@@ -842,6 +866,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
     }
   }
   for (int k : lists.angles) {
+    if (zs[nc + ropes_.size() + static_cast<std::size_t>(k)] <= quiet_below) continue;
     AngleRow& r = angles_[static_cast<std::size_t>(k)];
     if (r.frozen_until > sweep + 1) continue;
     const double p = std::max(0.0, r.lambda - shift(a.angles_at + static_cast<std::size_t>(k)));
@@ -933,10 +958,15 @@ struct SweepControl {
 /// Anderson bookkeeping before a recording sweep (one thread): the slot of the new
 /// difference column, when the previous sweep left F and G.
 void anderson_before(Anderson& a) {
+  ++a.iter;
+  a.skip_below = a.iter - 1;  // quiet at the previous recording sweep: F and G are zeros
   if (a.have_prev) {
     a.push = (a.newest + 1) % a.m;
     a.newest = a.push;
     a.count = std::min(a.count + 1, a.m);
+    // ... and the slot's old content is zero if it was quiet when the slot was last written
+    a.skip_below = std::min(a.skip_below, a.last_push[a.push] - 1);
+    a.last_push[a.push] = a.iter;
   } else {
     a.push = -1;
   }
@@ -1001,8 +1031,10 @@ void anderson_solve(Anderson& a, std::size_t parts) {
     }
   }
   for (int j = 0; j < n; ++j) a.H[a.push][j] = a.H[j][a.push] = row[j];
-  Eigen::MatrixXd M(n, n);
-  Eigen::VectorXd b(n);
+  using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 10, 10>;  // on the stack
+  using SmallVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 10, 1>;
+  Small M(n, n);
+  SmallVec b(n);
   double trace = 0.0;
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) M(i, j) = a.H[i][j];
@@ -1011,7 +1043,7 @@ void anderson_solve(Anderson& a, std::size_t parts) {
   }
   if (!(trace > 0.0)) return;
   M.diagonal().array() += 1e-10 * trace;
-  const Eigen::VectorXd g = M.ldlt().solve(b);
+  const SmallVec g = M.ldlt().solve(b);
   if (!g.allFinite()) return;
   for (int j = 0; j < n; ++j) a.gamma[j] = g(j);
 }
