@@ -224,6 +224,19 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       fmt::arg("seed", o.seed));
 }
 
+/// A vane cup scene, filled (InputError without a [vane]).
+sim::LoadedScene load_cup(const std::filesystem::path& file, const std::string& name) {
+  sim::LoadedScene sc = sim::load_scene(file, false);
+  if (!sc.vane || sc.world->rotor_count() == 0)
+    throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", name));
+  return sc;
+}
+int mobile_count(const sim::World& w) {
+  int n = 0;
+  for (int b = 0; b < w.body_count(); ++b) n += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+  return n;
+}
+
 /// Observables of one drive cycle of the sheared cup (run_cup_accuracy).
 struct CycleObservables {
   double amplitude = 0.0, K1p = 0.0, K1pp = 0.0, r_c = std::numeric_limits<double>::quiet_NaN();
@@ -342,12 +355,9 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std
   const std::size_t total = lengths.size() * o.cup_time_steps_s.size() * o.cup_tolerances.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
-    sim::LoadedScene sc = sim::load_scene(scenes[i], false);
-    if (!sc.vane || sc.world->rotor_count() == 0)
-      throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", o.scene));
+    sim::LoadedScene sc = load_cup(scenes[i], o.scene);
     sim::World& w = *sc.world;
-    int mobile = 0;
-    for (int b = 0; b < w.body_count(); ++b) mobile += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+    const int mobile = mobile_count(w);
     sim::WorldState pre = restart(w.state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
     if (o.preshear_cycles > 0) {
       sim::World p = sim::World::from_state(pre);
@@ -475,12 +485,9 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
   const std::size_t total = lengths.size() * o.threads.size() * solvers.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
-    sim::LoadedScene sc = sim::load_scene(scenes[i], false);
-    if (!sc.vane || sc.world->rotor_count() == 0)
-      throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", o.scene));
+    sim::LoadedScene sc = load_cup(scenes[i], o.scene);
     sim::World& w = *sc.world;
-    int mobile = 0;
-    for (int b = 0; b < w.body_count(); ++b) mobile += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+    const int mobile = mobile_count(w);
     w.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, w.time());
     for (int k = 0; k < o.warmup_steps; ++k) (void)w.step();
     const sim::WorldState sheared = w.state();

@@ -852,32 +852,33 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
       apply_contact(r, dpn * r.n + dpt);
     }
   }
-  for (int k : lists.ropes) {
-    if (zs[nc + static_cast<std::size_t>(k)] <= quiet_below) continue;
-    RopeRow& r = ropes_[static_cast<std::size_t>(k)];
-    if (r.frozen_until > sweep + 1) continue;
-    const double p = std::max(0.0, r.lambda - shift(a.ropes_at + static_cast<std::size_t>(k)));
+  // A rope or angle row (`row` its index among all rows, `at` its vector entry): λ̃ ≥ 0,
+  // `apply(dλ)` puts the change on the bodies.
+  auto scalar = [&](auto& r, std::size_t row, std::size_t at, auto&& apply) {
+    if (zs[row] <= quiet_below || r.frozen_until > sweep + 1) return;
+    const double p = std::max(0.0, r.lambda - shift(at));
     const double dl = p - r.lambda;
-    if (dl != 0.0) {
-      r.quiet = 0;
-      r.lambda = p;
+    if (dl == 0.0) return;
+    r.quiet = 0;
+    r.lambda = p;
+    apply(dl);
+  };
+  for (int k : lists.ropes) {
+    const std::size_t i = static_cast<std::size_t>(k);
+    RopeRow& r = ropes_[i];
+    scalar(r, nc + i, a.ropes_at + i, [&](double dl) {
       B[r.i].v += (B[r.i].inv_mass * dl) * r.e;
       B[r.j].v -= (B[r.j].inv_mass * dl) * r.e;
-    }
+    });
   }
   for (int k : lists.angles) {
-    if (zs[nc + ropes_.size() + static_cast<std::size_t>(k)] <= quiet_below) continue;
-    AngleRow& r = angles_[static_cast<std::size_t>(k)];
-    if (r.frozen_until > sweep + 1) continue;
-    const double p = std::max(0.0, r.lambda - shift(a.angles_at + static_cast<std::size_t>(k)));
-    const double dl = p - r.lambda;
-    if (dl != 0.0) {
-      r.quiet = 0;
-      r.lambda = p;
+    const std::size_t i = static_cast<std::size_t>(k);
+    AngleRow& r = angles_[i];
+    scalar(r, nc + ropes_.size() + i, a.angles_at + i, [&](double dl) {
       B[r.a].v += (B[r.a].inv_mass * dl) * r.ga;
       B[r.b].v += (B[r.b].inv_mass * dl) * r.gb;
       B[r.c].v += (B[r.c].inv_mass * dl) * r.gc;
-    }
+    });
   }
 }
 
