@@ -547,6 +547,17 @@ class SpinBarrier {
   int threads_ = 1;
 };
 
+/// Coulomb's cone for P_n > 0: P_t kept inside it (sticking), else scaled back onto
+/// |P_t| = μ P_n along itself (radial return, sliding). The sweep's local solve and the
+/// projection of an Anderson extrapolation.
+inline ContactStatus radial_return(Vec3& pt, double pn, double mu) {
+  const double limit = mu * pn;
+  const double p2 = pt.squaredNorm();
+  if (p2 <= limit * limit) return ContactStatus::sticking;
+  pt *= limit / std::sqrt(p2);
+  return ContactStatus::sliding;
+}
+
 /// Freeze bookkeeping of a visit that left a zero-impulse row unchanged: frozen after
 /// two quiet visits in a row.
 template <class Row>
@@ -670,14 +681,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
       pt.setZero();
     } else {
       pt = r.pt - r.inv_wt * (u - un * n);
-      const double limit = r.mu * pn;
-      const double p2 = pt.squaredNorm();
-      if (p2 <= limit * limit) {
-        status = ContactStatus::sticking;
-      } else {
-        pt *= limit / std::sqrt(p2);
-        status = ContactStatus::sliding;
-      }
+      status = radial_return(pt, pn, r.mu);
     }
     const double dpn = pn - r.pn;
     const Vec3 dpt = pt - r.pt;
@@ -803,6 +807,7 @@ void World::anderson_begin(detail::Anderson& a) {
   a.zero_since.assign(contacts_.size() + ropes_.size() + angles_.size(), detail::Anderson::kNever);
   a.iter = 0;
   std::fill(std::begin(a.last_push), std::end(a.last_push), 0);
+  a.best = a.best_step = std::numeric_limits<double>::infinity();
 }
 
 void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep) {
@@ -840,8 +845,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
       pt.setZero();
     } else {
       pt = r.pt - Vec3(shift(at + 1), shift(at + 2), shift(at + 3));
-      const double limit = r.mu * pn, p2 = pt.squaredNorm();
-      if (p2 > limit * limit) pt *= limit / std::sqrt(p2);
+      (void)radial_return(pt, pn, r.mu);
     }
     const double dpn = pn - r.pn;
     const Vec3 dpt = pt - r.pt;
@@ -1173,7 +1177,6 @@ void World::solve(StepDiagnostics& d) {
   detail::Anderson aa;
   if (opt_.anderson_depth > 0) {
     anderson_begin(aa);
-    aa.best = aa.best_step = std::numeric_limits<double>::infinity();
     detail::anderson_before(aa);
     c.aa = &aa;
   }
