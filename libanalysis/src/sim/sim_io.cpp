@@ -98,6 +98,11 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
   f.set_attribute("/", "option_threads", static_cast<std::int64_t>(o.threads));
   f.set_attribute("/", "option_sweep_order", std::string(o.alternate_sweeps ? "alternate" : "forward"));
   f.set_attribute("/", "option_anderson_depth", static_cast<std::int64_t>(o.anderson_depth));
+  if (o.sectors != 0) {  // a periodic sector (absent: none)
+    f.set_attribute("/", "option_sectors", static_cast<std::int64_t>(o.sectors));
+    f.set_attribute("/", "option_sector_centre_m", std::vector<double>{o.sector_centre.x(), o.sector_centre.y()});
+    f.set_attribute("/", "option_sector_start_rad", o.sector_start);
+  }
   write_metadata(f, metadata);
 
   const std::size_t n = s.position.size();
@@ -150,6 +155,11 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/ropes/bodies", {nr, 2}, ij);
     f.write("/ropes/max_length", {nr}, len);
     f.write("/ropes/impulse", {nr}, imp);
+    if (o.sectors != 0) {
+      std::vector<std::int64_t> image;
+      for (const auto& r : s.ropes) image.push_back(static_cast<std::int64_t>(r.image));
+      f.write("/ropes/image", {nr}, image);
+    }
   }
   if (const std::size_t na = s.angles.size(); na > 0) {
     std::vector<std::int64_t> abc;
@@ -164,6 +174,14 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/angles/bodies", {na, 3}, abc);
     f.write("/angles/max_angle", {na}, amax);
     f.write("/angles/impulse", {na}, imp);
+    if (o.sectors != 0) {
+      std::vector<std::int64_t> image;
+      for (const auto& a : s.angles) {
+        image.push_back(static_cast<std::int64_t>(a.image_prev));
+        image.push_back(static_cast<std::int64_t>(a.image_next));
+      }
+      f.write("/angles/image", {na, 2}, image);
+    }
   }
   // Rotors (the vane): drive and reference placement; bodies in CSR form.
   f.set_attribute("/", "n_rotors", static_cast<std::int64_t>(s.rotors.size()));
@@ -211,6 +229,11 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/contacts/normal_impulse", {nc}, pn);
     f.write("/contacts/tangential_impulse", {nc, 3}, flatten(pt));
     f.write("/contacts/status", {nc}, status);
+    if (o.sectors != 0) {
+      std::vector<std::int64_t> image;
+      for (const ContactRecord& c : s.contacts) image.push_back(static_cast<std::int64_t>(c.image));
+      f.write("/contacts/image", {nc}, image);
+    }
   }
   f.close();
 }
@@ -267,6 +290,29 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
       throw InputError(fmt::format("{}: attribute \"option_anderson_depth\": {} (expected 0 to 10)", f.path(), depth));
     o.anderson_depth = static_cast<int>(depth);
   }
+  if (f.has_attribute("/", "option_sectors")) {  // a periodic sector
+    const std::int64_t k = f.attribute_int("/", "option_sectors");
+    if (k < 3 || k > 64)
+      throw InputError(fmt::format("{}: attribute \"option_sectors\": {} (expected 3 to 64)", f.path(), k));
+    const std::vector<double> c = f.attribute_doubles("/", "option_sector_centre_m");
+    if (c.size() != 2)
+      throw InputError(fmt::format("{}: attribute \"option_sector_centre_m\": {} values (expected 2)", f.path(), c.size()));
+    o.sectors = static_cast<int>(k);
+    o.sector_centre = Vec3(c[0], c[1], 0.0);
+    o.sector_start = f.attribute_double("/", "option_sector_start_rad");
+  }
+  // Image offsets of a periodic sector's rows (absent without one: 0).
+  auto images = [&](const char* name, std::size_t rows, std::size_t cols) {
+    std::vector<int> v(rows * std::max<std::size_t>(cols, 1), 0);
+    if (o.sectors == 0) return v;
+    const auto raw = read_checked<std::int64_t>(f, name, rows, cols);
+    for (std::size_t k = 0; k < raw.size(); ++k) {
+      if (raw[k] < -1 || raw[k] > 1)
+        throw InputError(fmt::format("{}: dataset \"{}\": {} (expected -1, 0 or 1)", f.path(), name, raw[k]));
+      v[k] = static_cast<int>(raw[k]);
+    }
+    return v;
+  };
 
   const std::size_t n = count_attr(f, "n_bodies");
   if (n > 0) {
@@ -297,17 +343,20 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
     const auto ij = read_checked<std::int64_t>(f, "/ropes/bodies", nr, 2);
     const auto len = read_checked<double>(f, "/ropes/max_length", nr, 0);
     const auto imp = read_checked<double>(f, "/ropes/impulse", nr, 0);
+    const auto image = images("/ropes/image", nr, 0);
     for (std::size_t k = 0; k < nr; ++k)
       s.ropes.push_back({to_int(ij[2 * k], f, "/ropes/bodies"), to_int(ij[2 * k + 1], f, "/ropes/bodies"),
-                         len[k], imp[k]});
+                         len[k], imp[k], image[k]});
   }
   if (const std::size_t na = count_attr(f, "n_angles"); na > 0) {
     const auto abc = read_checked<std::int64_t>(f, "/angles/bodies", na, 3);
     const auto amax = read_checked<double>(f, "/angles/max_angle", na, 0);
     const auto imp = read_checked<double>(f, "/angles/impulse", na, 0);
+    const auto image = images("/angles/image", na, 2);
     for (std::size_t k = 0; k < na; ++k)
       s.angles.push_back({to_int(abc[3 * k], f, "/angles/bodies"), to_int(abc[3 * k + 1], f, "/angles/bodies"),
-                          to_int(abc[3 * k + 2], f, "/angles/bodies"), amax[k], imp[k]});
+                          to_int(abc[3 * k + 2], f, "/angles/bodies"), amax[k], imp[k], image[2 * k],
+                          image[2 * k + 1]});
   }
   if (const std::size_t nc = count_attr(f, "n_contacts"); nc > 0) {
     const auto ids = read_checked<std::int64_t>(f, "/contacts/bodies", nc, 3);
@@ -316,6 +365,7 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
     const auto pn = read_checked<double>(f, "/contacts/normal_impulse", nc, 0);
     const auto pt = read_vec3(f, "/contacts/tangential_impulse", nc);
     const auto status = read_checked<std::uint8_t>(f, "/contacts/status", nc, 0);
+    const auto image = images("/contacts/image", nc, 0);
     for (std::size_t k = 0; k < nc; ++k) {
       if (status[k] > 2)
         throw InputError(fmt::format("{}: dataset \"/contacts/status\": {} (expected 0, 1 or 2)", f.path(), status[k]));
@@ -328,6 +378,7 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
       c.normal_impulse = pn[k];
       c.tangential_impulse = pt[k];
       c.status = static_cast<ContactStatus>(status[k]);
+      c.image = image[k];
       s.contacts.push_back(c);
     }
   }

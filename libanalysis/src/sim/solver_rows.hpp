@@ -26,6 +26,7 @@ struct alignas(64) ContactRow {
   std::int32_t frozen_until = 0;
   std::uint8_t quiet = 0;
   ContactStatus status = ContactStatus::open;
+  std::int8_t image = 0;   // periodic sector: 1 when j is seen as R x_j (a seam row)
   Vec3 n = Vec3::UnitZ();  // from i (or the wall) to j
   double bias = 0.0;       // gap / h
   double ri = 0.0, rj = 0.0;
@@ -49,19 +50,49 @@ struct PreviousContact {
 struct RopeRow {
   int i = 0, j = 0;
   double max_length = 0.0;
-  Vec3 e = Vec3::UnitX();
+  Vec3 e = Vec3::UnitX();   // from i to j, in i's frame
+  Vec3 ej = Vec3::UnitX();  // the same in j's frame (R^−image e; = e without a seam)
   double c = 0.0, bias = 0.0, wb = 0.0, lambda = 0.0;
   std::int32_t frozen_until = 0;
   std::uint8_t quiet = 0;
+  std::int8_t image = 0;  // periodic sector: j seen from i as R^image x_j
 };
 struct AngleRow {
   int a = 0, b = 0, c = 0;
   double max_angle = 0.0, cos_max = 1.0;
-  Vec3 ga = Vec3::Zero(), gb = Vec3::Zero(), gc = Vec3::Zero();  // ∂c/∂x
+  Vec3 ga = Vec3::Zero(), gb = Vec3::Zero(), gc = Vec3::Zero();  // ∂c/∂x, each in its body's frame
   double ca = 0.0, bias = 0.0, wa = 0.0, scale = 0.0, lambda = 0.0;
   std::int32_t frozen_until = 0;
   std::uint8_t quiet = 0;
   bool live = false;  // W_a above the straight-chain guard
+  std::int8_t image_a = 0, image_c = 0;  // periodic sector: a and c seen from b as R^k x
+};
+// The rotation of a periodic sector (Options::sectors) about its vertical axis: R^k for
+// k in −1..1 (any k for place()). Exact for k = 4 (cos = 0, sin = 1).
+struct Sector {
+  bool on = false;
+  double c = 1.0, s = 0.0;  // cos, sin of the wedge angle
+  double cx = 0.0, cy = 0.0;
+  double start = 0.0, width = 0.0;  // azimuth of the first side, wedge angle (rad)
+  double nx = 0.0, ny = 0.0;        // inward unit normal of the first side
+  explicit Sector(const Options& o);
+  /// R^k v (a velocity, an impulse), k in −1..1.
+  [[nodiscard]] Vec3 rot(const Vec3& v, int k) const {
+    if (k == 0) return v;
+    const double sk = k > 0 ? s : -s;
+    return {c * v.x() - sk * v.y(), sk * v.x() + c * v.y(), v.z()};
+  }
+  /// The image of a point: centre + R^k (x − centre), any k.
+  [[nodiscard]] Vec3 place(const Vec3& x, int k) const {
+    Vec3 p(x.x() - cx, x.y() - cy, x.z());
+    for (; k > 0; --k) p = rot(p, 1);
+    for (; k < 0; ++k) p = rot(p, -1);
+    return {p.x() + cx, p.y() + cy, p.z()};
+  }
+  /// Distance of x from the first side's plane (positive inside).
+  [[nodiscard]] double first_side(const Vec3& x) const { return nx * (x.x() - cx) + ny * (x.y() - cy); }
+  /// Whole wedges between x's azimuth and the wedge (0 inside; on the axis: 0).
+  [[nodiscard]] int wedges(const Vec3& x) const;
 };
 // Rows of one slab (or of the boundary between slabs), by index.
 struct RowLists {

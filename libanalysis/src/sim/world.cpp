@@ -28,8 +28,11 @@ bool finite(const Vec3& a) { return std::isfinite(a.x()) && std::isfinite(a.y())
 
 constexpr std::uint64_t kWallKeyBit = std::uint64_t{1} << 63;
 
-std::uint64_t pair_key(int i, int j) {
-  return (static_cast<std::uint64_t>(i) << 32) | static_cast<std::uint64_t>(j);
+constexpr std::uint64_t kImageKeyBit = std::uint64_t{1} << 31;
+
+/// Body pair (i, j); a seam row (j seen as R x_j) sorts after i's plain rows.
+std::uint64_t pair_key(int i, int j, int image = 0) {
+  return (static_cast<std::uint64_t>(i) << 32) | (image != 0 ? kImageKeyBit : 0) | static_cast<std::uint64_t>(j);
 }
 std::uint64_t wall_key(int w, int j) {
   return kWallKeyBit | (static_cast<std::uint64_t>(w) << 32) | static_cast<std::uint64_t>(j);
@@ -100,7 +103,43 @@ World::World(const Options& options) : opt_(options) {
   if (opt_.anderson_depth < 0 || opt_.anderson_depth > 10) bad("anderson_depth", opt_.anderson_depth, "in [0, 10]");
   if (opt_.parallel_min_rows_per_thread < 0)
     bad("parallel_min_rows_per_thread", opt_.parallel_min_rows_per_thread, ">= 0");
+  if (opt_.sectors != 0 && (opt_.sectors < 3 || opt_.sectors > 64)) bad("sectors", opt_.sectors, "0 or in [3, 64]");
+  if (!finite(opt_.sector_centre) || !std::isfinite(opt_.sector_start))
+    bad("sector_centre, sector_start", opt_.sector_start, "finite");
 }
+
+namespace detail {
+
+Sector::Sector(const Options& o) {
+  if (o.sectors < 3) return;
+  on = true;
+  width = 2.0 * std::numbers::pi / o.sectors;
+  c = std::cos(width);
+  s = std::sin(width);
+  if (o.sectors == 4) {  // exact quarter turns
+    c = 0.0;
+    s = 1.0;
+  }
+  cx = o.sector_centre.x();
+  cy = o.sector_centre.y();
+  start = o.sector_start;
+  nx = -std::sin(start);
+  ny = std::cos(start);
+}
+
+int Sector::wedges(const Vec3& x) const {
+  if (!on) return 0;
+  const double dx = x.x() - cx, dy = x.y() - cy;
+  if (dx == 0.0 && dy == 0.0) return 0;
+  const int k = static_cast<int>(std::lround(2.0 * std::numbers::pi / width));
+  int m = static_cast<int>(std::floor((std::atan2(dy, dx) - start) / width));
+  m = ((m % k) + k) % k;  // the nearest turn: in (−k/2, k/2]
+  return 2 * m > k ? m - k : m;
+}
+
+}  // namespace detail
+
+bool sector_contains(const Options& options, const Vec3& x) { return detail::Sector(options).wedges(x) == 0; }
 
 int World::add_sphere(const Vec3& position, double diameter, double density, BodyKind kind) {
   if (!finite(position))
@@ -110,6 +149,13 @@ int World::add_sphere(const Vec3& position, double diameter, double density, Bod
   if (!(density > 0.0) || !std::isfinite(density))
     throw ConfigError(fmt::format("sim sphere {}: density {} (expected > 0)", x_.size(), density));
   SHEARZONE_CHECK(x_.size() < static_cast<std::size_t>(std::numeric_limits<int>::max()));
+  // A periodic sector holds every body by its image inside the wedge.
+  const detail::Sector sec(opt_);
+  if (sec.wedges(position) != 0)
+    throw ConfigError(fmt::format("sim sphere {}: at ({}, {}, {}), outside the periodic sector (expected azimuth in "
+                                  "[{}, {}) rad: give its image inside)",
+                                  x_.size(), position.x(), position.y(), position.z(), sec.start,
+                                  sec.start + sec.width));
   const double m = density * std::numbers::pi * diameter * diameter * diameter / 6.0;
   const double inertia = m * diameter * diameter / 10.0;
   body_.resize(x_.size());  // drop the wall sentinels; step() puts them back
@@ -135,6 +181,10 @@ int World::add_wall(const Wall& wall) {
     throw ConfigError(fmt::format("sim wall {}: friction {} (expected >= 0)", walls_.size(), wall.friction));
   Wall w = wall;
   w.normal /= nn;
+  if (opt_.sectors != 0 && (w.normal.x() != 0.0 || w.normal.y() != 0.0))
+    throw ConfigError(fmt::format("sim wall {}: a periodic sector takes only horizontal walls (normal along z), "
+                                  "not ({}, {}, {})",
+                                  walls_.size(), w.normal.x(), w.normal.y(), w.normal.z()));
   walls_.push_back(w);
   return static_cast<int>(walls_.size()) - 1;
 }
@@ -161,6 +211,21 @@ void World::check_body(int b, const char* what) const {
     throw ConfigError(fmt::format("sim {}: body {} does not exist ({} bodies)", what, b, body_count()));
 }
 
+int World::nearest_image(int i, int j) const {
+  const detail::Sector sec(opt_);
+  if (!sec.on) return 0;
+  const Vec3& xi = x_[static_cast<std::size_t>(i)];
+  const Vec3& xj = x_[static_cast<std::size_t>(j)];
+  int best = 0;
+  double best_d = (xj - xi).squaredNorm();
+  for (int k : {-1, 1})
+    if (const double d = (sec.place(xj, k) - xi).squaredNorm(); d < best_d) {
+      best_d = d;
+      best = k;
+    }
+  return best;
+}
+
 int World::add_rope(int i, int j, double max_length) {
   check_body(i, "rope");
   check_body(j, "rope");
@@ -171,6 +236,7 @@ int World::add_rope(int i, int j, double max_length) {
   r.i = i;
   r.j = j;
   r.max_length = max_length;
+  r.image = static_cast<std::int8_t>(nearest_image(i, j));
   ropes_.push_back(r);
   return static_cast<int>(ropes_.size()) - 1;
 }
@@ -189,6 +255,8 @@ int World::add_angle_limit(int prev, int mid, int next, double max_angle) {
   a.c = next;
   a.max_angle = max_angle;
   a.cos_max = std::cos(max_angle);
+  a.image_a = static_cast<std::int8_t>(nearest_image(mid, prev));
+  a.image_c = static_cast<std::int8_t>(nearest_image(mid, next));
   angles_.push_back(a);
   return static_cast<int>(angles_.size()) - 1;
 }
@@ -225,15 +293,33 @@ void World::find_contacts(double alert) {
   info_.clear();
   if (n == 0) return;
   double rmax = 0.0;
+  for (std::size_t b = 0; b < n; ++b) rmax = std::max(rmax, radius_[b]);
+  // Periodic sector: the images R x_j of the bodies within reach of the wedge's first
+  // side (they lie beyond its second side) join the grid as entries n, n + 1, ...; a
+  // body within its own radius of the axis is its own image and gets none.
+  const detail::Sector sec(opt_);
+  ghost_of_.clear();
+  ghost_x_.clear();
+  if (sec.on) {
+    const double reach = 2.0 * rmax + alert;
+    for (std::size_t b = 0; b < n; ++b) {
+      if (std::hypot(x_[b].x() - sec.cx, x_[b].y() - sec.cy) < radius_[b]) continue;
+      if (sec.first_side(x_[b]) < reach) {
+        ghost_of_.push_back(static_cast<int>(b));
+        ghost_x_.push_back(sec.place(x_[b], 1));
+      }
+    }
+  }
+  const std::size_t entries = n + ghost_x_.size();
+  auto at = [&](std::size_t e) -> const Vec3& { return e < n ? x_[e] : ghost_x_[e - n]; };
   Vec3 lo = x_[0], hi = x_[0];
-  for (std::size_t b = 0; b < n; ++b) {
-    rmax = std::max(rmax, radius_[b]);
-    lo = lo.cwiseMin(x_[b]);
-    hi = hi.cwiseMax(x_[b]);
+  for (std::size_t e = 0; e < entries; ++e) {
+    lo = lo.cwiseMin(at(e));
+    hi = hi.cwiseMax(at(e));
   }
   double cell = 2.0 * rmax + alert;
   std::array<std::int64_t, 3> dims{};
-  const double max_cells = 4.0 * static_cast<double>(n) + 64.0;
+  const double max_cells = 4.0 * static_cast<double>(entries) + 64.0;
   for (;;) {
     double total = 1.0;
     for (int k = 0; k < 3; ++k) {
@@ -249,19 +335,20 @@ void World::find_contacts(double alert) {
     return std::clamp<std::int64_t>(c, 0, dims[static_cast<std::size_t>(k)] - 1);
   };
   const std::int64_t ncell = dims[0] * dims[1] * dims[2];
-  cell_of_.resize(n);
+  cell_of_.resize(entries);
   cell_start_.assign(static_cast<std::size_t>(ncell) + 1, 0);
-  for (std::size_t b = 0; b < n; ++b) {
-    const std::int64_t c = (coord(x_[b], 2) * dims[1] + coord(x_[b], 1)) * dims[0] + coord(x_[b], 0);
+  for (std::size_t b = 0; b < entries; ++b) {
+    const Vec3& p = at(b);
+    const std::int64_t c = (coord(p, 2) * dims[1] + coord(p, 1)) * dims[0] + coord(p, 0);
     cell_of_[b] = static_cast<int>(c);
     ++cell_start_[static_cast<std::size_t>(c) + 1];
   }
   for (std::int64_t c = 0; c < ncell; ++c)
     cell_start_[static_cast<std::size_t>(c) + 1] += cell_start_[static_cast<std::size_t>(c)];
-  cell_bodies_.resize(n);
+  cell_bodies_.resize(entries);
   {
     std::vector<int> fill(cell_start_.begin(), cell_start_.end() - 1);
-    for (std::size_t b = 0; b < n; ++b)
+    for (std::size_t b = 0; b < entries; ++b)
       cell_bodies_[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of_[b])]++)] =
           static_cast<int>(b);
   }
@@ -280,31 +367,34 @@ void World::find_contacts(double alert) {
              ++xx) {
           const auto c = static_cast<std::size_t>((z * dims[1] + y) * dims[0] + xx);
           for (int s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
-            const auto j = static_cast<std::size_t>(cell_bodies_[static_cast<std::size_t>(s)]);
-            if (j <= i) continue;
+            const auto e = static_cast<std::size_t>(cell_bodies_[static_cast<std::size_t>(s)]);
+            // An image pairs with every other body (each seam pair has one image side).
+            const int image = e < n ? 0 : 1;
+            const std::size_t j = e < n ? e : static_cast<std::size_t>(ghost_of_[e - n]);
+            if (image == 0 ? j <= i : j == i) continue;
             if (!mi && kind_[j] != BodyKind::mobile) continue;
-            const Vec3 dx = x_[j] - x_[i];
+            const Vec3 dx = at(e) - x_[i];
             const double dist = dx.norm();
             const double gap = dist - radius_[i] - radius_[j];
             if (gap >= alert) continue;
             ContactRow r;
             r.i = static_cast<int>(i);
             r.j = static_cast<int>(j);
+            r.image = static_cast<std::int8_t>(image);
             // Coincident centres: any normal is as good as another; pick +z.
             r.n = dist > 0.0 ? Vec3(dx / dist) : Vec3(Vec3::UnitZ());
             r.ri = radius_[i];
             r.rj = radius_[j];
             r.mu = fric;
             contacts_.push_back(r);
-            info_.push_back({pair_key(r.i, r.j), r.i, -1, gap});
+            info_.push_back({pair_key(r.i, r.j, image), r.i, -1, gap});
           }
         }
     // Rows of body i in the order of j (the cells are visited in grid order).
     if (contacts_.size() - first > 1) {
       order.resize(contacts_.size() - first);
       for (std::size_t k = 0; k < order.size(); ++k) order[k] = first + k;
-      std::sort(order.begin(), order.end(),
-                [&](std::size_t a, std::size_t b) { return contacts_[a].j < contacts_[b].j; });
+      std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return info_[a].key < info_[b].key; });
       rows.clear();
       infos.clear();
       for (std::size_t k : order) {
@@ -348,8 +438,14 @@ void World::apply_contact(const ContactRow& r, const Vec3& p) {
   SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
   SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
   const Vec3 np = r.n.cross(p);
-  bj.v += bj.inv_mass * p;
-  bj.w -= (bj.inv_inertia * r.rj) * np;
+  if (r.image != 0) {  // j's side of a seam row, in j's frame
+    const detail::Sector sec(opt_);
+    bj.v += bj.inv_mass * sec.rot(p, -1);
+    bj.w -= (bj.inv_inertia * r.rj) * sec.rot(np, -1);
+  } else {
+    bj.v += bj.inv_mass * p;
+    bj.w -= (bj.inv_inertia * r.rj) * np;
+  }
   bi.v -= bi.inv_mass * p;
   bi.w -= (bi.inv_inertia * r.ri) * np;
 }
@@ -357,6 +453,7 @@ void World::apply_contact(const ContactRow& r, const Vec3& p) {
 // Row geometry at x(t) and the warm start (impulses of the previous step, applied).
 void World::prepare_rows() {
   const double inv_h = 1.0 / opt_.time_step;
+  const detail::Sector sec(opt_);
   // Contacts: merge-join with the previous step's rows (both sorted by key).
   std::size_t p = 0;
   for (std::size_t k = 0; k < contacts_.size(); ++k) {
@@ -375,9 +472,10 @@ void World::prepare_rows() {
     r.quiet = 0;
     SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
     SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
-    const Vec3 dx = x_[static_cast<std::size_t>(r.j)] - x_[static_cast<std::size_t>(r.i)];
+    const Vec3 dx = sec.place(x_[static_cast<std::size_t>(r.j)], r.image) - x_[static_cast<std::size_t>(r.i)];
     const double dist = dx.norm();
     r.e = dist > 0.0 ? Vec3(dx / dist) : Vec3(Vec3::UnitX());
+    r.ej = sec.rot(r.e, -r.image);
     r.c = r.max_length - dist;
     r.bias = r.c * inv_h;
     r.wb = bi.inv_mass + bj.inv_mass;
@@ -387,7 +485,7 @@ void World::prepare_rows() {
     }
     if (r.lambda > 0.0) {
       bi.v += (bi.inv_mass * r.lambda) * r.e;
-      bj.v -= (bj.inv_mass * r.lambda) * r.e;
+      bj.v -= (bj.inv_mass * r.lambda) * r.ej;
     }
   }
   for (AngleRow& r : angles_) {
@@ -396,8 +494,8 @@ void World::prepare_rows() {
     SolverBody& ba = body_[static_cast<std::size_t>(r.a)];
     SolverBody& bb = body_[static_cast<std::size_t>(r.b)];
     SolverBody& bc = body_[static_cast<std::size_t>(r.c)];
-    const Vec3 b1 = x_[static_cast<std::size_t>(r.b)] - x_[static_cast<std::size_t>(r.a)];
-    const Vec3 b2 = x_[static_cast<std::size_t>(r.c)] - x_[static_cast<std::size_t>(r.b)];
+    const Vec3 b1 = x_[static_cast<std::size_t>(r.b)] - sec.place(x_[static_cast<std::size_t>(r.a)], r.image_a);
+    const Vec3 b2 = sec.place(x_[static_cast<std::size_t>(r.c)], r.image_c) - x_[static_cast<std::size_t>(r.b)];
     const double l1 = b1.norm(), l2 = b2.norm();
     r.live = false;
     if (l1 > 0.0 && l2 > 0.0) {
@@ -414,6 +512,8 @@ void World::prepare_rows() {
       r.scale = 0.5 * (l1 + l2);
       const double wref = (ba.inv_mass + bb.inv_mass + bc.inv_mass) / (l1 * l2);
       r.live = r.wa > kAngleGuard * wref;
+      r.ga = sec.rot(r.ga, -r.image_a);  // each gradient in its body's own frame
+      r.gc = sec.rot(r.gc, -r.image_c);
     }
     if (!r.live) {
       r.lambda = 0.0;
@@ -493,7 +593,7 @@ void World::partition_rows() {
     if (info_[k].i < 0) {  // wall row: the slab's own sentinel
       r.i = static_cast<int>(n) + sj;
       lists_[static_cast<std::size_t>(sj)].contacts.push_back(static_cast<int>(k));
-    } else if (slab_[static_cast<std::size_t>(r.i)] == sj) {
+    } else if (r.image == 0 && slab_[static_cast<std::size_t>(r.i)] == sj) {
       lists_[static_cast<std::size_t>(sj)].contacts.push_back(static_cast<int>(k));
     } else {
       boundary.contacts.push_back(static_cast<int>(k));
@@ -503,14 +603,15 @@ void World::partition_rows() {
     const RopeRow& r = ropes_[k];
     if (!live_rope(r)) continue;
     const int si = slab_[static_cast<std::size_t>(r.i)];
-    (si == slab_[static_cast<std::size_t>(r.j)] ? lists_[static_cast<std::size_t>(si)] : boundary)
+    (r.image == 0 && si == slab_[static_cast<std::size_t>(r.j)] ? lists_[static_cast<std::size_t>(si)] : boundary)
         .ropes.push_back(static_cast<int>(k));
   }
   for (std::size_t k = 0; k < angles_.size(); ++k) {
     const AngleRow& r = angles_[k];
     if (!r.live) continue;
     const int sa = slab_[static_cast<std::size_t>(r.a)];
-    const bool inside = sa == slab_[static_cast<std::size_t>(r.b)] && sa == slab_[static_cast<std::size_t>(r.c)];
+    const bool inside = r.image_a == 0 && r.image_c == 0 && sa == slab_[static_cast<std::size_t>(r.b)] &&
+                        sa == slab_[static_cast<std::size_t>(r.c)];
     (inside ? lists_[static_cast<std::size_t>(sa)] : boundary).angles.push_back(static_cast<int>(k));
   }
 }
@@ -578,6 +679,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
   SweepTotals t;  // local: the totals of the slabs share cache lines
   SolverBody* const B = body_.data();
   const int freeze = opt_.freeze_sweeps;
+  const detail::Sector sec(opt_);
   ContactRow* const C = contacts_.data();
   RopeRow* const R = ropes_.data();
   AngleRow* const A = angles_.data();
@@ -671,7 +773,12 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     SolverBody& bi = B[r.i];
     SolverBody& bj = B[r.j];
     const Vec3 n = r.n;
-    const Vec3 u = (bj.v - bi.v) - (r.rj * bj.w + r.ri * bi.w).cross(n);
+    Vec3 vj = bj.v, wj = bj.w;
+    if (r.image != 0) {  // a seam row: j's velocities seen from i's side
+      vj = sec.rot(vj, 1);
+      wj = sec.rot(wj, 1);
+    }
+    const Vec3 u = (vj - bi.v) - (r.rj * wj + r.ri * bi.w).cross(n);
     const double un = u.dot(n);
     double pn = r.pn - (un + r.bias) * r.inv_wn;
     Vec3 pt;
@@ -701,8 +808,13 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     const double wt = wn + r.ri * r.ri * bi.inv_inertia + r.rj * r.rj * bj.inv_inertia;
     const Vec3 p = dpn * n + dpt;
     const Vec3 np = n.cross(p);
-    bj.v += bj.inv_mass * p;
-    bj.w -= (bj.inv_inertia * r.rj) * np;
+    if (r.image != 0) {
+      bj.v += bj.inv_mass * sec.rot(p, -1);
+      bj.w -= (bj.inv_inertia * r.rj) * sec.rot(np, -1);
+    } else {
+      bj.v += bj.inv_mass * p;
+      bj.w -= (bj.inv_inertia * r.rj) * np;
+    }
     bi.v -= bi.inv_mass * p;
     bi.w -= (bi.inv_inertia * r.ri) * np;
     t.dv2 += wn * wn * dpn * dpn + wt * wt * dpt.squaredNorm();
@@ -746,11 +858,11 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     }
     SolverBody& bi = B[r.i];
     SolverBody& bj = B[r.j];
-    const double rate = r.e.dot(bj.v - bi.v);
+    const double rate = r.image != 0 ? r.ej.dot(bj.v) - r.e.dot(bi.v) : r.e.dot(bj.v - bi.v);
     finish_scalar(r, at, std::max(0.0, r.lambda + (rate - r.bias) / r.wb), r.c <= 0.0, r.wb * r.wb,
                   [&](double dl) {
                     bi.v += (bi.inv_mass * dl) * r.e;
-                    bj.v -= (bj.inv_mass * dl) * r.e;
+                    bj.v -= (bj.inv_mass * dl) * r.ej;
                   });
   };
 
@@ -872,7 +984,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
     RopeRow& r = ropes_[i];
     scalar(r, nc + i, a.ropes_at + i, [&](double dl) {
       B[r.i].v += (B[r.i].inv_mass * dl) * r.e;
-      B[r.j].v -= (B[r.j].inv_mass * dl) * r.e;
+      B[r.j].v -= (B[r.j].inv_mass * dl) * r.ej;
     });
   }
   for (int k : lists.angles) {
@@ -899,6 +1011,98 @@ void World::integrate_positions() {
       q_[b] = (dq * q_[b]).normalized();
     }
   }
+}
+
+// Stage 5 (periodic sector): a mobile sphere whose centre left the wedge is moved to its
+// image inside (position, velocity, spin, orientation); the image offsets of its rope and
+// angle rows follow, and its contact rows (the next step's warm start and the records)
+// are re-expressed from the new images: the normal and impulses rotated into the frame
+// of the row's first body, the pair put back in the engine's order (i < j, or j seen as
+// R x_j). A row whose bodies would be more than one wedge apart is dropped.
+void World::wrap_sector() {
+  const detail::Sector sec(opt_);
+  if (!sec.on) return;
+  const std::size_t n = x_.size();
+  wrapped_.assign(n, 0);
+  bool any = false;
+  auto turn = [&](const Vec3& v, int k) {
+    Vec3 r = v;
+    for (; k > 0; --k) r = sec.rot(r, 1);
+    for (; k < 0; ++k) r = sec.rot(r, -1);
+    return r;
+  };
+  for (std::size_t b = 0; b < n; ++b) {
+    if (kind_[b] != BodyKind::mobile) continue;
+    const int m = sec.wedges(x_[b]);
+    if (m == 0) continue;
+    x_[b] = sec.place(x_[b], -m);
+    body_[b].v = turn(body_[b].v, -m);
+    body_[b].w = turn(body_[b].w, -m);
+    q_[b] = (Eigen::Quaterniond(Eigen::AngleAxisd(-m * sec.width, Vec3::UnitZ())) * q_[b]).normalized();
+    wrapped_[b] = static_cast<std::int8_t>(m);
+    any = true;
+  }
+  if (!any) return;
+  auto shift = [&](int b) { return static_cast<int>(wrapped_[static_cast<std::size_t>(b)]); };
+  auto one_wedge = [&](int k, const char* what, int a, int b) {
+    if (k < -1 || k > 1)
+      throw NoResultError(fmt::format("sim diverged at step {}: the {} between bodies {} and {} spans more than one "
+                                      "wedge of the periodic sector (a bead too near its axis)",
+                                      step_, what, a, b));
+    return static_cast<std::int8_t>(k);
+  };
+  for (RopeRow& r : ropes_) r.image = one_wedge(r.image + shift(r.j) - shift(r.i), "rope", r.i, r.j);
+  for (AngleRow& r : angles_) {
+    r.image_a = one_wedge(r.image_a + shift(r.a) - shift(r.b), "angle row", r.a, r.b);
+    r.image_c = one_wedge(r.image_c + shift(r.c) - shift(r.b), "angle row", r.c, r.b);
+  }
+  std::vector<std::size_t> keep;
+  keep.reserve(contacts_.size());
+  bool moved = false;
+  for (std::size_t k = 0; k < contacts_.size(); ++k) {
+    ContactRow& r = contacts_[k];
+    ContactInfo& c = info_[k];
+    const int wj = shift(r.j), wi = c.i >= 0 ? shift(c.i) : 0;
+    if (wi == 0 && wj == 0) {
+      keep.push_back(k);
+      continue;
+    }
+    moved = true;
+    if (c.i < 0) {  // a wall row (horizontal wall): the impulse in j's new frame
+      r.n = turn(r.n, -wj);
+      r.pt = turn(r.pt, -wj);
+      c.key = wall_key(c.wall, r.j);
+      keep.push_back(k);
+      continue;
+    }
+    int image = r.image + wj - wi;
+    r.n = turn(r.n, -wi);
+    r.pt = turn(r.pt, -wi);
+    if (image < -1 || image > 1) continue;
+    if (image == -1 || (image == 0 && c.i > r.j)) {  // (i, j, k) is (j, i, −k) seen from j
+      r.n = -turn(r.n, -image);
+      r.pt = -turn(r.pt, -image);
+      std::swap(c.i, r.j);
+      std::swap(r.ri, r.rj);
+      image = -image;
+    }
+    r.i = c.i;
+    r.image = static_cast<std::int8_t>(image);
+    c.key = pair_key(c.i, r.j, image);
+    keep.push_back(k);
+  }
+  if (!moved) return;
+  std::sort(keep.begin(), keep.end(), [&](std::size_t a, std::size_t b) { return info_[a].key < info_[b].key; });
+  std::vector<ContactRow> rows;
+  std::vector<ContactInfo> infos;
+  rows.reserve(keep.size());
+  infos.reserve(keep.size());
+  for (std::size_t k : keep) {
+    rows.push_back(contacts_[k]);
+    infos.push_back(info_[k]);
+  }
+  contacts_.swap(rows);
+  info_.swap(infos);
 }
 
 namespace detail {
@@ -1215,6 +1419,7 @@ StepDiagnostics World::step() {
   integrate_positions();                              // 5. positions
   step_ = this_step;                                  // 6. diagnostics
   place_rotors();                                     //    (rotors at φ(t + h) exactly)
+  wrap_sector();
   remember_impulses();
   check_state(d);
   return d;
@@ -1222,6 +1427,13 @@ StepDiagnostics World::step() {
 
 void World::check_state(StepDiagnostics& d) const {
   const std::size_t n = x_.size();
+  const detail::Sector sec(opt_);
+  if (sec.on)  // fixed and kinematic bodies must stay inside the wedge (they have no wrap)
+    for (std::size_t b = 0; b < n; ++b)
+      if (kind_[b] == BodyKind::kinematic && sec.wedges(x_[b]) != 0)
+        throw NoResultError(fmt::format("sim at step {}: kinematic body {} at ({}, {}, {}) left the periodic sector "
+                                        "(azimuth [{}, {}) rad)",
+                                        d.step, b, x_[b].x(), x_[b].y(), x_[b].z(), sec.start, sec.start + sec.width));
   for (std::size_t b = 0; b < n; ++b) {
     const SolverBody& sb = body_[b];
     if (!finite(x_[b]) || !finite(sb.v) || !finite(sb.w))
@@ -1245,7 +1457,7 @@ void World::check_state(StepDiagnostics& d) const {
     double gap = 0.0, dia = 0.0;
     if (c.i >= 0) {
       const auto i = static_cast<std::size_t>(c.i);
-      gap = (x_[j] - x_[i]).norm() - radius_[i] - radius_[j];
+      gap = (sec.place(x_[j], r.image) - x_[i]).norm() - radius_[i] - radius_[j];
       dia = radius_[i] + radius_[j];
     } else {
       const Wall& wall = walls_[static_cast<std::size_t>(c.wall)];
@@ -1273,7 +1485,7 @@ void World::check_state(StepDiagnostics& d) const {
   for (const RopeRow& r : ropes_) d.active_ropes += r.lambda > 0.0 ? 1 : 0;
   const auto [rope_excess, worst_rope] = largest_excess(ropes_, [&](const RopeRow& r) {
     const auto i = static_cast<std::size_t>(r.i), j = static_cast<std::size_t>(r.j);
-    return ((x_[j] - x_[i]).norm() - r.max_length) / (radius_[i] + radius_[j]);
+    return ((sec.place(x_[j], r.image) - x_[i]).norm() - r.max_length) / (radius_[i] + radius_[j]);
   });
   d.max_rope_excess = rope_excess;
   if (worst_rope != nullptr && rope_excess > opt_.max_rope_excess)
@@ -1285,7 +1497,7 @@ void World::check_state(StepDiagnostics& d) const {
   const auto [angle_excess, worst_angle] = largest_excess(angles_, [&](const AngleRow& r) {
     const auto a = static_cast<std::size_t>(r.a), b = static_cast<std::size_t>(r.b),
                c = static_cast<std::size_t>(r.c);
-    const Vec3 b1 = x_[b] - x_[a], b2 = x_[c] - x_[b];
+    const Vec3 b1 = x_[b] - sec.place(x_[a], r.image_a), b2 = sec.place(x_[c], r.image_c) - x_[b];
     const double l = b1.norm() * b2.norm();
     if (!(l > 0.0)) return 0.0;
     return std::acos(std::clamp(b1.dot(b2) / l, -1.0, 1.0)) - r.max_angle;
@@ -1310,6 +1522,7 @@ ContactRecord World::record(std::size_t k) const {
   c.normal_impulse = r.pn;
   c.tangential_impulse = r.pt;
   c.status = r.status;  // raw: the status of the last visit
+  c.image = r.image;
   return c;
 }
 
@@ -1350,6 +1563,10 @@ int World::add_rotor(std::span<const int> bodies, const Vec3& centre, const Vec3
   if (!finite(centre) || !finite(axis) || !(axis.norm() > 0.0))
     throw ConfigError("sim rotor: the axis needs a finite point and a non-zero direction");
   if (bodies.empty()) throw ConfigError("sim rotor: no body");
+  if (opt_.sectors != 0 && (axis.x() != 0.0 || axis.y() != 0.0 || centre.x() != opt_.sector_centre.x() ||
+                            centre.y() != opt_.sector_centre.y()))
+    throw ConfigError("sim rotor: in a periodic sector the rotor turns about the sector's axis (vertical, through "
+                      "sector_centre)");
   rotor_of_.resize(x_.size(), -1);
   Rotor r;
   r.centre = centre;
@@ -1460,8 +1677,8 @@ WorldState World::state() const {
   s.inertia = inertia_;
   s.kind = kind_;
   s.walls = walls_;
-  for (const RopeRow& r : ropes_) s.ropes.push_back({r.i, r.j, r.max_length, r.lambda});
-  for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda});
+  for (const RopeRow& r : ropes_) s.ropes.push_back({r.i, r.j, r.max_length, r.lambda, r.image});
+  for (const AngleRow& r : angles_) s.angles.push_back({r.a, r.b, r.c, r.max_angle, r.lambda, r.image_a, r.image_c});
   s.contacts.reserve(contacts_.size());
   for (std::size_t k = 0; k < contacts_.size(); ++k) s.contacts.push_back(record(k));
   s.rotors = rotors_;
@@ -1516,12 +1733,20 @@ World World::from_state(const WorldState& s) {
   for (const WorldState::Rope& r : s.ropes) {
     w.add_rope(r.i, r.j, r.max_length);
     if (!(r.impulse >= 0.0) || !std::isfinite(r.impulse)) bad("rope impulse negative or non-finite");
+    if (r.image < -1 || r.image > 1 || (r.image != 0 && s.options.sectors == 0))
+      bad(fmt::format("rope {}-{}: image {} (expected 0, or -1..1 in a periodic sector)", r.i, r.j, r.image));
     w.ropes_.back().lambda = r.impulse;
+    w.ropes_.back().image = static_cast<std::int8_t>(r.image);
   }
   for (const WorldState::Angle& a : s.angles) {
     w.add_angle_limit(a.prev, a.mid, a.next, a.max_angle);
     if (!(a.impulse >= 0.0) || !std::isfinite(a.impulse)) bad("angle impulse negative or non-finite");
+    for (const int k : {a.image_prev, a.image_next})
+      if (k < -1 || k > 1 || (k != 0 && s.options.sectors == 0))
+        bad(fmt::format("angle row at {}: image {} (expected 0, or -1..1 in a periodic sector)", a.mid, k));
     w.angles_.back().lambda = a.impulse;
+    w.angles_.back().image_a = static_cast<std::int8_t>(a.image_prev);
+    w.angles_.back().image_c = static_cast<std::int8_t>(a.image_next);
   }
   const int nb = static_cast<int>(n);
   std::uint64_t last_key = 0;
@@ -1529,13 +1754,15 @@ World World::from_state(const WorldState& s) {
     const ContactRecord& c = s.contacts[k];
     if (c.body_j < 0 || c.body_j >= nb) bad(fmt::format("contact {}: body {} out of range", k, c.body_j));
     const bool wall_row = c.body_i < 0;
+    if (c.image != 0 && (c.image != 1 || wall_row || s.options.sectors == 0))
+      bad(fmt::format("contact {}: image {} (expected 0, or 1 for a body pair in a periodic sector)", k, c.image));
     if (wall_row ? (c.wall < 0 || c.wall >= static_cast<int>(w.walls_.size()))
-                 : (c.body_i >= c.body_j || c.wall != -1))
-      bad(fmt::format("contact {}: neither a body pair i < j nor a body-wall row", k));
+                 : (c.image == 0 ? c.body_i >= c.body_j : c.body_i == c.body_j) || c.wall != -1 || c.body_i >= nb)
+      bad(fmt::format("contact {}: neither a body pair i < j (i != j across a seam) nor a body-wall row", k));
     if (!finite(c.normal) || !std::isfinite(c.gap) || !std::isfinite(c.normal_impulse) ||
         !finite(c.tangential_impulse))
       bad(fmt::format("contact {}: non-finite value", k));
-    const std::uint64_t key = wall_row ? wall_key(c.wall, c.body_j) : pair_key(c.body_i, c.body_j);
+    const std::uint64_t key = wall_row ? wall_key(c.wall, c.body_j) : pair_key(c.body_i, c.body_j, c.image);
     if (k > 0 && !(last_key < key)) bad(fmt::format("contact {}: rows not in the engine's order", k));
     last_key = key;
     // Only the warm-start data and the records matter: the rows are rebuilt every step.
@@ -1546,6 +1773,7 @@ World World::from_state(const WorldState& s) {
     r.pn = c.normal_impulse;
     r.pt = c.tangential_impulse;
     r.status = c.status;
+    r.image = static_cast<std::int8_t>(c.image);
     w.contacts_.push_back(r);
     w.info_.push_back({key, wall_row ? -1 : c.body_i, wall_row ? c.wall : -1, c.gap});
     w.previous_.push_back({key, r.pn, r.pt, r.status});
@@ -1591,6 +1819,10 @@ std::uint64_t World::state_hash() const {
   }
   for (const RopeRow& r : ropes_) f.d(r.lambda);
   for (const AngleRow& r : angles_) f.d(r.lambda);
+  if (opt_.sectors != 0) {  // the seams' image offsets (none without a sector: the hashes stay)
+    for (const RopeRow& r : ropes_) f.u(static_cast<std::uint64_t>(r.image + 1));
+    for (const AngleRow& r : angles_) f.u(static_cast<std::uint64_t>(3 * (r.image_a + 1) + r.image_c + 1));
+  }
   return f.h;
 }
 

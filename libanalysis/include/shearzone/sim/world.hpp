@@ -44,6 +44,20 @@
 //  6. Diagnostics and divergence checks on the new state (see StepDiagnostics); a
 //     violation throws NoResultError naming the step and the bodies.
 //
+// Periodic sector (Options::sectors = k ≥ 3): the world holds one wedge of a system with
+// k-fold symmetry about a vertical axis (a cup with a k-blade vane). R is the rotation by
+// 2π/k about that axis (exact for k = 4: x, y → −y, x). A body near the wedge's first
+// side is also seen, rotated by R, beyond its second side (an image); contact rows
+// between a body and an image of another ("seam rows", ContactRecord::image = 1) see the
+// image's velocity rotated and give it the impulse rotated back, so both sides meet
+// exactly the rows they would meet in the whole system. Ropes and angle rows join a bead
+// to the image of its neighbour where the chain crosses a side (the image offset of each
+// row follows the beads). A mobile sphere whose centre leaves the wedge is moved to its
+// image inside (position, velocity, spin and orientation rotated) at the end of the step,
+// and the warm start of its contact rows is dropped for that step. Fixed and kinematic
+// spheres must stay inside (a rotor's axis must be the sector's); a sphere within its own
+// radius of the axis is its own image (a vane's hub, shared by every sector).
+//
 // Impulses are P = h·R (N s); a rope's λ/h is its tension (N); an angle row's λ is an
 // impulse·length (N s m). Consecutive beads of a chain keep their ordinary frictional
 // contact row besides the rope row (bond length in [d, L_max]).
@@ -104,7 +118,18 @@ struct Options {
   /// times `threads` (waking the pool costs more than it saves there). The result is the
   /// same bits either way (the slabs share no body); not stored in checkpoints.
   int parallel_min_rows_per_thread = 2000;
+  /// Periodic sector (0: none). k ≥ 3: the world is the wedge of azimuth
+  /// [sector_start, sector_start + 2π/k) about the vertical axis through sector_centre
+  /// (its z ignored) of a k-fold symmetric system; the wedge's two sides are periodic
+  /// (see "Periodic sector" above). In {0} ∪ [3, 64].
+  int sectors = 0;
+  Vec3 sector_centre = Vec3::Zero();  ///< a point of the sector's axis (m; z unused)
+  double sector_start = 0.0;          ///< azimuth of the wedge's first side (rad, from +x towards +y)
 };
+
+/// True when the centre x lies in the wedge of a periodic sector (always true without
+/// one): azimuth about the axis in [sector_start, sector_start + 2π/k), or on the axis.
+[[nodiscard]] bool sector_contains(const Options& options, const Vec3& x);
 
 /// One step's diagnostics (the future diagnostics CSV row).
 struct StepDiagnostics {
@@ -167,6 +192,9 @@ struct ContactRecord {
   double normal_impulse = 0.0;  ///< P_n (N s)
   Vec3 tangential_impulse = Vec3::Zero();
   ContactStatus status = ContactStatus::open;
+  /// Periodic sector: 1 when body_j is seen through its image R x_j (a seam row; normal,
+  /// gap and impulses are then those of body_i's side), else 0.
+  int image = 0;
 };
 
 /// The complete state of a World (checkpoint/restart):
@@ -179,11 +207,13 @@ struct WorldState {
     int i = 0, j = 0;
     double max_length = 0.0;
     double impulse = 0.0;  ///< λ of the last step (N s)
+    int image = 0;         ///< periodic sector: j seen from i as R^image x_j (−1..1)
   };
   struct Angle {
     int prev = 0, mid = 0, next = 0;
     double max_angle = 0.0;
     double impulse = 0.0;  ///< λ of the last step (N s m)
+    int image_prev = 0, image_next = 0;  ///< periodic sector: prev and next seen as R^k x (k in −1..1)
   };
   Options options;
   std::int64_t step = 0;
@@ -332,6 +362,8 @@ class World {
   void anderson_begin(detail::Anderson& a);  // sizes the scratch
   void anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep);
   void integrate_positions();                          // 5
+  void wrap_sector();                                  // 5: mobile spheres back into a periodic sector
+  [[nodiscard]] int nearest_image(int i, int j) const;  // k of the R^k x_j nearest x_i (periodic sector)
   void drive_rotors();                                 // 1: rotor velocities for this step
   void place_rotors();                                 // 5: rotor spheres at their exact place
   void rotor_torques();                                // 4: motor torque of each rotor
@@ -356,8 +388,11 @@ class World {
   std::vector<int> slab_;  // slab of each body (threads > 1)
   std::vector<double> aa_buf_;  // Anderson scratch, kept between steps (no state)
   double roundoff_dv_ = 0.0;    // this step's round-off floor of a sweep's correction (m/s)
-  // Cell-grid scratch.
+  // Cell-grid scratch; the periodic sector's images (body, position) in the grid.
   std::vector<int> cell_of_, cell_start_, cell_bodies_;
+  std::vector<int> ghost_of_;
+  std::vector<Vec3> ghost_x_;
+  std::vector<std::int8_t> wrapped_;  // per body: wedges it was moved back by this step
   std::int64_t step_ = 0;
   std::int64_t cap_hits_ = 0;
   std::vector<Rotor> rotors_;

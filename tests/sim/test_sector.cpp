@@ -1,0 +1,227 @@
+// The periodic sector (Options::sectors): one wedge of a k-fold symmetric system moves as
+// the whole system does, across its seams (contacts, ropes, angle rows, wrapped beads),
+// with the vane's torque one k-th of the whole; and it restarts bit-identically.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/sim/world.hpp"
+#include "shearzone/sim/sim_io.hpp"
+#include "sim_test_util.hpp"
+#include "support/temp_dir.hpp"
+
+using shearzone::sim::BodyKind;
+using shearzone::sim::Options;
+using shearzone::sim::Vec3;
+using shearzone::sim::Wall;
+using shearzone::sim::World;
+using shearzone::sim::WorldState;
+using shearzone::sim::read_checkpoint;
+using shearzone::sim::write_checkpoint;
+using shearzone::testing::TempDir;
+using testutil::kD;
+using testutil::kRho;
+
+namespace {
+
+constexpr int kSectors = 4;
+constexpr double kStart = -std::numbers::pi / 4.0;  // the wedge [-45°, 45°) holds blade 0
+
+Vec3 turn(const Vec3& x, int m) {  // rotation by m quarter turns about z (exact)
+  Vec3 p = x;
+  for (int k = 0; k < ((m % 4) + 4) % 4; ++k) p = Vec3(-p.y(), p.x(), p.z());
+  return p;
+}
+
+Vec3 polar(double r, double deg, double z) {
+  const double a = testutil::deg(deg);
+  return {r * std::cos(a), r * std::sin(a), z};
+}
+
+/// Quarter turns that bring x into the wedge [−45°, 45°).
+int wedge_turns(const Vec3& x) {
+  for (int m = 0; m < 4; ++m) {
+    const Vec3 p = turn(x, m);
+    const double a = std::atan2(p.y(), p.x());
+    if (a >= kStart && a < kStart + std::numbers::pi / 2) return m;
+  }
+  return 0;
+}
+
+/// One sector's content: mobile beads sliding round the cup on the floor (some across a
+/// seam), a bead by the hub, a falling chain across the upper seam; a rotor (hub bead on
+/// the axis and a blade at 0°). `copies` = 4 builds the whole system, 1 the sector.
+struct Scene {
+  std::vector<int> beads;  // the mobile beads of copy 0
+  int rotor = -1;
+};
+
+Scene build(World& w, int copies) {
+  Scene s;
+  w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), 0.3});
+  const double z0 = 0.5 * kD, omega = 1.0;  // rad/s about z
+  std::vector<Vec3> loose = {polar(5 * kD, 40, z0), polar(5 * kD, 28, z0), polar(5 * kD, -38, z0),
+                             polar(6.2 * kD, 44, z0), polar(3.0 * kD, 20, z0), polar(1.0 * kD, 30, z0),
+                             polar(6.2 * kD, -44, 1.6 * kD)};
+  std::vector<Vec3> chain = {polar(8 * kD, 34, 2 * kD), polar(8 * kD, 41.5, 2 * kD), polar(8 * kD, 49, 2 * kD),
+                             polar(8 * kD, 56.5, 2 * kD)};
+  std::vector<int> rotor;
+  for (int m = 0; m < copies; ++m) {
+    if (m == 0) rotor.push_back(w.add_sphere(Vec3(0, 0, z0), kD, kRho, BodyKind::kinematic));  // the hub
+    for (int k = 2; k <= 3; ++k) rotor.push_back(w.add_sphere(turn(Vec3(k * kD, 0, z0), m), kD, kRho, BodyKind::kinematic));
+  }
+  for (int m = 0; m < copies; ++m) {
+    // A bead of copy m at R^m x, moving with the rigid rotation; in the sector, the
+    // image of that bead inside the wedge.
+    auto add = [&](const Vec3& x) {
+      const int turns = copies == 1 ? wedge_turns(x) : m;
+      const int b = w.add_sphere(turn(x, turns), kD, kRho);
+      w.set_velocity(b, turn(Vec3(-omega * x.y(), omega * x.x(), 0.0), turns));
+      if (m == 0) s.beads.push_back(b);
+      return b;
+    };
+    for (const Vec3& x : loose) add(x);
+    std::vector<int> ids;
+    for (const Vec3& x : chain) ids.push_back(add(x));
+    w.add_chain(ids, 1.1 * kD, testutil::deg(40.0));
+  }
+  s.rotor = w.add_rotor(rotor, Vec3::Zero(), Vec3::UnitZ(), 0.3, 2.0);
+  return s;
+}
+
+Options tight() {
+  Options o;
+  o.friction = 0.2;
+  o.tolerance = 1e-12;
+  o.max_iterations = 20000;
+  o.freeze_sweeps = 0;
+  return o;
+}
+
+Options sector(Options o) {
+  o.sectors = kSectors;
+  o.sector_start = kStart;
+  return o;
+}
+
+/// The copy-0 bead b of the whole system, seen in the sector (its image in the wedge).
+Vec3 in_wedge(const Vec3& x) { return turn(x, wedge_turns(x)); }
+
+}  // namespace
+
+TEST_CASE("A periodic quarter moves as the whole cup across its seams", "[sim][sector]") {
+  const auto solver = GENERATE(testutil::Solver::alternate, testutil::Solver::forward, testutil::Solver::anderson);
+  Options o = tight();
+  testutil::set_solver(o, solver);
+  World whole(o), quarter(sector(o));
+  const Scene sw = build(whole, 4), sq = build(quarter, 1);
+  // Beads 0 (40°), 3 (44°) and the chain's last two start beyond or near the upper seam.
+  REQUIRE(sq.beads.size() == sw.beads.size());
+  bool seam_row = false, seam_rope = false;
+  int wraps = 0;
+  std::vector<Vec3> last(sq.beads.size());
+  for (std::size_t k = 0; k < sq.beads.size(); ++k) last[k] = quarter.position(sq.beads[k]);
+  for (int step = 0; step < 400; ++step) {
+    whole.step();
+    quarter.step();
+    for (const auto& c : quarter.contacts()) seam_row = seam_row || (c.image == 1 && c.normal_impulse > 0.0);
+    for (const auto& r : quarter.state().ropes) seam_rope = seam_rope || r.image != 0;
+    for (std::size_t k = 0; k < sq.beads.size(); ++k) {
+      const Vec3 x = quarter.position(sq.beads[k]);
+      if ((x - last[k]).norm() > kD) ++wraps;  // moved to its image across the wedge
+      last[k] = x;
+    }
+    // Torque: the sector's rotor carries one blade of four (the hub is shared).
+    CHECK(std::abs(4.0 * quarter.rotor_torque(sq.rotor) - whole.rotor_torque(sw.rotor)) <=
+          1e-6 * std::abs(whole.rotor_torque(sw.rotor)) + 1e-12);
+  }
+  // The test crossed the seams: a loaded seam row, a rope across a seam, wrapped beads.
+  CHECK(seam_row);
+  CHECK(seam_rope);
+  CHECK(wraps > 0);
+  // Tolerance: both runs converge every step to 1e-12; the two Gauss-Seidel orders then
+  // agree to ~1e-10 d per step, 400 steps of sliding and colliding beads.
+  constexpr double kAgree = 1e-7 * kD;
+  for (std::size_t k = 0; k < sq.beads.size(); ++k) {
+    INFO("bead " << k);
+    CHECK((quarter.position(sq.beads[k]) - in_wedge(whole.position(sw.beads[k]))).norm() <= kAgree);
+    CHECK(shearzone::sim::sector_contains(quarter.options(), quarter.position(sq.beads[k])));
+  }
+  CHECK(whole.iteration_cap_hits() == 0);
+  CHECK(quarter.iteration_cap_hits() == 0);
+}
+
+TEST_CASE("A periodic sector restarts bit-identically and runs on two threads", "[sim][sector]") {
+  Options o = sector(tight());
+  o.tolerance = 1e-6;
+  World a(o);
+  build(a, 1);
+  // Through the checkpoint file, at a step with a rope and a contact row across a seam.
+  auto across = [&] {
+    const WorldState st = a.state();
+    bool rope = false, row = false;
+    for (const auto& r : st.ropes) rope = rope || r.image != 0;
+    for (const auto& c : st.contacts) row = row || c.image == 1;
+    return rope && row;
+  };
+  int steps = 0;
+  for (; steps < 400 && (steps < 50 || !across()); ++steps) a.step();
+  REQUIRE(across());
+  TempDir dir("sim_sector_ckpt");
+  write_checkpoint(dir / "c.h5", a);
+  World b = World::from_state(read_checkpoint(dir / "c.h5"));
+  CHECK(b.state_hash() == a.state_hash());
+  CHECK(b.options().sectors == kSectors);
+  CHECK(b.options().sector_start == kStart);
+  for (int k = 0; k < 150; ++k) {
+    const auto da = a.step();
+    const auto db = b.step();
+    REQUIRE(da.iterations == db.iterations);
+  }
+  CHECK(a.state_hash() == b.state_hash());
+
+  Options two = o;
+  two.threads = 2;
+  two.parallel_min_rows_per_thread = 0;
+  World serial(o), threaded(two);
+  const Scene s1 = build(serial, 1), s2 = build(threaded, 1);
+  for (int k = 0; k < 300; ++k) {
+    serial.step();
+    threaded.step();
+  }
+  // Another Gauss–Seidel order at tolerance 1e-6: the same motion to a small fraction of d.
+  for (std::size_t k = 0; k < s1.beads.size(); ++k)
+    CHECK((serial.position(s1.beads[k]) - threaded.position(s2.beads[k])).norm() <= 1e-3 * kD);
+}
+
+TEST_CASE("A periodic sector refuses what it cannot hold", "[sim][sector]") {
+  Options o = sector(tight());
+  SECTION("a sector count out of range") {
+    Options bad = o;
+    bad.sectors = 2;
+    CHECK_THROWS_AS(World(bad), shearzone::ConfigError);
+  }
+  World w(o);
+  SECTION("a bead outside the wedge") {
+    CHECK_THROWS_AS(w.add_sphere(polar(5 * kD, 90, 0), kD, kRho, BodyKind::fixed), shearzone::ConfigError);
+    CHECK_THROWS_AS(w.add_sphere(polar(5 * kD, 100, kD), kD, kRho), shearzone::ConfigError);
+    CHECK_NOTHROW(w.add_sphere(polar(5 * kD, 10, kD), kD, kRho));
+  }
+  SECTION("a wall that is not horizontal") {
+    CHECK_THROWS_AS(w.add_wall(Wall{Vec3::Zero(), Vec3::UnitX(), 0.3}), shearzone::ConfigError);
+  }
+  SECTION("a rotor off the sector's axis") {
+    const int b = w.add_sphere(polar(2 * kD, 0, kD), kD, kRho, BodyKind::kinematic);
+    const std::vector<int> ids{b};
+    CHECK_THROWS_AS(w.add_rotor(ids, Vec3(kD, 0, 0), Vec3::UnitZ(), 0.1, 1.0), shearzone::ConfigError);
+  }
+  SECTION("a vane that turns out of the wedge") {
+    const int b = w.add_sphere(polar(3 * kD, 0, kD), kD, kRho, BodyKind::kinematic);
+    const std::vector<int> ids{b};
+    w.add_rotor(ids, Vec3::Zero(), Vec3::UnitZ(), 1.0, 5.0);  // 1 rad > 45°
+    CHECK_THROWS_AS([&] { for (int k = 0; k < 100; ++k) w.step(); }(), shearzone::NoResultError);
+  }
+}
