@@ -105,6 +105,15 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   s->add_option("--preshear-cycles", so->preshear_cycles,
                 "Cycles at --time-step and --tolerance before the settings of --accuracy; range: 0..1000")
       ->capture_default_str();
+  s->add_option("--sectors", so->cup_sectors,
+                "--scene cup as a periodic wedge of 1/K of the cup with one blade (torques the whole cup's); range: "
+                "1 (the whole cup) or 4")
+      ->capture_default_str();
+  s->add_flag("--sector-check", so->sector_check,
+              "With --scene cup: the periodic quarter against the whole cup, per N and fill seed (sim_cup_sector.csv)");
+  s->add_option("--seeds", so->seeds, "Fill seeds of --sector-check; range: 1 to 32 seeds")
+      ->delimiter(',')
+      ->capture_default_str();
   s->add_option("--accuracy-cap", so->accuracy_cap, "Sweep cap of --accuracy (cap hits are counted); range: 1..100000")
       ->capture_default_str();
   s->add_option("--accuracy-beads", so->accuracy_beads,

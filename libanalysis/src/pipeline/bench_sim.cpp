@@ -1,6 +1,7 @@
 #include "shearzone/pipeline/bench_sim.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -203,7 +204,7 @@ SweepStats time_sheared(const sim::WorldState& state, int threads, const SolverC
 }
 
 /// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads.
-std::string cup_scene(const BenchSimOptions& o, int N) {
+std::string cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
   const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
   const double fill_height =
       o.cup_beads * std::numbers::pi / 6.0 * d * d * d / (0.6 * std::numbers::pi * (R * R - Rv * Rv));
@@ -212,7 +213,7 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
       "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
       "freeze_sweeps = {fs}\n[output]\nsnapshot_every = 0\n"
-      "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n"
+      "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n{sectors}"
       "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
       "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
       "[vane]\nradius_m = {Rv}\nheight_m = {H}\n"
@@ -220,8 +221,8 @@ std::string cup_scene(const BenchSimOptions& o, int N) {
       fmt::arg("N", N), fmt::arg("h", io::format_number(o.time_step_s)), fmt::arg("tol", io::format_number(o.tolerance)),
       fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
-      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N)),
-      fmt::arg("seed", o.seed));
+      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N / sectors)),
+      fmt::arg("seed", seed), fmt::arg("sectors", sectors > 1 ? fmt::format("sectors = {}\n", sectors) : ""));
 }
 
 /// A vane cup scene, filled (InputError without a [vane]).
@@ -256,6 +257,7 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
   sim::World w = sim::World::from_state(state);
   w.set_rotor_drive(0, phi0, f, 0.0, w.time());
   const sim::Rotor& rotor = w.rotor(0);
+  const double torque_scale = w.options().sectors != 0 ? w.options().sectors : 1.0;  // the whole cup's
   const sim::Vec3 c = rotor.centre, axis = rotor.axis;
   double d = 0.0, rv = 0.0, rmax = 0.0;
   std::vector<double> heights;
@@ -285,7 +287,7 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
     for (std::int64_t s = 0; s < per_cycle; ++s) {
       const sim::StepDiagnostics dg = w.step();
       theta.push_back(2.0 * std::numbers::pi * f * (w.time() - 0.5 * h));  // the step's torque acts over it
-      torque.push_back(w.rotor_torque(0));
+      torque.push_back(torque_scale * w.rotor_torque(0));
       sweeps += dg.iterations;
       o.caps += dg.hit_iteration_cap ? 1 : 0;
       o.overlap = std::max(o.overlap, dg.max_overlap);
@@ -427,6 +429,127 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std
   return sum;
 }
 
+/// --scene cup --sector-check: the periodic quarter against the whole cup. Per N, seed
+/// and geometry: the settled fill, `preshear_cycles` cycles, then `cycles` measured cycles
+/// (run_cycles; torques the whole cup's). Terminal lines: per N and geometry the mean over
+/// seeds of the seed means with their seed-to-seed s.d., and the quarter's difference
+/// from the whole in units of the combined standard error.
+BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata& header,
+                                 const core::ProgressCallback& progress) {
+  if (o.seeds.empty() || o.seeds.size() > 32) throw ConfigError("bench sim: --seeds needs 1 to 32 seeds");
+  const SolverChoice solver = solver_choices(o).front();
+  io::AtomicOutputSet out(o.out_dir, o.force);
+  io::AtomicOutput& csv_file = out.add("sim_cup_sector.csv");
+  core::Metadata m = header;
+  m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
+  m.emplace_back("scene", "the built-in cup (cup_N<N>_K<K>_seed<S>.toml beside this file): K = 1 the whole cup, K = 4 "
+                          "its periodic quarter with one blade");
+  m.emplace_back("protocol", fmt::format("per N, seed and K: the settled fill, {} pre-shear cycle(s), then {} measured "
+                                         "cycle(s) of phi = {} sin(2 pi {} t), h = {} s, tolerance {} ({}), cap {}",
+                                         o.preshear_cycles, o.cycles, io::format_number(o.phi0_rad),
+                                         io::format_number(o.f_Hz), io::format_number(o.time_step_s),
+                                         io::format_number(o.tolerance), solver.words(), o.accuracy_cap));
+  m.emplace_back("torque_amplitude_N_m", "phi0 |K*_1| of the whole cup's motor torque (K x the simulated wedge's)");
+  m.emplace_back("r_c_m", "surface beads (within 1 d of the 99.5th height percentile): radius where the cycle mean "
+                          "|v_theta| first falls below 1 % of the vane tip's mean speed 4 phi0 f R_v (empty: never)");
+  io::CsvWriter csv(csv_file.stream(), m,
+                    std::vector<std::string>{"N", "sectors", "seed", "beads", "cycle", "torque_amplitude_N_m",
+                                             "K1p_N_m_per_rad", "K1pp_N_m_per_rad", "r_c_m", "mean_sweeps_per_step",
+                                             "cap_hits", "max_overlap_over_d", "wall_s"});
+  BenchSimSummary sum;
+  const std::vector<int> geometries = {1, 4};
+  const std::size_t total = o.chain_lengths.size() * geometries.size() * o.seeds.size();
+  std::size_t done = 0;
+  for (const int N : o.chain_lengths) {
+    struct Stats {
+      std::vector<double> amp, rc, cost;  // seed means
+      int beads = 0;
+    };
+    std::vector<Stats> stats(geometries.size());
+    for (std::size_t g = 0; g < geometries.size(); ++g)
+      for (const std::uint64_t seed : o.seeds) {
+        const int K = geometries[g];
+        io::AtomicOutput& f = out.add(fmt::format("cup_N{}_K{}_seed{}.toml", N, K, seed));
+        f.stream() << cup_scene(o, N, K, seed);
+        f.stream().flush();
+        sim::LoadedScene sc = load_cup(f.temp_path(), o.scene);
+        sim::WorldState pre =
+            restart(sc.world->state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
+        const auto t0 = std::chrono::steady_clock::now();
+        if (o.preshear_cycles > 0) {
+          sim::World p = sim::World::from_state(pre);
+          p.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, 0.0);
+          const std::int64_t steps = std::llround(o.preshear_cycles / (o.f_Hz * o.time_step_s));
+          for (std::int64_t k = 0; k < steps; ++k) (void)p.step();
+          pre = p.state();
+        }
+        const double pre_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const std::vector<CycleObservables> cyc = run_cycles(pre, o.phi0_rad, o.f_Hz, o.cycles);
+        const int mobile = mobile_count(*sc.world);
+        double amp = 0, rc = 0, cost = pre_wall / std::max(1, o.preshear_cycles);
+        int rc_n = 0;
+        if (o.preshear_cycles == 0) cost = 0;
+        for (std::size_t k = 0; k < cyc.size(); ++k) {
+          const CycleObservables& c = cyc[k];
+          csv.row(std::vector<std::string>{
+              std::to_string(N), std::to_string(K), std::to_string(seed), std::to_string(mobile), std::to_string(k),
+              sci(c.amplitude), sci(c.K1p), sci(c.K1pp), std::isnan(c.r_c) ? std::string() : sci(c.r_c),
+              fixed(c.mean_sweeps, 1), std::to_string(c.caps), sci(c.overlap), fixed(c.wall, 2)});
+          amp += c.amplitude / static_cast<double>(cyc.size());
+          if (!std::isnan(c.r_c)) {
+            rc += c.r_c;
+            ++rc_n;
+          }
+          cost = c.wall;
+        }
+        Stats& st = stats[g];
+        st.beads = mobile;
+        st.amp.push_back(amp);
+        st.rc.push_back(rc_n ? rc / rc_n : std::numeric_limits<double>::quiet_NaN());
+        st.cost.push_back(cost);
+        if (progress) progress(++done, total);
+      }
+    // Mean and seed-to-seed s.d. of the seed means (NaN r_c: a seed without one is left out).
+    auto mean_sd = [](const std::vector<double>& v) {
+      double mean = 0.0, n = 0.0;
+      for (const double x : v)
+        if (!std::isnan(x)) {
+          mean += x;
+          n += 1.0;
+        }
+      if (n == 0.0) return std::array<double, 3>{std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
+      mean /= n;
+      double var = 0.0;
+      for (const double x : v)
+        if (!std::isnan(x)) var += (x - mean) * (x - mean);
+      return std::array<double, 3>{mean, n > 1 ? std::sqrt(var / (n - 1)) : std::numeric_limits<double>::quiet_NaN(), n};
+    };
+    std::array<std::array<double, 3>, 2> a{}, r{};
+    for (std::size_t g = 0; g < geometries.size(); ++g) {
+      a[g] = mean_sd(stats[g].amp);
+      r[g] = mean_sd(stats[g].rc);
+      const auto c = mean_sd(stats[g].cost);
+      sum.lines.push_back(fmt::format(
+          "cup N = {}, {}: {} beads, torque amplitude {:.4g} +- {:.2g} N m, r_c {:.1f} +- {:.1f} mm (mean +- s.d. "
+          "over {} seeds), {:.3g} s per cycle",
+          N, geometries[g] == 1 ? "whole cup" : "quarter", stats[g].beads, a[g][0], a[g][1], 1e3 * r[g][0],
+          1e3 * r[g][1], o.seeds.size(), c[0]));
+    }
+    // The difference in units of its standard error (sqrt(s1²/n1 + s2²/n2)).
+    auto z = [](const std::array<double, 3>& x, const std::array<double, 3>& y) {
+      const double se = std::sqrt(x[1] * x[1] / x[2] + y[1] * y[1] / y[2]);
+      return (y[0] - x[0]) / se;
+    };
+    sum.lines.push_back(fmt::format("cup N = {}: quarter - whole: torque amplitude {:+.1f} % ({:+.1f} standard errors), "
+                                    "r_c {:+.1f} mm ({:+.1f} standard errors)",
+                                    N, 100.0 * (a[1][0] / a[0][0] - 1.0), z(a[0], a[1]), 1e3 * (r[1][0] - r[0][0]),
+                                    z(r[0], r[1])));
+  }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
+}
+
 BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& header,
                               const core::ProgressCallback& progress) {
   const bool builtin = o.scene == "cup";
@@ -447,6 +570,16 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
     throw ConfigError("bench sim: expected 0 < --phi0 <= 100 rad and 0 < --f-hz <= 1000");
   if (o.steps < 1 || o.steps > 100000 || o.warmup_steps < 0 || o.warmup_steps > 100000)
     throw ConfigError("bench sim: expected --steps 1..100000 and --warmup-steps 0..100000");
+  if (o.cup_sectors != 1 && o.cup_sectors != 4)
+    throw ConfigError(fmt::format("bench sim: --sectors {}: expected 1 (the whole cup) or 4 (a quarter: the cup's "
+                                  "four blades)",
+                                  o.cup_sectors));
+  if (o.cup_sectors != 1 && !builtin)
+    throw ConfigError("bench sim: --sectors applies to --scene cup (a scene file sets cylinder.sectors itself)");
+  if (o.sector_check) {
+    if (!builtin) throw ConfigError("bench sim: --sector-check compares the built-in cup's quarter and whole: --scene cup");
+    return run_sector_check(o, header, progress);
+  }
   io::AtomicOutputSet out(o.out_dir, o.force);
   io::AtomicOutput& csv_file = out.add(o.cup_accuracy ? "sim_cup_accuracy.csv" : "sim_cup.csv");
   const std::vector<int> lengths = builtin ? o.chain_lengths : std::vector<int>{0};
@@ -457,7 +590,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
       continue;
     }
     io::AtomicOutput& f = out.add(fmt::format("cup_N{}.toml", n));
-    f.stream() << cup_scene(o, n);
+    f.stream() << cup_scene(o, n, o.cup_sectors, o.seed);
     f.stream().flush();
     scenes.push_back(f.temp_path());
   }
@@ -685,7 +818,8 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     o.cup_tolerances = {1e-2, 1e-3};
     o.cup_time_steps_s = {1e-3};
     o.preshear_cycles = 0;
-    if (o.cup_accuracy) o.f_Hz = 10.0;  // 100 steps per cycle
+    o.seeds = {1, 2};
+    if (o.cup_accuracy || o.sector_check) o.f_Hz = 10.0;  // 100 steps per cycle
   }
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
   if (o.solvers.empty() || o.solvers.size() > 3)
@@ -697,7 +831,9 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError(fmt::format("bench sim: --anderson-depth {}: out of [1, 10]", o.anderson_depth));
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
-  if (o.cup_accuracy) {
+  if (o.sector_check && o.cup_accuracy)
+    throw ConfigError("bench sim: --sector-check and --accuracy are separate runs: give one");
+  if (o.cup_accuracy || o.sector_check) {
     if (o.scene.empty() || o.scene == "stir" || o.scene == "plow")
       throw ConfigError("bench sim: --accuracy charts the sheared cup: give --scene cup or a scene .toml with a [vane]");
     auto bad_list = [](const std::vector<double>& v, double hi) {

@@ -42,12 +42,19 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     chain_ids = sim::chain_ids_from_ropes(built->state());
   }
   sim::World& w = *built;
+  // The vane's torque as the whole cup's: k blades in a periodic sector of 1/k.
+  const double torque_scale = w.options().sectors != 0 ? w.options().sectors : 1.0;
+  auto whole_torque = [&] { return torque_scale * w.rotor_torque(0); };
   const bool branch = !std::isnan(o.branch_phi0_rad);
   if (branch) {
     if (o.restart.empty())
       throw ConfigError("--phi0 starts an amplitude branch from a checkpoint: give --restart (the pre-sheared state)");
     if (w.rotor_count() == 0)
       throw InputError(fmt::format("{}: the checkpoint has no vane: an amplitude branch needs one", o.restart.string()));
+    if (const int k = w.options().sectors; k != 0 && !(std::abs(o.branch_phi0_rad) < std::numbers::pi / k))
+      throw ConfigError(fmt::format("--phi0 {} rad: the blade would leave the checkpoint's periodic sector of 1/{} "
+                                    "(expected |phi0| < pi/{})",
+                                    o.branch_phi0_rad, k, k));
     const double f = std::isnan(o.branch_f_Hz) ? w.rotor(0).f_Hz : o.branch_f_Hz;
     if (!(std::abs(o.branch_phi0_rad) <= 100.0))
       throw ConfigError(fmt::format("--phi0 {}: expected |phi0| <= 100 rad", o.branch_phi0_rad));
@@ -99,6 +106,11 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   meta.emplace_back("freeze_sweeps", std::to_string(w.options().freeze_sweeps));
   meta.emplace_back("sweep_order", w.options().alternate_sweeps ? "alternate" : "forward");
   meta.emplace_back("anderson_depth", std::to_string(w.options().anderson_depth));
+  if (const int k = w.options().sectors; k != 0)
+    meta.emplace_back("sector", fmt::format("periodic 1/{} of the cup (cylinder.sectors = {}, azimuth from {} rad): "
+                                            "the snapshots hold that wedge; torques are the whole cup's, {} x the "
+                                            "wedge's blade",
+                                            k, k, io::format_number(w.options().sector_start), k));
   meta.emplace_back("bodies", std::to_string(w.body_count()));
   if (sum.kinematic_bodies > 0) meta.emplace_back("kinematic_bodies", std::to_string(sum.kinematic_bodies));
   if (sum.fill.settled) {
@@ -258,8 +270,8 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
         const sim::Rotor& r = w.rotor(0);
         const double t_mid = w.time() - 0.5 * h;  // the step's torque acts over it
         const double a = 2.0 * std::numbers::pi * r.f_Hz * (t_mid - r.t_start);
-        cyc.c += w.rotor_torque(0) * std::cos(a);
-        cyc.s += w.rotor_torque(0) * std::sin(a);
+        cyc.c += whole_torque() * std::cos(a);
+        cyc.s += whole_torque() * std::sin(a);
         cyc.sweeps += d.iterations;
         cyc.caps += d.hit_iteration_cap ? 1 : 0;
         cyc.overlap = std::max(cyc.overlap, d.max_overlap);
@@ -288,7 +300,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
         }
       }
       if (torque) {
-        torque_impulse += w.rotor_torque(0) * h;
+        torque_impulse += whole_torque() * h;
         torque_time += h;
         const double phi = w.rotor_angle(0);
         if (scene.torque_every_rad == 0 || std::abs(phi - phi_last) >= scene.torque_every_rad || k == todo ||

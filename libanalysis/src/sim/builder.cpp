@@ -42,6 +42,10 @@ bool inside(const Region& region, const Vec3& x, double r) {
   const auto& c = std::get<CylinderRegion>(region);
   const double dx = x.x() - c.cx, dy = x.y() - c.cy;
   const double rho = std::sqrt(dx * dx + dy * dy);
+  if (c.sectors != 0) {  // a bead's radius from both sides of the wedge (angle < π)
+    const double a0 = c.sector_start, a1 = c.sector_start + 2.0 * kPi / c.sectors;
+    if (-std::sin(a0) * dx + std::cos(a0) * dy < r || std::sin(a1) * dx - std::cos(a1) * dy < r) return false;
+  }
   return x.z() >= c.z0 + r && x.z() <= c.z1 - r && rho <= c.radius - r &&
          (c.inner_radius <= 0.0 || rho >= c.inner_radius + r);
 }
@@ -55,7 +59,9 @@ Vec3 random_centre(const Region& region, double r, std::mt19937_64& rng) {
   const auto& c = std::get<CylinderRegion>(region);
   // Uniform in area between the inner and outer radii the centre may take.
   const double ro = c.radius - r, ri = c.inner_radius > 0.0 ? std::min(ro, c.inner_radius + r) : 0.0;
-  const double rho = std::sqrt(ri * ri + (ro * ro - ri * ri) * u01(rng)), phi = 2.0 * kPi * u01(rng);
+  const double wedge = c.sectors != 0 ? 2.0 * kPi / c.sectors : 2.0 * kPi;
+  const double rho = std::sqrt(ri * ri + (ro * ro - ri * ri) * u01(rng));
+  const double phi = c.sectors != 0 ? c.sector_start + wedge * u01(rng) : 2.0 * kPi * u01(rng);
   const double z = c.z0 + r + u01(rng) * (c.z1 - c.z0 - 2.0 * r);
   return {c.cx + rho * std::cos(phi), c.cy + rho * std::sin(phi), z};
 }
@@ -203,7 +209,8 @@ double integrate_slices(const Vec3& c, double r, double z0, double z1, const std
 double region_volume(const Region& region) {
   if (const auto* b = std::get_if<BoxRegion>(&region)) return (b->hi - b->lo).prod();
   const auto& c = std::get<CylinderRegion>(region);
-  return kPi * (c.radius * c.radius - c.inner_radius * c.inner_radius) * (c.z1 - c.z0);
+  return kPi * (c.radius * c.radius - c.inner_radius * c.inner_radius) * (c.z1 - c.z0) /
+         (c.sectors != 0 ? c.sectors : 1);
 }
 
 double gravity_magnitude(const Options& o) { return o.gravity.norm(); }
@@ -242,6 +249,8 @@ void validate(const Region& region) {
   if (!(c.z1 > c.z0) || !std::isfinite(c.z0) || !std::isfinite(c.z1)) bad_option("region.z1", c.z1, "> z0");
   if (!(c.inner_radius >= 0.0 && c.inner_radius < c.radius))
     bad_option("region.inner_radius", c.inner_radius, "in [0, radius)");
+  if (c.sectors != 0 && (c.sectors < 3 || c.sectors > 64)) bad_option("region.sectors", c.sectors, "0 or in [3, 64]");
+  if (!std::isfinite(c.sector_start)) bad_option("region.sector_start", c.sector_start, "finite");
 }
 
 ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
@@ -380,7 +389,7 @@ FillResult fill(const Options& world_options, const FillOptions& o, const std::f
     z0 = b->lo.z();
   } else {
     auto& cyl = std::get<CylinderRegion>(insert);
-    floor_area = kPi * (cyl.radius * cyl.radius - cyl.inner_radius * cyl.inner_radius);
+    floor_area = kPi * (cyl.radius * cyl.radius - cyl.inner_radius * cyl.inner_radius) / (cyl.sectors != 0 ? cyl.sectors : 1);
     z0 = cyl.z0;
   }
   const double height = n_beads * bead_volume / (o.insert_fraction * floor_area) + d;
@@ -488,6 +497,7 @@ double sphere_region_volume(const Vec3& c, double r, const Region& region) {
                             [&](double rho) { return disc_rect(0.0, 0.0, rho, x0, x1, y0, y1); });
   }
   const auto& cyl = std::get<CylinderRegion>(region);
+  if (cyl.sectors != 0) throw ConfigError("sim builder region: the volume of a sphere in a wedge is not computed");
   if (cyl.inner_radius > 0.0) {  // the annulus: the outer cylinder minus the inner one
     CylinderRegion outer = cyl, inner = cyl;
     outer.inner_radius = inner.inner_radius = 0.0;

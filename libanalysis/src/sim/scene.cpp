@@ -34,6 +34,7 @@ const std::vector<std::string> kKeys = {
     "box.lid",
     "cylinder.radius_m",      "cylinder.height_m",      "cylinder.bead_diameter_m",
     "cylinder.centre_m",      "cylinder.floor_friction", "cylinder.rough_floor",
+    "cylinder.sectors",
     "beads.diameter_m",       "beads.density_kg_per_m3", "beads.positions_m",
     "beads.fixed_positions_m", "beads.kinematic_positions_m",
     "beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s",
@@ -270,6 +271,7 @@ struct SceneBodies {
   double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
   double cyl_cx = 0.0, cyl_cy = 0.0;
   bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
+  int sectors = 0;           ///< cylinder.sectors: a periodic wedge of 1/sectors of the cup (0: the whole cup)
   double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
   // Beads.
   double diameter = 0.0, density = 2500.0;
@@ -286,6 +288,9 @@ struct SceneBodies {
   bool settle = false;
   FillOptions settle_options;
 };
+
+/// The first side of a periodic wedge of 1/k of the cup: blade 0 (azimuth 0) in its middle.
+double sector_start(int k) { return k != 0 ? -std::numbers::pi / k : 0.0; }
 
 SceneBodies read_bodies(const Scene& s) {
   SceneBodies b;
@@ -321,6 +326,9 @@ SceneBodies read_bodies(const Scene& s) {
       b.cyl_cy = c[1];
     }
     b.cyl_floor_friction = s.non_negative("cylinder.floor_friction", vane_scene(s) ? kCupFriction : 0.5);
+    b.sectors = static_cast<int>(s.integer("cylinder.sectors", 1, 1, 64));
+    if (b.sectors == 2) s.fail("cylinder.sectors", "2 (expected 1, the whole cup, or 3 to 64)");
+    if (b.sectors == 1) b.sectors = 0;
     b.rough_floor = s.flag("cylinder.rough_floor", false);
     if (b.rough_floor) {
       b.floor_top = 0.5 * b.cyl_bead;
@@ -329,7 +337,7 @@ SceneBodies read_bodies(const Scene& s) {
         s.fail("cylinder.rough_floor", "the floor would hold more than 1e6 beads (a larger bead_diameter_m)");
     }
   } else if (s.has("cylinder.height_m") || s.has("cylinder.bead_diameter_m") || s.has("cylinder.centre_m") ||
-             s.has("cylinder.floor_friction") || s.has("cylinder.rough_floor")) {
+             s.has("cylinder.floor_friction") || s.has("cylinder.rough_floor") || s.has("cylinder.sectors")) {
     s.fail_file("[cylinder] needs radius_m (or radius_d)");
   }
 
@@ -395,6 +403,17 @@ SceneBodies read_bodies(const Scene& s) {
     if (!std::isfinite(b.vane_phase)) s.fail("vane.phase_rad", "expected a finite number");
     b.vane_torque_every = s.non_negative("vane.torque_every_rad", 1e-3);
     b.vane_stop_change = s.non_negative("vane.stop_change", 0.0);
+    if (b.sectors != 0) {  // one blade per wedge, in its middle, never reaching a side
+      if (blades != b.sectors)
+        s.fail("cylinder.sectors", fmt::format("{}: a periodic sector holds one blade, the vane has {} (expected "
+                                               "vane.blades = {})",
+                                               b.sectors, blades, b.sectors));
+      if (std::hypot(b.vane_centre.x() - b.cyl_cx, b.vane_centre.y() - b.cyl_cy) != 0.0)
+        s.fail("vane.centre_m", "a periodic sector needs the vane on the cylinder's axis");
+      if (!(std::abs(b.vane_phi0) < std::numbers::pi / b.sectors))
+        s.fail("vane.phi0_rad", fmt::format("{} rad: the blade would leave its sector (expected |phi0| < pi/{})",
+                                            b.vane_phi0, b.sectors));
+    }
     if (b.vane_stop_change > 0 && !(b.vane_f > 0)) s.fail("vane.stop_change", "needs vane.f_Hz > 0 (whole cycles)");
     // A hub bead on the axis and, per blade, touching beads at r = d, 2d, ... while the
     // tip bead's outer edge stays within radius_m; layers from the floor up to height_m.
@@ -447,6 +466,8 @@ SceneBodies read_bodies(const Scene& s) {
     c.z0 = b.floor_top;
     c.z1 = s.positive("fill.height_m", b.cyl_height);
     if (!(c.z1 > c.z0)) s.fail("fill.height_m", fmt::format("{} m: expected above the rough floor's top {} m", c.z1, c.z0));
+    c.sectors = b.sectors;
+    c.sector_start = sector_start(b.sectors);
     if (!b.vane.empty()) {
       if (std::hypot(b.vane_centre.x() - b.cyl_cx, b.vane_centre.y() - b.cyl_cy) > 1e-12 * b.cyl_radius)
         s.fail("vane.centre_m", "a cylinder fill around a vane needs the vane on the cylinder's axis");
@@ -457,6 +478,7 @@ SceneBodies read_bodies(const Scene& s) {
     }
     b.fill_region = c;
   } else {
+    if (b.sectors != 0) s.fail("fill.min_m", "a periodic sector (cylinder.sectors) is filled by the cylinder fill");
     b.fill_region = read_box(s, "fill.min_m", "fill.max_m");
     const BoxRegion& fb = std::get<BoxRegion>(b.fill_region);
     const Vec3 &flo = fb.lo, &fhi = fb.hi;
@@ -497,7 +519,8 @@ SceneBodies read_bodies(const Scene& s) {
       pb->hi.z() = std::max(pb->hi.z(), pb->lo.z() + column / (fo.insert_fraction * area) + d);
     } else {
       auto& pc = std::get<CylinderRegion>(placed);
-      const double area = std::numbers::pi * (pc.radius * pc.radius - pc.inner_radius * pc.inner_radius);
+      const double area = std::numbers::pi * (pc.radius * pc.radius - pc.inner_radius * pc.inner_radius) /
+                          (pc.sectors != 0 ? pc.sectors : 1);
       pc.z1 = std::max(pc.z1, pc.z0 + column / (fo.insert_fraction * area) + d);
     }
   }
@@ -571,17 +594,23 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
         const int cols = static_cast<int>(std::floor(rmax / dw)) + 1;
         for (int i = -cols; i <= cols; ++i) {
           const double x = i * dw + off;
-          if (std::hypot(x, y) <= rmax) w.add_sphere(Vec3(b.cyl_cx + x, b.cyl_cy + y, 0.0), dw, b.density, BodyKind::fixed);
+          const Vec3 p(b.cyl_cx + x, b.cyl_cy + y, 0.0);
+          if (std::hypot(x, y) <= rmax && sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::fixed);
         }
       }
     }
     const double rc = b.cyl_radius + 0.5 * dw;  // bead centres: the beads' inner surface at r
-    const auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
+    auto per_ring = static_cast<int>(std::ceil(2.0 * std::numbers::pi * rc / dw));
+    // A periodic sector: a whole number of wall beads per wedge, a quarter step off its
+    // sides (so each ring bead has exactly one image in the wedge).
+    const int k = b.sectors;
+    if (k != 0) per_ring = (per_ring + k - 1) / k * k;
+    const double offset = k != 0 ? 0.25 : 0.0;
     for (int layer = 0; (0.5 + layer) * dw <= b.cyl_height; ++layer)
-      for (int k = 0; k < per_ring; ++k) {
-        const double a = 2.0 * std::numbers::pi * (k + 0.5 * (layer % 2)) / per_ring;
-        w.add_sphere(Vec3(b.cyl_cx + rc * std::cos(a), b.cyl_cy + rc * std::sin(a), (0.5 + layer) * dw), dw,
-                     b.density, BodyKind::fixed);
+      for (int m = 0; m < per_ring; ++m) {
+        const double a = 2.0 * std::numbers::pi * (m + offset + 0.5 * (layer % 2)) / per_ring;
+        const Vec3 p(b.cyl_cx + rc * std::cos(a), b.cyl_cy + rc * std::sin(a), (0.5 + layer) * dw);
+        if (sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::fixed);
       }
   }
   for (const Vec3& x : b.fixed) w.add_sphere(x, b.diameter, b.density, BodyKind::fixed);
@@ -592,16 +621,20 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
       w.set_angular_velocity(id, b.kinematic_omega);
     }
   }
-  // The vane's beads: kinematic, at rest until the rotor is added to the run's world.
-  for (const Vec3& x : b.vane) w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
+  // The vane's beads: kinematic, at rest until the rotor is added to the run's world (in
+  // a periodic sector, the hub and the wedge's blade).
+  for (const Vec3& x : b.vane)
+    if (sector_contains(w.options(), x)) w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
 }
 
 /// The vane of a built world: its beads are the container's last kinematic bodies.
 void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
   if (b.vane.empty()) return;
   std::vector<int> ids;
-  const int first = container_bodies - static_cast<int>(b.vane.size());
-  for (int k = 0; k < static_cast<int>(b.vane.size()); ++k) ids.push_back(first + k);
+  int beads = 0;
+  for (const Vec3& x : b.vane) beads += sector_contains(w.options(), x) ? 1 : 0;
+  const int first = container_bodies - beads;
+  for (int k = 0; k < beads; ++k) ids.push_back(first + k);
   w.add_rotor(ids, b.vane_centre, Vec3::UnitZ(), b.vane_phi0, b.vane_f, b.vane_phase, 0.0);
 }
 
@@ -609,13 +642,39 @@ void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
 /// but places, drops and relaxes nothing. The fill stage's report goes to the result's `fill`.
 LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& protocol, bool check_only,
                         const FillProgress& progress) {
-  const Options opt = read_options(s);
+  Options opt = read_options(s);
   SceneBodies b = read_bodies(s);
+  if (b.sectors != 0) {  // the periodic wedge of the cup (World: "Periodic sector")
+    opt.sectors = b.sectors;
+    opt.sector_centre = Vec3(b.cyl_cx, b.cyl_cy, 0.0);
+    opt.sector_start = sector_start(b.sectors);
+    auto outside = [&](const std::vector<Vec3>& beads, const char* key) {
+      for (std::size_t k = 0; k < beads.size(); ++k)
+        if (!sector_contains(opt, beads[k]))
+          s.fail(key, fmt::format("bead {} at ({}, {}, {}) lies outside the periodic sector (azimuth in [{:.6g}, "
+                                  "{:.6g}) rad about the cylinder's axis)",
+                                  k, beads[k].x(), beads[k].y(), beads[k].z(), opt.sector_start,
+                                  opt.sector_start + 2.0 * std::numbers::pi / b.sectors));
+    };
+    outside(b.fixed, "beads.fixed_positions_m");
+    outside(b.kinematic, "beads.kinematic_positions_m");
+    outside(b.mobile, "beads.positions_m");
+  }
   if (protocol) {  // the pre-shear drives the vane; the branches restart from its checkpoint
     b.vane_phi0 = protocol->preshear_phi0_rad;
     b.vane_f = protocol->preshear_f_Hz;
     b.vane_phase = 0.0;
     b.vane_stop_change = protocol->stop_change;
+  }
+  if (protocol && b.sectors != 0) {  // every drive keeps the blade inside its wedge
+    const double limit = std::numbers::pi / b.sectors;
+    if (!(protocol->preshear_phi0_rad < limit))
+      s.fail("protocol.preshear_phi0_rad", fmt::format("{} rad: the blade would leave its sector (expected < pi/{})",
+                                                       protocol->preshear_phi0_rad, b.sectors));
+    for (const double a : protocol->phi0_rad)
+      if (!(a < limit))
+        s.fail("protocol.phi0_rad", fmt::format("{} rad: the blade would leave its sector (expected < pi/{})", a,
+                                                b.sectors));
   }
   // fill raises the drop column along +z: the beads must fall down it.
   if (b.settle && !(opt.gravity.z() < 0.0))

@@ -2,6 +2,11 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
 #include <unordered_map>
 
 #include <fmt/format.h>
@@ -29,23 +34,44 @@ SurfaceCamera::SurfaceCamera(SurfaceCameraOptions o) : o_(o) {
   for (double y = 0.5 * o_.spacing_px - 0.5; y < o_.height_px; y += o_.spacing_px) ys_px_.push_back(y);
 }
 
+namespace {
+
+/// The image of x rotated by m wedges of a periodic sector about its axis (x itself
+/// without a sector).
+Vec3 image_of(const Options& o, const Vec3& x, int m) {
+  if (o.sectors < 3 || m == 0) return x;
+  const Vec3 c(o.sector_centre.x(), o.sector_centre.y(), 0.0);
+  return c + Eigen::AngleAxisd(2.0 * std::numbers::pi * m / o.sectors, Vec3::UnitZ()) * (x - c);
+}
+
+}  // namespace
+
 void SurfaceCamera::record(const World& w) {
   const std::size_t nx = xs_px_.size(), ny = ys_px_.size();
   seen_.assign(nx * ny, -1);
+  image_.assign(nx * ny, 0);
   body_point_.assign(nx * ny, Vec3::Zero());
   world_point_.assign(nx * ny, Vec3::Zero());
+  centre_.assign(nx * ny, Vec3::Zero());
+  // A periodic sector is seen whole: every bead in each of its k images.
+  const Options& opt = w.options();
+  const int images = opt.sectors >= 3 ? opt.sectors : 1;
   // Mobile beads in a horizontal cell grid (cell = the largest diameter).
   double dmax = 0;
   for (int b = 0; b < w.body_count(); ++b)
     if (w.kind(b) == BodyKind::mobile) dmax = std::max(dmax, w.diameter(b));
-  std::unordered_map<std::int64_t, std::vector<int>> cells;
+  std::unordered_map<std::int64_t, std::vector<std::pair<int, int>>> cells;  // (bead, image)
   auto cell_key = [](std::int64_t i, std::int64_t j) { return i * 4000037 + j; };
   const double cell = dmax > 0 ? dmax : 1.0;
+  std::vector<Vec3> at(static_cast<std::size_t>(w.body_count()) * static_cast<std::size_t>(images));
   for (int b = 0; b < w.body_count(); ++b) {
     if (w.kind(b) != BodyKind::mobile) continue;
-    const Vec3& x = w.position(b);
-    cells[cell_key(static_cast<std::int64_t>(std::floor(x.x() / cell)), static_cast<std::int64_t>(std::floor(x.y() / cell)))]
-        .push_back(b);
+    for (int m = 0; m < images; ++m) {
+      const Vec3 x = image_of(opt, w.position(b), m);
+      at[static_cast<std::size_t>(b) * static_cast<std::size_t>(images) + static_cast<std::size_t>(m)] = x;
+      cells[cell_key(static_cast<std::int64_t>(std::floor(x.x() / cell)), static_cast<std::int64_t>(std::floor(x.y() / cell)))]
+          .emplace_back(b, m);
+    }
   }
   for (std::size_t i = 0; i < ny; ++i)
     for (std::size_t j = 0; j < nx; ++j) {
@@ -58,34 +84,40 @@ void SurfaceCamera::record(const World& w) {
         continue;
       }
       const auto ci = static_cast<std::int64_t>(std::floor(X / cell)), cj = static_cast<std::int64_t>(std::floor(Y / cell));
-      int best = -1;
+      int best = -1, best_image = 0;
       double top = -std::numeric_limits<double>::infinity();
       for (std::int64_t di = -1; di <= 1; ++di)
         for (std::int64_t dj = -1; dj <= 1; ++dj) {
           const auto it = cells.find(cell_key(ci + di, cj + dj));
           if (it == cells.end()) continue;
-          for (int b : it->second) {
-            const Vec3& x = w.position(b);
+          for (const auto& [b, m] : it->second) {
+            const Vec3& x = at[static_cast<std::size_t>(b) * static_cast<std::size_t>(images) + static_cast<std::size_t>(m)];
             const double rb = 0.5 * w.diameter(b);
             const double dx = X - x.x(), dy = Y - x.y(), h2 = rb * rb - dx * dx - dy * dy;
             if (h2 < 0) continue;
             const double z = x.z() + std::sqrt(h2);  // the bead surface above the node
-            if (z > top || (z == top && b < best)) {
+            if (z > top || (z == top && (b < best || (b == best && m < best_image)))) {
               top = z;
               best = b;
+              best_image = m;
             }
           }
         }
       if (best < 0) continue;
       const Vec3 p(X, Y, top);
       seen_[n] = best;
+      image_[n] = best_image;
       world_point_[n] = p;
-      body_point_[n] = w.orientation(best).conjugate() * (p - w.position(best));
+      centre_[n] = image_of(opt, w.position(best), best_image);
+      // The point in the bead's frame (its image turned back into the wedge).
+      body_point_[n] = w.orientation(best).conjugate() * (image_of(opt, p, -best_image) - w.position(best));
     }
 }
 
 core::VectorField SurfaceCamera::pair(const World& w) {
   if (seen_.empty()) throw InternalError("SurfaceCamera::pair before record");
+  const Options& opt = w.options();
+  const int images = opt.sectors >= 3 ? opt.sectors : 1;
   core::VectorField f;
   f.x_px = xs_px_;
   f.y_px = ys_px_;
@@ -100,7 +132,18 @@ core::VectorField SurfaceCamera::pair(const World& w) {
       f.flag[n] = core::VectorFlag::kInvalid;
       continue;
     }
-    const Vec3 now = w.position(b) + w.orientation(b) * body_point_[n];
+    // In a periodic sector the bead may have moved to another image since frame a: the
+    // one nearest its centre then is the same bead.
+    int m = image_[n];
+    if (images > 1) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < images; ++k)
+        if (const double dist = (image_of(opt, w.position(b), k) - centre_[n]).squaredNorm(); dist < nearest) {
+          nearest = dist;
+          m = k;
+        }
+    }
+    const Vec3 now = image_of(opt, w.position(b) + w.orientation(b) * body_point_[n], m);
     const Vec3 d = now - world_point_[n];
     f.u_px[n] = static_cast<float>(d.x() / o_.m_per_px);
     f.v_px[n] = static_cast<float>(-d.y() / o_.m_per_px);

@@ -95,6 +95,15 @@ struct BenchSimOptions {
   int cycles = 2;
   int preshear_cycles = 1;
   int accuracy_cap = 5000;
+  /// The built-in cup as a periodic wedge of 1/cup_sectors with one blade (1: the whole
+  /// cup; 4: a quarter, the cup's four-blade symmetry). Torques are the whole cup's.
+  int cup_sectors = 1;
+  /// --scene cup --sector-check: the quarter against the whole cup (sim_cup_sector.csv).
+  /// Per N and fill seed, each geometry is filled, pre-sheared `preshear_cycles` cycles
+  /// and measured over `cycles` cycles (torque amplitude, K'1, K''1, r_c) at --time-step
+  /// and --tolerance with the first solver.
+  bool sector_check = false;
+  std::vector<std::uint64_t> seeds = {1, 2, 3};
   std::filesystem::path out_dir;
   bool force = false;
 };

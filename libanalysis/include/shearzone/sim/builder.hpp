@@ -55,6 +55,11 @@ struct CylinderRegion {
   double radius = 1.0;
   double z0 = 0.0, z1 = 1.0;
   double inner_radius = 0.0;
+  /// A wedge of it (0: the whole cylinder): azimuth in [sector_start, sector_start +
+  /// 2π/sectors), the periodic sector of a world (Options::sectors). A bead wholly
+  /// inside keeps its radius from both sides, so it never overlaps the images of another.
+  int sectors = 0;
+  double sector_start = 0.0;
 };
 
 using Region = std::variant<BoxRegion, CylinderRegion>;
@@ -150,7 +155,8 @@ void validate(const FillOptions& options);
 /// Volume of the intersection of a sphere with a region (m³), exact up to the
 /// quadrature of the slice areas (closed-form disc ∩ rectangle / disc ∩ disc areas,
 /// integrated over z by 8-point Gauss–Legendre on 16 panels between the kinks of the
-/// slice area; relative error < 1e-10, checked against cap volumes in the tests).
+/// slice area; relative error < 1e-10, checked against cap volumes in the tests). A
+/// wedge (CylinderRegion::sectors) is refused (ConfigError).
 [[nodiscard]] double sphere_region_volume(const Vec3& centre, double radius, const Region& region);
 
 struct PackingMeasurement {
@@ -159,7 +165,8 @@ struct PackingMeasurement {
   int spheres = 0;            ///< mobile spheres that intersect the region
 };
 
-/// Packing fraction of the mobile spheres of `world` inside `region`.
+/// Packing fraction of the mobile spheres of `world` inside `region` (not for a wedge:
+/// ConfigError).
 [[nodiscard]] PackingMeasurement packing_fraction(const World& world, const Region& region);
 
 }  // namespace shearzone::sim

@@ -26,7 +26,13 @@
 //                touching, layers from z = 0) and a floor plane at z = 0; rough_floor
 //                adds a layer of touching fixed beads (triangular lattice, centres on the
 //                plane, centres within radius_m), and the fill and the vane's layers then
-//                start at their tops (z = bead_diameter_m / 2)
+//                start at their tops (z = bead_diameter_m / 2); sectors (1: the whole cup;
+//                3..64: a periodic wedge of 1/sectors of the cup, azimuth from -pi/sectors,
+//                World's "Periodic sector": wall rings of a multiple of sectors beads, the
+//                fill, floor beads and vane beads of that wedge only; needs the cylinder
+//                fill, a [vane] of that many blades on the axis (blade 0 in the wedge's
+//                middle) and every drive amplitude below pi/sectors; torques are logged
+//                as the whole cup's, sectors x the wedge's)
 //     [beads]    diameter_m, density_kg_per_m3, positions_m = [x0, y0, z0, x1, ...]
 //                (mobile, explicit), fixed_positions_m = [...] (fixed beads),
 //                kinematic_positions_m = [...] (kinematic beads, prescribed motion),

@@ -13,7 +13,8 @@
 // (centre and orientation at frame b against frame a, rigid body), so spin counts as
 // it would in the video. Flags: `masked` inside the vane's disc (r < vane radius) and
 // outside the cup (r > cup radius); `invalid` where no mobile bead covers the node;
-// `valid` otherwise (peak 1, peak ratio 10: exact values).
+// `valid` otherwise (peak 1, peak ratio 10: exact values). A periodic sector
+// (Options::sectors = k) is seen as the whole cup: each bead in its k images.
 #pragma once
 
 #include <cstddef>
@@ -55,6 +56,8 @@ class SurfaceCamera {
   std::vector<int> seen_;              // per node: the bead, -1 none, -2 masked
   std::vector<Vec3> body_point_;       // per node: the point in the bead's frame
   std::vector<Vec3> world_point_;      // per node: the point in the world at frame a
+  std::vector<int> image_;             // per node: the bead's image (periodic sector), 0 else
+  std::vector<Vec3> centre_;           // per node: that image's centre at frame a
 };
 
 }  // namespace shearzone::sim
