@@ -255,7 +255,8 @@ struct CycleObservables {
 /// NaN when it never does).
 std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double phi0, double f, int cycles) {
   sim::World w = sim::World::from_state(state);
-  w.set_rotor_drive(0, phi0, f, 0.0, w.time());
+  const double t_drive = w.time();  // the drive's phase counts from here
+  w.set_rotor_drive(0, phi0, f, 0.0, t_drive);
   const sim::Rotor& rotor = w.rotor(0);
   const double torque_scale = w.options().sectors != 0 ? w.options().sectors : 1.0;  // the whole cup's
   const sim::Vec3 c = rotor.centre, axis = rotor.axis;
@@ -286,7 +287,7 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
     double sweeps = 0.0;
     for (std::int64_t s = 0; s < per_cycle; ++s) {
       const sim::StepDiagnostics dg = w.step();
-      theta.push_back(2.0 * std::numbers::pi * f * (w.time() - 0.5 * h));  // the step's torque acts over it
+      theta.push_back(2.0 * std::numbers::pi * f * (w.time() - t_drive - 0.5 * h));  // the step's torque acts over it
       torque.push_back(torque_scale * w.rotor_torque(0));
       sweeps += dg.iterations;
       o.caps += dg.hit_iteration_cap ? 1 : 0;
