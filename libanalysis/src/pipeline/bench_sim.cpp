@@ -334,6 +334,17 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
   return out;
 }
 
+/// The filled cup with the measured solver (--time-step, --tolerance, --accuracy-cap, one
+/// thread), driven for `preshear_cycles` cycles of φ0 sin(2πf t) from t = 0.
+sim::WorldState preshear(const sim::World& filled, const BenchSimOptions& o, const SolverChoice& solver) {
+  sim::World p = restart(filled.state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver);
+  if (o.preshear_cycles <= 0) return p.state();
+  p.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, 0.0);
+  const std::int64_t steps = std::llround(o.preshear_cycles / (o.f_Hz * o.time_step_s));
+  for (std::int64_t k = 0; k < steps; ++k) (void)p.step();
+  return p.state();
+}
+
 /// --scene cup --accuracy: the observables of the sheared cup against the solver's
 /// tolerance and time step (sim_cup_accuracy.csv, a row per N, setting and cycle).
 BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std::filesystem::path>& scenes,
@@ -361,14 +372,7 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std
     sim::LoadedScene sc = load_cup(scenes[i], o.scene);
     sim::World& w = *sc.world;
     const int mobile = mobile_count(w);
-    sim::WorldState pre = restart(w.state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
-    if (o.preshear_cycles > 0) {
-      sim::World p = sim::World::from_state(pre);
-      p.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, 0.0);
-      const std::int64_t steps = std::llround(o.preshear_cycles / (o.f_Hz * o.time_step_s));
-      for (std::int64_t k = 0; k < steps; ++k) (void)p.step();
-      pre = p.state();
-    }
+    const sim::WorldState pre = preshear(w, o, solver);
     const int N = sc.beads_per_chain;
     struct Mean {
       double amp = 0, k1p = 0, k1pp = 0, rc = 0, cost = 0;
@@ -474,16 +478,8 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
         f.stream() << cup_scene(o, N, K, seed);
         f.stream().flush();
         sim::LoadedScene sc = load_cup(f.temp_path(), o.scene);
-        sim::WorldState pre =
-            restart(sc.world->state(), o.time_step_s, o.tolerance, o.accuracy_cap, 1, o.freeze_sweeps, solver).state();
         const auto t0 = std::chrono::steady_clock::now();
-        if (o.preshear_cycles > 0) {
-          sim::World p = sim::World::from_state(pre);
-          p.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, 0.0);
-          const std::int64_t steps = std::llround(o.preshear_cycles / (o.f_Hz * o.time_step_s));
-          for (std::int64_t k = 0; k < steps; ++k) (void)p.step();
-          pre = p.state();
-        }
+        const sim::WorldState pre = preshear(*sc.world, o, solver);
         const double pre_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const std::vector<CycleObservables> cyc = run_cycles(pre, o.phi0_rad, o.f_Hz, o.cycles);
         const int mobile = mobile_count(*sc.world);
