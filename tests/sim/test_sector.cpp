@@ -299,3 +299,26 @@ TEST_CASE("The camera sees a periodic quarter as the whole cup", "[sim][sector]"
   }
   CHECK(wrapped_seen > 0);  // a bead moved to its image between two frames
 }
+
+TEST_CASE("A periodic sector's state is checked on restart", "[sim][sector]") {
+  Options o = sector(tight());
+  o.tolerance = 1e-6;
+  World a(o);
+  build(a, 1);
+  for (int k = 0; k < 60; ++k) a.step();
+  const WorldState good = a.state();
+  WorldState s = good;
+  s.ropes[0].image = 2;  // more than one wedge apart
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("image 2"));
+  s = good;
+  s.angles[0].image_next = -2;
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("image -2"));
+  s = good;
+  s.options.sectors = 0;  // a rope across a seam without a sector
+  s.ropes[0].image = 1;
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("image 1"));
+  s = good;
+  s.options.sectors = 2;
+  CHECK_THROWS_WITH(World::from_state(s), Catch::Matchers::Contains("sectors"));
+  CHECK_NOTHROW(World::from_state(good));
+}
