@@ -222,7 +222,9 @@ std::string cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_
       fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
       fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N / sectors)),
-      fmt::arg("seed", seed), fmt::arg("sectors", sectors > 1 ? fmt::format("sectors = {}\n", sectors) : ""));
+      fmt::arg("seed", seed), fmt::arg("sectors", sectors > 1 ? fmt::format("sectors = {}\n{}", sectors,
+                                                   N > 1 ? "sector_chains = true\n" : "")
+                                     : ""));
 }
 
 /// A vane cup scene, filled (InputError without a [vane]).
