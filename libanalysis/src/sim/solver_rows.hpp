@@ -82,11 +82,15 @@ struct Sector {
     const double sk = k > 0 ? s : -s;
     return {c * v.x() - sk * v.y(), sk * v.x() + c * v.y(), v.z()};
   }
+  /// R^k v for any k (one wedge turn at a time).
+  [[nodiscard]] Vec3 turn(Vec3 v, int k) const {
+    for (; k > 0; --k) v = rot(v, 1);
+    for (; k < 0; ++k) v = rot(v, -1);
+    return v;
+  }
   /// The image of a point: centre + R^k (x − centre), any k.
   [[nodiscard]] Vec3 place(const Vec3& x, int k) const {
-    Vec3 p(x.x() - cx, x.y() - cy, x.z());
-    for (; k > 0; --k) p = rot(p, 1);
-    for (; k < 0; ++k) p = rot(p, -1);
+    const Vec3 p = turn(Vec3(x.x() - cx, x.y() - cy, x.z()), k);
     return {p.x() + cx, p.y() + cy, p.z()};
   }
   /// Distance of x from the first side's plane (positive inside).

@@ -434,12 +434,11 @@ void World::find_contacts(double alert) {
   }
 }
 
-void World::apply_contact(const ContactRow& r, const Vec3& p) {
+void World::apply_contact(const ContactRow& r, const Vec3& p, const detail::Sector& sec) {
   SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
   SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
   const Vec3 np = r.n.cross(p);
   if (r.image != 0) {  // j's side of a seam row, in j's frame
-    const detail::Sector sec(opt_);
     bj.v += bj.inv_mass * sec.rot(p, -1);
     bj.w -= (bj.inv_inertia * r.rj) * sec.rot(np, -1);
   } else {
@@ -464,7 +463,7 @@ void World::prepare_rows() {
       r.pn = previous_[p].pn;
       r.pt = previous_[p].pt - previous_[p].pt.dot(r.n) * r.n;
       r.status = previous_[p].status;
-      if (r.pn > 0.0 || r.pt.squaredNorm() > 0.0) apply_contact(r, r.pn * r.n + r.pt);
+      if (r.pn > 0.0 || r.pt.squaredNorm() > 0.0) apply_contact(r, r.pn * r.n + r.pt, sec);
     }
   }
   for (RopeRow& r : ropes_) {
@@ -945,6 +944,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
   };
   // A row frozen for the next sweep keeps G (zero impulse).
   SolverBody* const B = body_.data();
+  const detail::Sector sec(opt_);
   for (int k : lists.contacts) {
     if (zs[k] <= quiet_below) continue;
     ContactRow& r = contacts_[static_cast<std::size_t>(k)];
@@ -965,7 +965,7 @@ void World::anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep
       r.quiet = 0;
       r.pn = pn;
       r.pt = pt;
-      apply_contact(r, dpn * r.n + dpt);
+      apply_contact(r, dpn * r.n + dpt, sec);
     }
   }
   // A rope or angle row (`row` its index among all rows, `at` its vector entry): λ̃ ≥ 0,
@@ -1025,19 +1025,13 @@ void World::wrap_sector() {
   const std::size_t n = x_.size();
   wrapped_.assign(n, 0);
   bool any = false;
-  auto turn = [&](const Vec3& v, int k) {
-    Vec3 r = v;
-    for (; k > 0; --k) r = sec.rot(r, 1);
-    for (; k < 0; ++k) r = sec.rot(r, -1);
-    return r;
-  };
   for (std::size_t b = 0; b < n; ++b) {
     if (kind_[b] != BodyKind::mobile) continue;
     const int m = sec.wedges(x_[b]);
     if (m == 0) continue;
     x_[b] = sec.place(x_[b], -m);
-    body_[b].v = turn(body_[b].v, -m);
-    body_[b].w = turn(body_[b].w, -m);
+    body_[b].v = sec.turn(body_[b].v, -m);
+    body_[b].w = sec.turn(body_[b].w, -m);
     q_[b] = (Eigen::Quaterniond(Eigen::AngleAxisd(-m * sec.width, Vec3::UnitZ())) * q_[b]).normalized();
     wrapped_[b] = static_cast<std::int8_t>(m);
     any = true;
@@ -1069,19 +1063,19 @@ void World::wrap_sector() {
     }
     moved = true;
     if (c.i < 0) {  // a wall row (horizontal wall): the impulse in j's new frame
-      r.n = turn(r.n, -wj);
-      r.pt = turn(r.pt, -wj);
+      r.n = sec.turn(r.n, -wj);
+      r.pt = sec.turn(r.pt, -wj);
       c.key = wall_key(c.wall, r.j);
       keep.push_back(k);
       continue;
     }
     int image = r.image + wj - wi;
-    r.n = turn(r.n, -wi);
-    r.pt = turn(r.pt, -wi);
+    r.n = sec.turn(r.n, -wi);
+    r.pt = sec.turn(r.pt, -wi);
     if (image < -1 || image > 1) continue;
     if (image == -1 || (image == 0 && c.i > r.j)) {  // (i, j, k) is (j, i, −k) seen from j
-      r.n = -turn(r.n, -image);
-      r.pt = -turn(r.pt, -image);
+      r.n = -sec.turn(r.n, -image);
+      r.pt = -sec.turn(r.pt, -image);
       std::swap(c.i, r.j);
       std::swap(r.ri, r.rj);
       image = -image;

@@ -241,6 +241,7 @@ struct RowLists;
 struct SweepTotals;
 struct SweepControl;
 struct Anderson;
+struct Sector;
 }  // namespace detail
 
 class World {
@@ -358,7 +359,7 @@ class World {
   void sweep_parallel(detail::SweepControl& control, int rows);
   void sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out,
                    detail::Anderson* aa = nullptr, double* sums = nullptr);
-  void apply_contact(const ContactRow& r, const Vec3& p);
+  void apply_contact(const ContactRow& r, const Vec3& p, const detail::Sector& sec);
   void anderson_begin(detail::Anderson& a);  // sizes the scratch
   void anderson_apply(const RowLists& lists, detail::Anderson& a, int sweep);
   void integrate_positions();                          // 5
