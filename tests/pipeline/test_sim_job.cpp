@@ -319,10 +319,14 @@ TEST_CASE("protocol: a pre-shear stops once its torque is steady, then amplitude
           "[pipeline][sim][vane][slow]") {
   TempDir dir("sim_protocol");
   // Pre-shear: f = 2 Hz, 10 s at most, stopping when the torque amplitude changed by less
-  // than 50 % over 3 consecutive cycles (loose, to keep the test short).
-  std::string pre = with(with(with(kVaneCup, "duration_s = 2.0", "duration_s = 10.0"), "f_Hz = 1.0",
-                              "f_Hz = 2.0\nstop_change = 0.5"),
-                         "[camera]\nfps = 25\nspacing_px = 8\n", "");
+  // than 50 % over 3 consecutive cycles (loose, to keep the test short). Converged to 1e-4:
+  // at 1e-3 (cap 100) this 150-bead cup's cycle amplitudes scatter by a factor 4
+  // (0.30-1.44 mN m over 20 cycles with Anderson), so no 50 % criterion is met by design;
+  // at 1e-4 (cap 400) cycles 4-6 agree within 15 % and the run stops after 7 cycles.
+  std::string pre = with(with(with(with(kVaneCup, "duration_s = 2.0", "duration_s = 10.0"), "f_Hz = 1.0",
+                                   "f_Hz = 2.0\nstop_change = 0.5"),
+                              "[camera]\nfps = 25\nspacing_px = 8\n", ""),
+                         "tolerance = 1e-3\nmax_iterations = 100", "tolerance = 1e-4\nmax_iterations = 400");
   const auto ps = run_scene(dir, pre, "pre");
   CHECK(ps.stopped_steady);
   CHECK(ps.cycles_done >= 4);
