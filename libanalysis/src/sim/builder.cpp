@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "solver_rows.hpp"
 
 namespace shearzone::sim {
 
@@ -32,8 +33,9 @@ bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y())
 /// Uniform double in [0, 1) from the top 53 bits (portable, unlike std::uniform_real_distribution).
 double u01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11U) * 0x1.0p-53; }
 
-/// Bead centre wholly inside the region (bead radius r).
-bool inside(const Region& region, const Vec3& x, double r) {
+/// Bead centre wholly inside the region (bead radius r); `sides`: also a radius from both
+/// sides of a wedge (false where the wedge is periodic and a bead may cross them).
+bool inside(const Region& region, const Vec3& x, double r, bool sides = true) {
   if (const auto* b = std::get_if<BoxRegion>(&region)) {
     for (int k = 0; k < 3; ++k)
       if (x[k] < b->lo[k] + r || x[k] > b->hi[k] - r) return false;
@@ -42,7 +44,7 @@ bool inside(const Region& region, const Vec3& x, double r) {
   const auto& c = std::get<CylinderRegion>(region);
   const double dx = x.x() - c.cx, dy = x.y() - c.cy;
   const double rho = std::sqrt(dx * dx + dy * dy);
-  if (c.sectors != 0) {  // a bead's radius from both sides of the wedge (angle < π)
+  if (c.sectors != 0 && sides) {  // a bead's radius from both sides of the wedge (angle < π)
     const double a0 = c.sector_start, a1 = c.sector_start + 2.0 * kPi / c.sectors;
     if (-std::sin(a0) * dx + std::cos(a0) * dy < r || std::sin(a1) * dx - std::cos(a1) * dy < r) return false;
   }
@@ -273,12 +275,31 @@ ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
   out.chain_of_bead.reserve(total);
   std::mt19937_64 rng(o.seed);
   HashGrid grid(min_dist);
+  // A periodic wedge (CylinderRegion::sectors): a chain grows across the sides as in the
+  // whole cup, each bead kept as its image inside the wedge and tested against every image
+  // of the beads placed, so no chain is folded to fit the wedge.
+  const auto* cyl = std::get_if<CylinderRegion>(&region);
+  const int images = cyl != nullptr && cyl->sectors != 0 ? cyl->sectors : 1;
+  Options wedge_options;
+  if (images > 1) {
+    wedge_options.sectors = images;
+    wedge_options.sector_centre = Vec3(cyl->cx, cyl->cy, 0.0);
+    wedge_options.sector_start = cyl->sector_start;
+  }
+  const detail::Sector sector(wedge_options);
+  const double self_gap = 2.0 * std::sin(kPi / images);  // |x - R x| / rho
+  auto clash = [&](const Vec3& w, int skip) {
+    for (int m = 0; m < images; ++m)
+      if (grid.near(m == 0 ? w : sector.place(w, m), min_dist, out.positions, skip)) return true;
+    return false;
+  };
   for (int c = 0; c < o.chains; ++c) {
     bool done = false;
     for (int attempt = 0; attempt < o.max_attempts && !done; ++attempt) {
       if (attempt > 0) ++out.restarts;
       const std::size_t start = out.positions.size();
       std::vector<Vec3> dirs;  // bond direction arriving at each placed bead of this chain
+      std::vector<Vec3> walk;  // the chain's beads as grown (a periodic wedge: not wrapped)
       int backtracks = 0;
       int k = 0;
       while (k < n) {
@@ -291,15 +312,23 @@ ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
           } else {
             nd = random_direction(dirs.back(), k == 1 ? kPi : o.theta_max, rng);
             const double len = d + o.l_max * u01(rng);
-            x = out.positions.back() + len * nd;
+            x = walk.back() + len * nd;
           }
-          if (!inside(region, x, r)) continue;
+          if (!inside(region, x, r, images == 1)) continue;
+          Vec3 w = x;  // the bead as placed: its image inside the wedge
+          if (images > 1) {
+            w = sector.place(x, -sector.wedges(x));
+            // Not on its own image (near the axis) and inside after round-off.
+            if (std::hypot(w.x() - cyl->cx, w.y() - cyl->cy) * self_gap < min_dist || sector.wedges(w) != 0)
+              continue;
+          }
           const int skip = k == 0 ? -1 : static_cast<int>(out.positions.size()) - 1;
-          if (grid.near(x, min_dist, out.positions, skip)) continue;
-          grid.insert(static_cast<int>(out.positions.size()), x);
-          out.positions.push_back(x);
+          if (clash(w, skip)) continue;
+          grid.insert(static_cast<int>(out.positions.size()), w);
+          out.positions.push_back(w);
           out.chain_of_bead.push_back(c);
           dirs.push_back(nd);
+          walk.push_back(x);
           ok = true;
         }
         if (ok) {
@@ -311,6 +340,7 @@ ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
           out.positions.pop_back();
           out.chain_of_bead.pop_back();
           dirs.pop_back();
+          walk.pop_back();
           --k;
         } else {
           break;

@@ -56,8 +56,9 @@ struct CylinderRegion {
   double z0 = 0.0, z1 = 1.0;
   double inner_radius = 0.0;
   /// A wedge of it (0: the whole cylinder): azimuth in [sector_start, sector_start +
-  /// 2π/sectors), the periodic sector of a world (Options::sectors). A bead wholly
-  /// inside keeps its radius from both sides, so it never overlaps the images of another.
+  /// 2π/sectors), the periodic sector of a world (Options::sectors). place_chains grows
+  /// chains across its sides as in the whole cylinder and keeps each bead as its image
+  /// inside the wedge, clear of every image of the others (and of its own).
   int sectors = 0;
   double sector_start = 0.0;
 };
