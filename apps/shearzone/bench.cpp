@@ -111,6 +111,9 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   s->add_flag("--sector-check", so->sector_check,
               "With --scene cup: the periodic quarter against the whole cup, per N and fill seed (sim_cup_sector.csv)");
+  s->add_option("--reference", so->sector_reference,
+                "With --sector-check: take the whole cup's rows from this earlier sim_cup_sector.csv (same protocol, "
+                "beads, N and seeds) instead of running it again");
   s->add_option("--seeds", so->seeds, "Fill seeds of --sector-check; range: 1 to 32 seeds")
       ->delimiter(',')
       ->capture_default_str();

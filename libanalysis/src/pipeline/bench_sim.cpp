@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -436,6 +437,41 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std
   return sum;
 }
 
+/// The whole cup's rows for N and seed from a --reference table: each copied into `csv`,
+/// the seed's mean torque amplitude, mean r_c (NaN: none) and last cycle's wall time
+/// appended; returns the bead count. Rows missing, a cycle count or bead count other
+/// than this run's: InputError naming the file and line.
+int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std::uint64_t seed, io::CsvWriter& csv,
+                   std::vector<double>& amp, std::vector<double>& rc, std::vector<double>& cost) {
+  const std::size_t cN = ref.column_index("N"), cK = ref.column_index("sectors"), cS = ref.column_index("seed");
+  const std::size_t cB = ref.column_index("beads"), cA = ref.column_index("torque_amplitude_N_m");
+  const std::size_t cR = ref.column_index("r_c_m"), cW = ref.column_index("wall_s");
+  const int beads = std::max(1, o.cup_beads / N) * N;  // the whole cup's mobile beads (cup_scene)
+  double a = 0.0, r = 0.0, wall = 0.0;
+  int rows = 0, r_n = 0;
+  for (std::size_t i = 0; i < ref.num_rows(); ++i) {
+    if (ref.number(i, cN) != N || ref.number(i, cK) != 1 || ref.number(i, cS) != static_cast<double>(seed)) continue;
+    if (ref.number(i, cB) != beads)
+      throw InputError(fmt::format("{}:{}: {} beads in the whole cup (expected {}: --cup-beads {}, N = {})", ref.source,
+                                   ref.row_lines[i], ref.rows[i][cB], beads, o.cup_beads, N));
+    csv.row(ref.rows[i]);
+    a += ref.number(i, cA);
+    if (!ref.cell_empty(i, cR)) {
+      r += ref.number(i, cR);
+      ++r_n;
+    }
+    wall = ref.number(i, cW);
+    ++rows;
+  }
+  if (rows != o.cycles)
+    throw InputError(fmt::format("{}: {} whole-cup rows for N = {}, seed {} (expected {}, one per measured cycle)",
+                                 ref.source, rows, N, seed, o.cycles));
+  amp.push_back(a / rows);
+  rc.push_back(r_n ? r / r_n : std::numeric_limits<double>::quiet_NaN());
+  cost.push_back(wall);
+  return beads;
+}
+
 /// --scene cup --sector-check: the periodic quarter against the whole cup. Per N, seed
 /// and geometry: the settled fill, `preshear_cycles` cycles, then `cycles` measured cycles
 /// (run_cycles; torques the whole cup's). Terminal lines: per N and geometry the mean over
@@ -451,18 +487,34 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
   m.emplace_back("machine", fmt::format("{} hardware threads; {}", std::thread::hardware_concurrency(), cpu_model()));
   m.emplace_back("scene", "the built-in cup (cup_N<N>_K<K>_seed<S>.toml beside this file): K = 1 the whole cup, K = 4 "
                           "its periodic quarter with one blade");
-  m.emplace_back("protocol", fmt::format("per N, seed and K: the settled fill, {} pre-shear cycle(s), then {} measured "
-                                         "cycle(s) of phi = {} sin(2 pi {} t), h = {} s, tolerance {} ({}), cap {}",
-                                         o.preshear_cycles, o.cycles, io::format_number(o.phi0_rad),
-                                         io::format_number(o.f_Hz), io::format_number(o.time_step_s),
-                                         io::format_number(o.tolerance), solver.words(), o.accuracy_cap));
+  const std::string protocol = fmt::format(
+      "per N, seed and K: the settled fill, {} pre-shear cycle(s), then {} measured cycle(s) of phi = {} sin(2 pi {} "
+      "t), h = {} s, tolerance {} ({}), cap {}",
+      o.preshear_cycles, o.cycles, io::format_number(o.phi0_rad), io::format_number(o.f_Hz),
+      io::format_number(o.time_step_s), io::format_number(o.tolerance), solver.words(), o.accuracy_cap);
+  m.emplace_back("protocol", protocol);
+  // The whole cup's rows of an earlier run of the same protocol (--reference).
+  std::optional<io::CsvTable> reference;
+  if (!o.sector_reference.empty()) {
+    reference = io::read_csv(o.sector_reference);
+    const std::string theirs = core::metadata_value(reference->metadata, "protocol", "");
+    if (theirs != protocol)
+      throw InputError(fmt::format("{}: protocol \"{}\" (expected this run's: \"{}\")",
+                                   o.sector_reference.string(), theirs, protocol));
+    m.emplace_back("reference", fmt::format("the whole cup's rows (sectors = 1) copied from {}",
+                                            o.sector_reference.filename().string()));
+  }
   m.emplace_back("torque_amplitude_N_m", "phi0 |K*_1| of the whole cup's motor torque (K x the simulated wedge's)");
   m.emplace_back("r_c_m", "surface beads (within 1 d of the 99.5th height percentile): radius where the cycle mean "
                           "|v_theta| first falls below 1 % of the vane tip's mean speed 4 phi0 f R_v (empty: never)");
-  io::CsvWriter csv(csv_file.stream(), m,
-                    std::vector<std::string>{"N", "sectors", "seed", "beads", "cycle", "torque_amplitude_N_m",
-                                             "K1p_N_m_per_rad", "K1pp_N_m_per_rad", "r_c_m", "mean_sweeps_per_step",
-                                             "cap_hits", "max_overlap_over_d", "wall_s"});
+  const std::vector<std::string> columns{"N",      "sectors",          "seed",          "beads",
+                                         "cycle",  "torque_amplitude_N_m", "K1p_N_m_per_rad", "K1pp_N_m_per_rad",
+                                         "r_c_m",  "mean_sweeps_per_step", "cap_hits",      "max_overlap_over_d",
+                                         "wall_s"};
+  if (reference && reference->columns != columns)
+    throw InputError(fmt::format("{}: columns {} (expected sim_cup_sector.csv's: {})", o.sector_reference.string(),
+                                 fmt::join(reference->columns, ","), fmt::join(columns, ",")));
+  io::CsvWriter csv(csv_file.stream(), m, columns);
   BenchSimSummary sum;
   const std::vector<int> geometries = {1, 4};
   const std::size_t total = o.chain_lengths.size() * geometries.size() * o.seeds.size();
@@ -476,6 +528,11 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
     for (std::size_t g = 0; g < geometries.size(); ++g)
       for (const std::uint64_t seed : o.seeds) {
         const int K = geometries[g];
+        if (K == 1 && reference) {
+          stats[g].beads = reference_rows(*reference, o, N, seed, csv, stats[g].amp, stats[g].rc, stats[g].cost);
+          if (progress) progress(++done, total);
+          continue;
+        }
         io::AtomicOutput& f = out.add(fmt::format("cup_N{}_K{}_seed{}.toml", N, K, seed));
         f.stream() << cup_scene(o, N, K, seed);
         f.stream().flush();
@@ -830,6 +887,8 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError(fmt::format("bench sim: --anderson-depth {}: out of [1, 10]", o.anderson_depth));
   for (int t : o.threads)
     if (t < 1 || t > 256) throw ConfigError(fmt::format("bench sim: --threads {}: out of [1, 256]", t));
+  if (!o.sector_reference.empty() && !o.sector_check)
+    throw ConfigError("bench sim: --reference is the whole cup's rows of --sector-check: give --sector-check");
   if (o.sector_check && o.cup_accuracy)
     throw ConfigError("bench sim: --sector-check and --accuracy are separate runs: give one");
   if (o.cup_accuracy || o.sector_check) {

@@ -103,6 +103,10 @@ struct BenchSimOptions {
   /// and measured over `cycles` cycles (torque amplitude, K'1, K''1, r_c) at --time-step
   /// and --tolerance with the first solver.
   bool sector_check = false;
+  /// --sector-check --reference CSV: the whole cup's rows (sectors = 1) taken from an
+  /// earlier sim_cup_sector.csv of the same protocol and bead count instead of run again
+  /// (the whole cup is deterministic and costs 5x the quarter); empty: run both.
+  std::filesystem::path sector_reference;
   std::vector<std::uint64_t> seeds = {1, 2, 3};
   std::filesystem::path out_dir;
   bool force = false;
