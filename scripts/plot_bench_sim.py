@@ -106,7 +106,7 @@ def mean_sd(values):
 
 def cup_accuracy(d):
     path = os.path.join(d, "sim_cup_accuracy.csv")
-    rows = read_csv(path)
+    rows = [r for r in read_csv(path) if not r.get("diverged")]  # a diverged setting has no observables
     keys = list(dict.fromkeys((r["N"], r["time_step_s"], r["tolerance"]) for r in rows))
     groups = list(dict.fromkeys((k[0], k[1]) for k in keys))
     fig, axes = plt.subplots(2, 2, figsize=(6.6, 5.2))

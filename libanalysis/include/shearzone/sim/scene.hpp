@@ -32,8 +32,8 @@
 //                fill, floor beads and vane beads of that wedge only; needs the cylinder
 //                fill, a [vane] of that many blades on the axis (blade 0 in the wedge's
 //                middle) and every drive amplitude below pi/sectors; torques are logged
-//                as the whole cup's, sectors x the wedge's); with chains (N > 1) only
-//                with sector_chains = true (validated for single beads only)
+//                as the whole cup's, sectors x the wedge's); chains longer than 9
+//                beads only with sector_chains = true (validated for N = 1 and 9)
 //     [beads]    diameter_m, density_kg_per_m3, positions_m = [x0, y0, z0, x1, ...]
 //                (mobile, explicit), fixed_positions_m = [...] (fixed beads),
 //                kinematic_positions_m = [...] (kinematic beads, prescribed motion),
