@@ -204,6 +204,9 @@ SweepStats time_sheared(const sim::WorldState& state, int threads, const SolverC
   return r;
 }
 
+/// Chains of N beads the built-in cup holds in a wedge of 1/sectors (sectors = 1: whole).
+int cup_chains(const BenchSimOptions& o, int N, int sectors) { return std::max(1, o.cup_beads / N / sectors); }
+
 /// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads (a sector with
 /// chains beyond the validated 9 beads sets sector_chains: the bench measures them).
 std::string cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
@@ -223,7 +226,7 @@ std::string cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_
       fmt::arg("N", N), fmt::arg("h", io::format_number(o.time_step_s)), fmt::arg("tol", io::format_number(o.tolerance)),
       fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
       fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
-      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", std::max(1, o.cup_beads / N / sectors)),
+      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", cup_chains(o, N, sectors)),
       fmt::arg("seed", seed), fmt::arg("sectors", sectors > 1 ? fmt::format("sectors = {}\n{}", sectors,
                                                    N > 9 ? "sector_chains = true\n" : "")
                                      : ""));
@@ -461,7 +464,7 @@ int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std
   const std::size_t cN = ref.column_index("N"), cK = ref.column_index("sectors"), cS = ref.column_index("seed");
   const std::size_t cB = ref.column_index("beads"), cA = ref.column_index("torque_amplitude_N_m");
   const std::size_t cR = ref.column_index("r_c_m"), cW = ref.column_index("wall_s");
-  const int beads = std::max(1, o.cup_beads / N) * N;  // the whole cup's mobile beads (cup_scene)
+  const int beads = cup_chains(o, N, 1) * N;  // the whole cup's mobile beads
   double a = 0.0, r = 0.0, wall = 0.0;
   int rows = 0, r_n = 0;
   for (std::size_t i = 0; i < ref.num_rows(); ++i) {

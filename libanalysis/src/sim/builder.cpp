@@ -33,9 +33,9 @@ bool finite(const Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y())
 /// Uniform double in [0, 1) from the top 53 bits (portable, unlike std::uniform_real_distribution).
 double u01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11U) * 0x1.0p-53; }
 
-/// Bead centre wholly inside the region (bead radius r); `sides`: also a radius from both
-/// sides of a wedge (false where the wedge is periodic and a bead may cross them).
-bool inside(const Region& region, const Vec3& x, double r, bool sides = true) {
+/// Bead centre wholly inside the region (bead radius r). A wedge's sides do not bound it:
+/// place_chains grows chains across a periodic wedge's sides and wraps each bead inside.
+bool inside(const Region& region, const Vec3& x, double r) {
   if (const auto* b = std::get_if<BoxRegion>(&region)) {
     for (int k = 0; k < 3; ++k)
       if (x[k] < b->lo[k] + r || x[k] > b->hi[k] - r) return false;
@@ -44,10 +44,6 @@ bool inside(const Region& region, const Vec3& x, double r, bool sides = true) {
   const auto& c = std::get<CylinderRegion>(region);
   const double dx = x.x() - c.cx, dy = x.y() - c.cy;
   const double rho = std::sqrt(dx * dx + dy * dy);
-  if (c.sectors != 0 && sides) {  // a bead's radius from both sides of the wedge (angle < π)
-    const double a0 = c.sector_start, a1 = c.sector_start + 2.0 * kPi / c.sectors;
-    if (-std::sin(a0) * dx + std::cos(a0) * dy < r || std::sin(a1) * dx - std::cos(a1) * dy < r) return false;
-  }
   return x.z() >= c.z0 + r && x.z() <= c.z1 - r && rho <= c.radius - r &&
          (c.inner_radius <= 0.0 || rho >= c.inner_radius + r);
 }
@@ -314,7 +310,7 @@ ChainPlacement place_chains(const Region& region, const ChainOptions& o) {
             const double len = d + o.l_max * u01(rng);
             x = walk.back() + len * nd;
           }
-          if (!inside(region, x, r, images == 1)) continue;
+          if (!inside(region, x, r)) continue;
           Vec3 w = x;  // the bead as placed: its image inside the wedge
           if (images > 1) {
             w = sector.place(x, -sector.wedges(x));
