@@ -40,6 +40,9 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx);
 /// `shearzone sim`.
 std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx);
 
+/// `shearzone sim render` (`sim` is the `sim` subcommand).
+std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx);
+
 /// `shearzone width`.
 std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 

@@ -317,6 +317,8 @@ class Help:
                 for line in r.stdout.splitlines():
                     if re.match(r"^\S.*:$", line):
                         section = line[:-1]
+                        if section == "Positionals":  # a command with subcommands may take its own arguments
+                            subs.add(POSITIONALS)
                         continue
                     m = re.match(r"^  (\S+)", line)
                     if not m:
@@ -327,6 +329,9 @@ class Help:
                         opts.update(x for x in m.group(1).split(",") if x.startswith("-"))
                 self.cache[key] = (subs, opts)
         return self.cache[key]
+
+
+POSITIONALS = "<positionals>"  # in a command's subcommand set: it also runs with its own positionals
 
 
 def is_option(w):
@@ -349,9 +354,11 @@ def check_exists(words, helps):
         w = words[i]
         if is_option(w):
             break
+        if w not in subs and POSITIONALS in subs:
+            break  # `shearzone sim SCENE ...`: the command itself, not a subcommand
         if w not in subs:
             where = " ".join(["shearzone", *path])
-            return f"`{where}` has no subcommand {w!r} (expected one of: {', '.join(sorted(subs))})"
+            return f"`{where}` has no subcommand {w!r} (expected one of: {', '.join(sorted(subs - {POSITIONALS}))})"
         path.append(w)
         h = helps.get(path)
         if h is None:

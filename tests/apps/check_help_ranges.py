@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 COMMANDS = [["synth", "particles"], ["synth", "beads"], ["piv"], ["profile"], ["width"],
-            ["fit", "erf"], ["fit", "power"], ["laos"], ["sim"], ["collapse", "erf"],
+            ["fit", "erf"], ["fit", "power"], ["laos"], ["sim"], ["sim", "render"], ["sim", "check"], ["collapse", "erf"],
             ["collapse", "fss"], ["bench", "piv"], ["bench", "sim"]]
 OPTION = re.compile(r"^  (-[-\w,]+)(?: (\S+(?: x \d+)?(?: \.\.\.)?))?(?:\s{2,}(.*))?$")
 

@@ -339,6 +339,9 @@ void H5File::read_record_raw(const std::string& dataset, std::size_t index, std:
 void H5File::read_record(const std::string& d, std::size_t i, float* o) const {
   read_record_raw(d, i, H5T_NATIVE_FLOAT, o);
 }
+void H5File::read_record(const std::string& d, std::size_t i, double* o) const {
+  read_record_raw(d, i, H5T_NATIVE_DOUBLE, o);
+}
 void H5File::read_record(const std::string& d, std::size_t i, std::uint8_t* o) const {
   read_record_raw(d, i, H5T_NATIVE_UINT8, o);
 }

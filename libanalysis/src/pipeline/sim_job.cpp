@@ -172,6 +172,37 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     camera->record(w);
     next_frame_step = w.steps_done() + std::llround(frame_s / h);
   }
+  // The bodies at every camera frame (frame k of surface.h5's pairs is record k), with
+  // the scene a renderer needs (pipeline/sim_render_job.hpp).
+  std::optional<sim::SnapshotWriter> frames;
+  if (scene.camera && scene.camera->frames && o.camera_frames) {
+    const sim::SceneCamera& sc = *scene.camera;
+    core::Metadata fm = meta;
+    auto num = [](double v) { return io::format_number(v); };
+    fm.emplace_back("frames", "the bodies at the camera's frames: record k is frame k of surface.h5 (its pair k "
+                              "runs from record k to record k + 1)");
+    fm.emplace_back("camera_fps", num(sc.fps));
+    fm.emplace_back("bead_diameter_m", num(sc.bead_diameter_m));
+    fm.emplace_back("N", std::to_string(scene.beads_per_chain));
+    fm.emplace_back("cup_centre_x_m", num(sc.options.cx_m));
+    fm.emplace_back("cup_centre_y_m", num(sc.options.cy_m));
+    fm.emplace_back("cup_radius_m", num(sc.options.cup_radius_m));
+    fm.emplace_back("cup_height_m", num(sc.cup_height_m));
+    fm.emplace_back("sectors", std::to_string(w.options().sectors));
+    fm.emplace_back("vane_blades", std::to_string(w.rotor_count() > 0 ? sc.vane_blades : 0));
+    fm.emplace_back("vane_radius_m", num(sc.options.vane_radius_m));
+    fm.emplace_back("vane_height_m", num(sc.vane_height_m));
+    if (w.rotor_count() > 0) {
+      const sim::Rotor& r = w.rotor(0);
+      fm.emplace_back("f_Hz", num(r.f_Hz));
+      fm.emplace_back("phi0_rad", num(r.phi0));
+      fm.emplace_back("vane_phase_rad", num(r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start));
+      fm.emplace_back("vane_angle", "phi(t) = phi0_rad sin(2 pi f_Hz t + vane_phase_rad), t = time_s; blade j at "
+                                    "azimuth phi + 2 pi j / vane_blades, counter-clockwise seen from above (+z)");
+    }
+    frames.emplace(out.add("frames.h5").temp_path(), w, fm, chain_ids);
+    frames->append(w);
+  }
 
   // Per drive cycle of the vane (f > 0): the torque's fundamental amplitude and the
   // solver's work, and the early stop of a pre-shear (vane.stop_change).
@@ -244,6 +275,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   };
   auto finish_files = [&] {
     finish_surface();
+    if (frames) frames->close();
     snaps.close();
     sim::write_snapshot_xdmf(xdmf_file.stream(), "snapshots.h5", snaps.body_count(), snaps.times());
     sum.snapshots = snaps.snapshot_count();
@@ -261,6 +293,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       if (camera && w.steps_done() == next_frame_step) {
         const core::VectorField f = camera->pair(w);
         surface->append(f, frame, frame + 1, t_frame, w.time() - t_frame);
+        if (frames) frames->append(w);
         ++frame;
         t_frame = w.time();
         next_frame_step = sum.first_step + std::llround((t_first + static_cast<double>(frame + 1) * frame_s) / h) -
@@ -374,6 +407,7 @@ SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata
   {
     SimJobOptions pre = o;
     pre.output_dir = o.output_dir / "preshear";
+    pre.camera_frames = false;
     core::Metadata h = header;
     h.emplace_back("protocol_stage",
                    fmt::format("pre-shear: phi = {} sin(2 pi {} t) for {} s (stop_change {})",

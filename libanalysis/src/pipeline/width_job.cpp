@@ -150,6 +150,9 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
           p.has_lockin ? "" : ", or give `shearzone profile` the drive frequency (--f-hz) so that the lock-in "
                               "estimator can run");
     }
+    wr.ci_low_m = row.res.ci_low_m;
+    wr.ci_high_m = row.res.ci_high_m;
+    wr.v_noise_m_per_s = row.res.v_noise_m_per_s;
     report.push_back(wr);
     rows.push_back(std::move(row));
   }

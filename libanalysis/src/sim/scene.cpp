@@ -48,7 +48,7 @@ const std::vector<std::string> kKeys = {
     "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
     "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
     "camera.fps",             "camera.m_per_px",        "camera.spacing_px",
-    "vane.stop_change",
+    "vane.stop_change",       "camera.frames",
     "protocol.preshear_phi0_rad", "protocol.preshear_f_Hz", "protocol.preshear_s",
     "protocol.stop_change",   "protocol.phi0_rad",      "protocol.f_Hz",
     "protocol.cycles",
@@ -691,7 +691,7 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
   if (b.settle && !(opt.gravity.z() < 0.0))
     s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
   LoadedScene out;
-  if (s.has("camera.fps") || s.has("camera.m_per_px") || s.has("camera.spacing_px")) {
+  if (s.has("camera.fps") || s.has("camera.m_per_px") || s.has("camera.spacing_px") || s.has("camera.frames")) {
     if (!b.cylinder) s.fail_file("[camera] looks down into a [cylinder] (give the cup as [cylinder])");
     SceneCamera& c = out.camera.emplace();
     c.fps = s.positive("camera.fps", 25.0);
@@ -711,6 +711,11 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
     co.cy_m = b.cyl_cy;
     co.cup_radius_m = b.cyl_radius;
     co.vane_radius_m = b.vane.empty() ? 0.0 : s.num("vane.radius_m", 0.0);
+    c.frames = s.flag("camera.frames", true);
+    c.bead_diameter_m = b.diameter;
+    c.cup_height_m = b.cyl_height;
+    c.vane_blades = b.vane.empty() ? 0 : static_cast<int>(s.integer("vane.blades", 4, 1, 64));
+    c.vane_height_m = b.vane.empty() ? 0.0 : s.num("vane.height_m", 0.0);
   }
   out.torque_every_rad = b.vane_torque_every;
   out.stop_change = b.vane_stop_change;

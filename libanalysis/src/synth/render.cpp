@@ -94,9 +94,17 @@ cv::Mat render_particles(const std::vector<double>& x, const std::vector<double>
 cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
                      const std::vector<double>& top, const std::vector<double>& albedo,
                      cv::Size size, double diameter_px, const BeadShading& sh) {
-  SHEARZONE_CHECK(x.size() == y.size() && x.size() == top.size() && x.size() == albedo.size());
-  SHEARZONE_CHECK(diameter_px > 0 && sh.supersample >= 1);
-  const double R = diameter_px / 2.0;
+  SHEARZONE_CHECK(diameter_px > 0);
+  return render_beads(x, y, top, albedo, std::vector<double>(x.size(), diameter_px), size, sh);
+}
+
+cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
+                     const std::vector<double>& top, const std::vector<double>& albedo,
+                     const std::vector<double>& diameter_px, cv::Size size, const BeadShading& sh) {
+  SHEARZONE_CHECK(x.size() == y.size() && x.size() == top.size() && x.size() == albedo.size() &&
+                  x.size() == diameter_px.size());
+  SHEARZONE_CHECK(sh.supersample >= 1);
+  for (const double d : diameter_px) SHEARZONE_CHECK(d > 0);
   const int S = sh.supersample;
 
   const double az = sh.light_azimuth_deg * std::numbers::pi / 180.0;
@@ -117,6 +125,7 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
   const int bands = (size.height + band_rows - 1) / band_rows;
   std::vector<std::vector<std::size_t>> band_members(static_cast<std::size_t>(bands));
   for (std::size_t b = 0; b < x.size(); ++b) {
+    const double R = diameter_px[b] / 2.0;
     if (y[b] + R < -0.5 || y[b] - R > size.height - 0.5) continue;
     if (x[b] + R < -0.5 || x[b] - R > size.width - 0.5) continue;
     const int i0 = std::max(0, static_cast<int>(std::floor(y[b] - R + 0.5)));
@@ -135,6 +144,7 @@ cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
     std::vector<double> depth(static_cast<std::size_t>((r_hi - r_lo) * cols), -1e300);
     std::vector<double> shade(depth.size(), sh.gap_level);
     for (std::size_t b : band_members[static_cast<std::size_t>(band)]) {
+      const double R = diameter_px[b] / 2.0;
       const int c0 = std::max(0, first_sample(x[b] - R));
       const int c1 = std::min(cols - 1, first_sample(x[b] + R) - 1);
       const int q0 = std::max(r_lo, first_sample(y[b] - R));

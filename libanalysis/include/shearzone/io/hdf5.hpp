@@ -87,6 +87,7 @@ class H5File {
   /// Reads record `index` of a dataset [n, record_dims...] into `out` (the product
   /// of record_dims elements): the streaming counterpart of append().
   void read_record(const std::string& dataset, std::size_t index, float* out) const;
+  void read_record(const std::string& dataset, std::size_t index, double* out) const;
   void read_record(const std::string& dataset, std::size_t index, std::uint8_t* out) const;
   /// Checks what a dataset declares before anything is allocated for it: its size
   /// must fit the memory budget (memory_budget_bytes()), and a dataset of more than

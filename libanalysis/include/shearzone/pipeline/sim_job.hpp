@@ -31,6 +31,10 @@ struct SimJobOptions {
   double branch_phi0_rad = std::numeric_limits<double>::quiet_NaN();
   double branch_f_Hz = std::numeric_limits<double>::quiet_NaN();
   double branch_cycles = std::numeric_limits<double>::quiet_NaN();
+  /// With a [camera] whose `frames` is true: write frames.h5, the bodies at every camera
+  /// frame (what `shearzone sim render` draws). The protocol's pre-shear sets it false:
+  /// its minutes of frames are not a measurement.
+  bool camera_frames = true;
 };
 
 struct SimJobSummary {

@@ -31,6 +31,8 @@ struct WidthRow {
   profile::WidthStatus status = profile::WidthStatus::kOk;
   profile::Estimator estimator = profile::Estimator::kMeanAbs;  ///< the one used
   double rc_m = 0;  ///< NaN when not reported (noise_limited)
+  double ci_low_m = 0, ci_high_m = 0;  ///< the bootstrap interval (NaN: none)
+  double v_noise_m_per_s = 0;          ///< the floor the status used
 };
 
 /// Returns one row per input (status and, for noise_limited, the advice text).

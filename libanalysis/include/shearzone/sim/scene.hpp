@@ -137,6 +137,14 @@ struct SceneFillReport {
 struct SceneCamera {
   double fps = 25.0;
   SurfaceCameraOptions options;  ///< the image covers the cylinder, its axis at the centre
+  /// camera.frames: write frames.h5, the bodies at every camera frame, from which
+  /// `shearzone sim render` draws the video (pipeline/sim_render_job.hpp).
+  bool frames = true;
+  // The scene the renderer draws, in SI units (the cup's axis at options.cx_m, cy_m).
+  double bead_diameter_m = 0.0;
+  double cup_height_m = 0.0;
+  int vane_blades = 0;             ///< 0: no vane
+  double vane_height_m = 0.0;
 };
 
 /// [protocol]: the paper's protocol in one scene (pipeline::run_sim_protocol): fill and

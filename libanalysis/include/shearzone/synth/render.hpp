@@ -45,6 +45,10 @@ struct BeadShading {
 cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
                      const std::vector<double>& top, const std::vector<double>& albedo,
                      cv::Size size, double diameter_px, const BeadShading& shading);
+/// The same with a diameter per bead (a perspective view: nearer beads look larger).
+cv::Mat render_beads(const std::vector<double>& x, const std::vector<double>& y,
+                     const std::vector<double>& top, const std::vector<double>& albedo,
+                     const std::vector<double>& diameter_px, cv::Size size, const BeadShading& shading);
 
 /// An opaque vane seen from above: `blades` straight blades of half-width
 /// `half_width_px` from the centre out to `radius_px`, blade k along the direction

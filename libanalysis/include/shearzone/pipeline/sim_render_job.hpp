@@ -1,0 +1,181 @@
+// shearzone/pipeline/sim_render_job.hpp: `shearzone sim render`: the lab camera's view
+// of a simulated cup, drawn from the run's frames.h5 (written by a run whose scene has
+// a [camera]; sim_job.hpp).
+//
+// What RUN/frames.h5 holds (the snapshot layout of sim/sim_io.hpp, one record per
+// camera frame, record k = frame k of surface.h5) plus the scene as root attributes:
+// camera_fps, bead_diameter_m, N, cup_centre_x_m, cup_centre_y_m, cup_radius_m,
+// cup_height_m, sectors, vane_blades, vane_radius_m, vane_height_m, and for a driven
+// vane f_Hz, phi0_rad, vane_phase_rad (phi(t) = phi0 sin(2 pi f t + vane_phase_rad)).
+//
+// What OUT/ receives (all or nothing, io/atomic_output.hpp):
+//   video.mp4 (or frame_000000.png ...)  8-bit grey frames at camera_fps, frame 0 at
+//                                        the run's first frame (video time 0)
+//   camera.json   the camera and the cup in pixels: m_per_px on the bead surface,
+//                 centre, cup and vane radii, blades, drive, frame count, conventions
+//   piv.toml      `shearzone piv VIDEO --config piv.toml` masks the vane from the
+//                 drive and stores centre, radii, scale, N and the drive, so that
+//                 `profile` and `width` need no geometry on the command line
+//   vane_angle.csv  time_s (video time), angle_rad: the vane's angle log per frame
+//
+// The look (synth/render.hpp, the `synth beads` model): shaded steel spheres with a
+// specular highlight, lower beads darker by depth (and hidden by the ones above); the
+// cup's rim as a bright ring (its top face, rim_width_px wide beyond the wall's inner
+// edge: the line that `profile --detect-cup` fits) with a dark band inside it (the
+// wall's inner face and its shadow); opaque dark vane blades; then optional blur,
+// sensor noise and JPEG compression. Every random number is seeded from `seed`, the
+// bead and the frame, so two renders of a run are the same bytes (PNG).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+#include "shearzone/core/unset.hpp"
+#include "shearzone/core/vector_field.hpp"
+#include "shearzone/synth/camera.hpp"
+#include "shearzone/synth/render.hpp"
+
+namespace shearzone::pipeline {
+
+/// The cup that frames.h5 describes (SI units).
+struct RenderedCup {
+  double fps = 25.0;
+  double bead_diameter_m = 0.0;
+  int N = 1;
+  double cup_cx_m = 0.0, cup_cy_m = 0.0, cup_radius_m = 0.0, cup_height_m = 0.0;
+  int sectors = 0;                      ///< periodic 1/k of the cup (drawn whole), 0: whole
+  int vane_blades = 0;                  ///< 0: no vane
+  double vane_radius_m = 0.0, vane_height_m = 0.0;
+  double f_Hz = 0.0, phi0_rad = 0.0, vane_phase_rad = 0.0;
+  /// phi(t) = phi0 sin(2 pi f t + vane_phase_rad).
+  [[nodiscard]] double vane_angle(double t_s) const;
+};
+
+/// The bodies of one frame that the camera sees (mobile and fixed beads; the vane is
+/// drawn from its drive). A periodic sector's bodies appear in every image, rotated by
+/// 2 pi j / sectors; id = body index * max(1, sectors) + j names a bead across frames.
+struct FrameBodies {
+  double t_s = 0.0;  ///< simulated time
+  std::vector<double> x, y, z;
+  std::vector<std::int64_t> id;
+  std::vector<bool> mobile;
+};
+
+/// Reads frames.h5 (InputError naming the file and what is wrong).
+class FramesFile {
+ public:
+  explicit FramesFile(const std::filesystem::path& path);
+  [[nodiscard]] const RenderedCup& cup() const { return cup_; }
+  [[nodiscard]] std::size_t size() const { return times_.size(); }
+  [[nodiscard]] double time(std::size_t k) const { return times_.at(k); }
+  [[nodiscard]] FrameBodies frame(std::size_t k) const;
+  /// The bead surface's height: the 90th percentile of the mobile beads' centre heights
+  /// in frame 0 (the plane PIV measures on).
+  [[nodiscard]] double surface_z_m() const { return surface_z_; }
+  [[nodiscard]] const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  RenderedCup cup_;
+  std::vector<double> times_;
+  std::vector<std::uint8_t> kind_;
+  double surface_z_ = 0.0;
+};
+
+/// Beads as the camera projects them: px centres, tops (px, for depth order: higher
+/// hides lower), diameters (px) and albedos, with the id of FrameBodies.
+struct ProjectedBeads {
+  std::vector<double> x, y, top, diameter, albedo;
+  std::vector<std::int64_t> id;
+};
+
+struct CupLook {
+  synth::BeadShading shading;
+  double rim_level = 0.9;      ///< the rim's top face: a bright ring beyond the cup radius
+  double rim_width_px = 4.0;   ///< its width
+  double outside_level = 0.15; ///< beyond the rim
+  double wall_level = 0.04;    ///< the wall's inner face and shadow, a band inside the rim
+  double vane_level = 0.12;    ///< the vane blades
+  double depth_fade_d = 1.0;   ///< beads darken by e per this many diameters below the surface
+  double albedo_spread = 0.1;  ///< per-bead albedo scatter (uniform, +-), seeded by bead
+  double noise = 0.01;         ///< sensor noise, fraction of full scale (Gaussian)
+  double blur_px = 0.0;        ///< Gaussian blur sigma before the noise, px (0: none)
+  int jpeg_quality = 0;        ///< 1..100: each frame through JPEG at this quality; 0: none
+  std::uint64_t seed = 1;
+  /// ConfigError naming the bad value.
+  void validate() const;
+};
+
+/// Projects the beads of a frame (beads beyond the image are dropped).
+ProjectedBeads project_beads(const synth::DownCamera& camera, const RenderedCup& cup, const FrameBodies& bodies,
+                             double surface_z_m, const CupLook& look);
+
+/// The image of the vane's blades and the cup's rim as drawn (px).
+struct CupImage {
+  double centre_x_px = 0, centre_y_px = 0;
+  double cup_radius_px = 0;      ///< the cup's wall at the bead surface (the profile's R)
+  double rim_radius_px = 0;      ///< the wall's inner edge at the rim (the rim's face starts there)
+  double vane_radius_px = 0, vane_half_width_px = 0;  ///< the blades as drawn (at the vane's top)
+  double vane_surface_radius_px = 0;  ///< the vane's radius on the bead surface (the profile's R_v)
+};
+CupImage cup_image(const synth::DownCamera& camera, const RenderedCup& cup, double surface_z_m);
+
+/// One 8-bit frame: beads, rim, vane at angle `vane_angle_rad`, blur, noise (seeded by
+/// look.seed and `frame`), compression.
+cv::Mat render_cup_frame(const synth::DownCamera& camera, const RenderedCup& cup, double surface_z_m,
+                         const ProjectedBeads& beads, double vane_angle_rad, const CupLook& look,
+                         std::uint64_t frame);
+
+/// What the camera can see move between frames a and b, per node of the grid (x_px,
+/// y_px): the displacement (px) of the projected centre of the bead whose surface is
+/// top-most over the node in frame a (render_beads' depth rule), to its projection in
+/// frame b. Shiny spheres show their centres' motion, not their spin, so this, not the
+/// material-point field of surface.h5, is what PIV of the video can recover. Flags:
+/// masked beyond the cup radius and on the vane (at `vane_angle_a`); invalid where no
+/// bead covers the node or its bead is not in frame b; valid otherwise.
+core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& b, const std::vector<double>& x_px,
+                                 const std::vector<double>& y_px, const CupImage& image, int vane_blades,
+                                 double vane_angle_a);
+
+/// The camera over a cup: the axis at the image centre; m_per_px unset: the rim's
+/// diameter fills 90 % of the image's shorter side.
+synth::DownCamera cup_camera(const RenderedCup& cup, double surface_z_m, bool orthographic, int width_px,
+                             int height_px, double m_per_px, double height_m);
+
+struct SimRenderOptions {
+  std::filesystem::path run_dir;      ///< a run folder holding frames.h5
+  std::filesystem::path output_dir;
+  std::string format = "mp4";         ///< mp4 | png
+  std::string codec = "mp4v";         ///< mp4v | avc1 (H.264 where FFmpeg has it)
+  std::string projection = "pinhole"; ///< pinhole | orthographic
+  int width_px = 1280, height_px = 720;
+  double m_per_px = core::kUnset;     ///< on the bead surface; unset: the cup fills the image
+  double height_m = 0.5;              ///< pinhole above the bead surface
+  CupLook look;
+  std::int64_t first_frame = 0, last_frame = -1;  ///< frames of frames.h5 drawn (-1: to the end)
+  bool force = false;
+  /// ConfigError naming the bad option (before any file is read).
+  void validate() const;
+};
+
+struct SimRenderSummary {
+  std::size_t frames = 0;
+  synth::DownCamera camera;
+  CupImage image;
+  double surface_z_m = 0.0;
+  double bead_diameter_px = 0.0;  ///< on the bead surface
+  double seconds = 0.0;
+  std::vector<std::filesystem::path> files;
+};
+
+SimRenderSummary run_sim_render(const SimRenderOptions& options, const core::Metadata& header,
+                                const core::ProgressCallback& progress = {});
+
+}  // namespace shearzone::pipeline

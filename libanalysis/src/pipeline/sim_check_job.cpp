@@ -1,0 +1,341 @@
+// `shearzone sim check`: see shearzone/pipeline/sim_check_job.hpp.
+#include "shearzone/pipeline/sim_check_job.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/field_file.hpp"
+#include "shearzone/io/profile_csv.hpp"
+#include "shearzone/pipeline/profile_job.hpp"
+#include "shearzone/pipeline/width_job.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// The branches of a run: the run itself when it holds frames.h5, else its sub-folders
+/// that do (a protocol run: phi0_*), in name order.
+std::vector<std::pair<std::string, fs::path>> branches_of(const fs::path& run) {
+  std::vector<std::pair<std::string, fs::path>> out;
+  if (!fs::is_directory(run)) throw InputError(fmt::format("{}: not a run folder", run.string()));
+  if (fs::exists(run / "frames.h5")) {
+    out.emplace_back(run.filename().empty() ? run.parent_path().filename().string() : run.filename().string(), run);
+    return out;
+  }
+  for (const auto& e : fs::directory_iterator(run))
+    if (e.is_directory() && fs::exists(e.path() / "frames.h5")) out.emplace_back(e.path().filename().string(), e.path());
+  std::sort(out.begin(), out.end());
+  if (out.empty())
+    throw InputError(fmt::format("{}: no frames.h5 in it or its branch folders: run a scene with a [camera] (its "
+                                 "frames key true)",
+                                 run.string()));
+  return out;
+}
+
+/// A width row for a stage that gave no profile.
+WidthRow no_result(const std::string& why) {
+  WidthRow r;
+  r.label = "no_result";
+  r.advice = why;
+  r.status = profile::WidthStatus::kNoiseLimited;
+  r.rc_m = r.ci_low_m = r.ci_high_m = core::kUnset;
+  return r;
+}
+
+/// RMS of v_abs(a) - v_abs(b) over b's bins inside a's range (a linearly interpolated).
+double profile_rms_diff(const fs::path& a_path, const fs::path& b_path) {
+  const io::ProfileCsv a = io::read_profile_csv(a_path), b = io::read_profile_csv(b_path);
+  double s = 0;
+  std::size_t n = 0;
+  for (const auto& rb : b.rows) {
+    if (!std::isfinite(rb.v_abs)) continue;
+    for (std::size_t k = 0; k + 1 < a.rows.size(); ++k) {
+      const auto &p = a.rows[k], &q = a.rows[k + 1];
+      if (!(rb.r_m >= p.r_m - 1e-9 && rb.r_m <= q.r_m + 1e-9) || !std::isfinite(p.v_abs) || !std::isfinite(q.v_abs))
+        continue;
+      const double w = q.r_m > p.r_m ? std::clamp((rb.r_m - p.r_m) / (q.r_m - p.r_m), 0.0, 1.0) : 0.0;
+      const double d = (1 - w) * p.v_abs + w * q.v_abs - rb.v_abs;
+      s += d * d;
+      ++n;
+      break;
+    }
+  }
+  return n > 0 ? std::sqrt(s / static_cast<double>(n)) : core::kUnset;
+}
+
+}  // namespace
+
+std::string SimCheckSetting::label() const {
+  std::string s = "w";
+  for (std::size_t k = 0; k < windows_px.size(); ++k) s += (k ? "-" : "") + std::to_string(windows_px[k]);
+  return s + "_k" + std::to_string(spacing);
+}
+
+void SimCheckOptions::validate() const {
+  render.validate();
+  width.validate();
+  if (!(truth_spacing_px >= 1 && truth_spacing_px <= 1024))
+    throw ConfigError(fmt::format("--truth-spacing-px {}: expected 1..1024 px", truth_spacing_px));
+  for (const auto& s : settings) {
+    if (s.windows_px.empty()) throw ConfigError("a PIV setting needs window sizes");
+    if (!(s.spacing >= 1 && s.spacing <= 1000))
+      throw ConfigError(fmt::format("--spacings {}: expected 1..1000", s.spacing));
+    piv::PivOptions p = piv.piv;  // the PIV's own checks, before hours of rendering
+    p.windows_px = s.windows_px;
+    p.validate();
+  }
+}
+
+std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Metadata& header,
+                                       const std::function<void(const std::string&)>& stage) {
+  o.validate();
+  const auto branches = branches_of(o.run_dir);
+  std::vector<SimCheckSetting> settings = o.settings;
+  if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1});
+  if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
+    throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
+  auto say = [&](const std::string& s) {
+    if (stage) stage(s);
+  };
+
+  std::vector<SimCheckRow> rows;
+  for (const auto& [name, dir] : branches) {
+    const fs::path bout = o.output_dir / name;
+    // 1. Film the branch.
+    auto t = Clock::now();
+    SimRenderOptions ro = o.render;
+    ro.run_dir = dir;
+    ro.output_dir = bout / "video";
+    ro.force = o.force;
+    say(fmt::format("{}: render", name));
+    const SimRenderSummary rs = run_sim_render(ro, header);
+    const double render_s = since(t);
+    const FramesFile frames(dir / "frames.h5");
+    const RenderedCup& cup = frames.cup();
+    const double d = cup.bead_diameter_m;
+    const CupImage& im = rs.image;
+    const double phase_video = cup.vane_phase_rad + 2.0 * std::numbers::pi * cup.f_Hz * frames.time(0 + ro.first_frame);
+    const fs::path video = rs.files.front();
+
+    // 2. The truths: the camera's (bead centres) and the simulator's surface field.
+    t = Clock::now();
+    say(fmt::format("{}: truth", name));
+    std::vector<ProjectedBeads> proj;
+    std::vector<double> vane_angles;
+    for (std::size_t k = 0; k < rs.frames; ++k) {
+      const FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
+      proj.push_back(project_beads(rs.camera, cup, b, rs.surface_z_m, ro.look));
+      vane_angles.push_back(cup.vane_angle(b.t_s));
+    }
+    auto set_geometry_attributes = [&](auto&& set) {
+      set("centre_x_px", im.centre_x_px);
+      set("centre_y_px", im.centre_y_px);
+      set("cup_radius_px", im.cup_radius_px);
+      set("vane_radius_px", im.vane_surface_radius_px);
+      set("m_per_px", rs.camera.m_per_px);
+      set("N", static_cast<double>(cup.N));
+      if (cup.f_Hz > 0) {
+        set("f_Hz", cup.f_Hz);
+        set("phi0_rad", cup.phi0_rad);
+        set("vane_phase_rad", phase_video);
+      }
+    };
+    std::vector<double> gx, gy;
+    for (double x = 0.5 * o.truth_spacing_px - 0.5; x < rs.camera.width_px - 0.5; x += o.truth_spacing_px)
+      gx.push_back(x);
+    for (double y = 0.5 * o.truth_spacing_px - 0.5; y < rs.camera.height_px - 0.5; y += o.truth_spacing_px)
+      gy.push_back(y);
+    {
+      io::AtomicOutput f(bout / "truth_centres.h5", o.force);
+      {
+        io::FieldFileWriter w(f.temp_path());
+        for (std::size_t k = 0; k + 1 < rs.frames; ++k)
+          w.append(visible_motion(proj[k], proj[k + 1], gx, gy, im, cup.vane_blades, vane_angles[k]),
+                   static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps, 1.0 / cup.fps);
+        set_geometry_attributes([&](const char* n, double v) { w.set_attribute(n, v); });
+        w.set_attribute("fps", cup.fps);
+        w.set_attribute("noise_sigma_px", 0.0);
+        w.set_attribute("source", "shearzone sim check: the camera's truth (surface beads' centre motion)");
+        w.close();
+      }
+      f.commit();
+    }
+    auto profile_and_width = [&](const fs::path& field, const fs::path& prof, const fs::path& wid, double* prof_s,
+                                 double* wid_s) -> WidthRow {
+      auto t1 = Clock::now();
+      ProfileJobOptions po;
+      po.input = field;
+      po.output = prof;
+      po.force = o.force;
+      po.bead_diameter_m = d;
+      try {
+        run_profile_job(po, header);
+      } catch (const NoResultError& e) {
+        return no_result(e.what());
+      }
+      if (prof_s) *prof_s = since(t1);
+      t1 = Clock::now();
+      WidthJobOptions wo;
+      wo.inputs = {prof};
+      wo.output = wid;
+      wo.force = o.force;
+      wo.width = o.width;
+      const auto r = run_width_job(wo, header);
+      if (wid_s) *wid_s = since(t1);
+      return r.front();
+    };
+    const WidthRow centres = profile_and_width(bout / "truth_centres.h5", bout / "truth_centres_profile.csv",
+                                               bout / "truth_centres_width.csv", nullptr, nullptr);
+    const WidthRow surface = profile_and_width(dir / "surface.h5", bout / "truth_surface_profile.csv",
+                                               bout / "truth_surface_width.csv", nullptr, nullptr);
+    const double truth_s = since(t);
+
+    // 3. The lab pipeline, per PIV setting.
+    for (const SimCheckSetting& st : settings) {
+      SimCheckRow row;
+      row.branch = name;
+      row.setting = st.label();
+      row.phi0_rad = cup.phi0_rad;
+      row.N = cup.N;
+      row.bead_diameter_m = d;
+      row.render_s = render_s;
+      row.truth_s = truth_s;
+      row.centres = centres;
+      row.surface = surface;
+      const fs::path sout = bout / st.label();
+      PivJobOptions p = o.piv;
+      p.inputs = {video.string()};
+      p.output = sout / "fields.h5";
+      p.force = o.force;
+      p.piv.windows_px = st.windows_px;
+      p.pair_spacing = st.spacing;
+      p.fps = cup.fps;
+      p.centre_x_px = im.centre_x_px;
+      p.centre_y_px = im.centre_y_px;
+      p.annulus_inner_px = im.vane_surface_radius_px;
+      p.annulus_outer_px = im.cup_radius_px;
+      if (cup.vane_blades > 0) {
+        p.vane.geometry = {cup.vane_blades, im.vane_half_width_px, im.vane_radius_px};
+        p.vane.margin_px = 2.0;
+        p.vane.phi0_rad = cup.phi0_rad;
+        p.vane.f_Hz = cup.f_Hz;
+        p.vane.phase_rad = phase_video;
+      }
+      p.attributes.clear();
+      set_geometry_attributes([&](const char* n, double v) {
+        if (std::string(n) != "centre_x_px" && std::string(n) != "centre_y_px" && std::string(n) != "vane_phase_rad")
+          p.attributes.emplace_back(n, fmt::format("{:.17g}", v));
+      });
+      p.validate();
+      say(fmt::format("{}: piv {}", name, st.label()));
+      t = Clock::now();
+      const PivJobSummary ps = run_piv_job(p, header);
+      row.piv_s = since(t);
+      row.pairs = ps.pairs;
+      const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
+      row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
+      say(fmt::format("{}: profile {}", name, st.label()));
+      row.video = profile_and_width(p.output, sout / "profile.csv", sout / "width.csv", &row.profile_s, &row.width_s);
+      if (fs::exists(sout / "profile.csv")) {
+        row.profile_rms_diff_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_centres_profile.csv");
+        row.profile_rms_diff_surface_m_per_s =
+            profile_rms_diff(sout / "profile.csv", bout / "truth_surface_profile.csv");
+      } else {
+        row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
+      }
+      // PIV error per vector against the camera's truth at the same node and pair.
+      const auto reader = io::open_field_file(p.output, core::kUnset);
+      double se = 0, su = 0, sv = 0;
+      std::size_t n = 0;
+      for (std::size_t k = 0; k < reader->size(); ++k) {
+        core::VectorField f;
+        double ta = 0, dt = 0;
+        reader->read(k, f, ta, dt);
+        const auto a = static_cast<std::size_t>(std::llround(ta * cup.fps));
+        const auto b = static_cast<std::size_t>(std::llround((ta + dt) * cup.fps));
+        if (b >= proj.size()) continue;
+        const core::VectorField tr = visible_motion(proj[a], proj[b], f.x_px, f.y_px, im, cup.vane_blades,
+                                                    vane_angles[a]);
+        for (std::size_t q = 0; q < f.size(); ++q) {
+          if ((f.flag[q] != core::VectorFlag::kValid && f.flag[q] != core::VectorFlag::kReplaced) ||
+              tr.flag[q] != core::VectorFlag::kValid)
+            continue;
+          const double du = f.u_px[q] - tr.u_px[q], dv = f.v_px[q] - tr.v_px[q];
+          se += du * du + dv * dv;
+          su += du;
+          sv += dv;
+          ++n;
+        }
+      }
+      row.compared_vectors = n;
+      row.piv_rms_error_px = n > 0 ? std::sqrt(se / static_cast<double>(n)) : core::kUnset;
+      row.piv_bias_u_px = n > 0 ? su / static_cast<double>(n) : core::kUnset;
+      row.piv_bias_v_px = n > 0 ? sv / static_cast<double>(n) : core::kUnset;
+      rows.push_back(std::move(row));
+    }
+  }
+
+  // The table.
+  core::Metadata meta = header;
+  meta.emplace_back("run", o.run_dir.string());
+  meta.emplace_back("v_c_m_per_s", io::format_number(o.width.v_c_m_per_s));
+  meta.emplace_back("rc_video", "r_c of piv -> profile -> width on the rendered video (geometry from the camera)");
+  meta.emplace_back("rc_centres", "r_c of the camera's truth: the surface beads' centre motion on the same camera "
+                                  "(what PIV of shiny spheres can at best see)");
+  meta.emplace_back("rc_surface", "r_c of the simulator's surface field (surface.h5: material points, spin "
+                                  "included)");
+  meta.emplace_back("rc_error_over_d", "(rc_video - rc_surface) / d; rc_error_centres_over_d: (rc_video - "
+                                       "rc_centres) / d; empty when either is not reported");
+  meta.emplace_back("profile_rms_diff_m_per_s", "RMS over the truth's bins of v_abs(video) - v_abs(truth), the "
+                                                "video's profile interpolated linearly in r");
+  meta.emplace_back("piv_rms_error_px", "RMS of |d_piv - d_camera_truth| over valid and replaced PIV vectors where "
+                                        "the truth sees a bead, px per pair; bias: mean of each component");
+  meta.emplace_back("invalid_fraction", "invalid vectors over the vectors not masked");
+  meta.emplace_back("wall_s", "render_s: the video; truth_s: both truths' fields, profiles and widths; piv_s, "
+                              "profile_s, width_s: the lab pipeline on this setting");
+  io::AtomicOutput out(o.output_dir / "closed_loop.csv", o.force);
+  {
+    io::CsvWriter w(out.stream(), meta,
+                    {"branch", "phi0_rad", "N", "setting", "pairs", "rc_video_m", "rc_video_ci_low_m",
+                     "rc_video_ci_high_m", "rc_video_status", "rc_centres_m", "rc_centres_ci_low_m",
+                     "rc_centres_ci_high_m", "rc_centres_status", "rc_surface_m", "rc_surface_ci_low_m",
+                     "rc_surface_ci_high_m", "rc_surface_status", "rc_error_over_d", "rc_error_centres_over_d",
+                     "profile_rms_diff_m_per_s", "profile_rms_diff_surface_m_per_s", "piv_rms_error_px",
+                     "piv_bias_u_px", "piv_bias_v_px", "compared_vectors", "invalid_fraction", "render_s", "truth_s",
+                     "piv_s", "profile_s", "width_s"});
+    auto f = [](double v) { return io::format_number_or_empty(v); };
+    auto st = [](const WidthRow& r) {
+      return r.label == "no_result" ? std::string("no_result") : std::string(profile::width_status_name(r.status));
+    };
+    for (const auto& r : rows) {
+      const double e = (r.video.rc_m - r.surface.rc_m) / r.bead_diameter_m;
+      const double ec = (r.video.rc_m - r.centres.rc_m) / r.bead_diameter_m;
+      w.row(std::vector<std::string>{
+          r.branch, f(r.phi0_rad), std::to_string(r.N), r.setting, std::to_string(r.pairs), f(r.video.rc_m),
+          f(r.video.ci_low_m), f(r.video.ci_high_m), st(r.video), f(r.centres.rc_m), f(r.centres.ci_low_m),
+          f(r.centres.ci_high_m), st(r.centres), f(r.surface.rc_m), f(r.surface.ci_low_m), f(r.surface.ci_high_m),
+          st(r.surface), f(e), f(ec), f(r.profile_rms_diff_m_per_s), f(r.profile_rms_diff_surface_m_per_s),
+          f(r.piv_rms_error_px), f(r.piv_bias_u_px), f(r.piv_bias_v_px), std::to_string(r.compared_vectors),
+          f(r.invalid_fraction), fmt::format("{:.3f}", r.render_s), fmt::format("{:.3f}", r.truth_s),
+          fmt::format("{:.3f}", r.piv_s), fmt::format("{:.3f}", r.profile_s), fmt::format("{:.3f}", r.width_s)});
+    }
+  }
+  out.commit();
+  return rows;
+}
+
+}  // namespace shearzone::pipeline

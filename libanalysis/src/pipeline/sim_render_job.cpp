@@ -1,0 +1,474 @@
+// `shearzone sim render`: see shearzone/pipeline/sim_render_job.hpp.
+#include "shearzone/pipeline/sim_render_job.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/image.hpp"
+#include "shearzone/io/video.hpp"
+
+namespace shearzone::pipeline {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+double attr_number(const io::H5File& f, const std::string& name, bool required, double fallback = 0.0) {
+  if (!f.has_attribute("/", name)) {
+    if (required)
+      throw InputError(fmt::format("{}: attribute \"{}\" missing: expected the frames file of a run with a "
+                                   "[camera] (shearzone sim)",
+                                   f.path(), name));
+    return fallback;
+  }
+  const std::string text = f.attribute_string("/", name);
+  double v = 0.0;
+  if (!io::parse_number(text, false, v) || !std::isfinite(v))
+    throw InputError(fmt::format("{}: attribute \"{}\" = \"{}\": expected a finite number", f.path(), name, text));
+  return v;
+}
+
+std::string num(double v) { return fmt::format("{:.17g}", v); }
+
+}  // namespace
+
+double RenderedCup::vane_angle(double t_s) const {
+  return phi0_rad * std::sin(2.0 * kPi * f_Hz * t_s + vane_phase_rad);
+}
+
+FramesFile::FramesFile(const std::filesystem::path& path) : path_(path.string()) {
+  if (!std::filesystem::exists(path))
+    throw InputError(fmt::format("{}: not found: expected the frames of a run whose scene has a [camera] with "
+                                 "frames = true",
+                                 path_));
+  const io::H5File f = io::H5File::open_read(path);
+  RenderedCup& c = cup_;
+  c.fps = attr_number(f, "camera_fps", true);
+  c.bead_diameter_m = attr_number(f, "bead_diameter_m", true);
+  c.N = static_cast<int>(attr_number(f, "N", false, 1.0));
+  c.cup_cx_m = attr_number(f, "cup_centre_x_m", true);
+  c.cup_cy_m = attr_number(f, "cup_centre_y_m", true);
+  c.cup_radius_m = attr_number(f, "cup_radius_m", true);
+  c.cup_height_m = attr_number(f, "cup_height_m", true);
+  c.sectors = static_cast<int>(attr_number(f, "sectors", false, 0.0));
+  c.vane_blades = static_cast<int>(attr_number(f, "vane_blades", false, 0.0));
+  c.vane_radius_m = attr_number(f, "vane_radius_m", false, 0.0);
+  c.vane_height_m = attr_number(f, "vane_height_m", false, 0.0);
+  c.f_Hz = attr_number(f, "f_Hz", false, 0.0);
+  c.phi0_rad = attr_number(f, "phi0_rad", false, 0.0);
+  c.vane_phase_rad = attr_number(f, "vane_phase_rad", false, 0.0);
+  if (!(c.fps > 0 && c.bead_diameter_m > 0 && c.cup_radius_m > 0 && c.cup_height_m > 0 && c.sectors >= 0 &&
+        c.sectors <= 64 && c.vane_blades >= 0 && c.vane_blades <= 64 && c.vane_radius_m >= 0 &&
+        c.vane_radius_m < c.cup_radius_m && c.N >= 1))
+    throw InputError(fmt::format("{}: the scene attributes are out of range (camera_fps, bead_diameter_m, "
+                                 "cup_radius_m, cup_height_m > 0; 0 <= vane_radius_m < cup_radius_m)",
+                                 path_));
+  times_ = f.read<double>("/time_s").data;
+  const io::H5Array<std::uint8_t> kind = f.read<std::uint8_t>("/kind");
+  kind_ = kind.data;
+  const std::vector<std::size_t> pd = f.dims("/position");
+  if (pd.size() != 3 || pd[0] != times_.size() || pd[1] != kind_.size() || pd[2] != 3)
+    throw InputError(fmt::format("{}: dataset \"/position\": expected [{}, {}, 3]", path_, times_.size(),
+                                 kind_.size()));
+  if (times_.empty()) throw InputError(fmt::format("{}: no frame recorded", path_));
+  // The bead surface: the 90th percentile of the mobile centres' heights in frame 0.
+  std::vector<double> pos(kind_.size() * 3);
+  f.read_record("/position", 0, pos.data());
+  std::vector<double> zs;
+  for (std::size_t b = 0; b < kind_.size(); ++b)
+    if (kind_[b] == 0) zs.push_back(pos[3 * b + 2]);
+  if (zs.empty()) throw InputError(fmt::format("{}: no mobile bead to film", path_));
+  const auto q = static_cast<std::ptrdiff_t>(std::floor(0.9 * static_cast<double>(zs.size() - 1)));
+  std::nth_element(zs.begin(), zs.begin() + q, zs.end());
+  surface_z_ = zs[static_cast<std::size_t>(q)];
+}
+
+FrameBodies FramesFile::frame(std::size_t k) const {
+  const io::H5File f = io::H5File::open_read(path_);
+  std::vector<double> pos(kind_.size() * 3);
+  f.read_record("/position", k, pos.data());
+  FrameBodies out;
+  out.t_s = times_.at(k);
+  const int images = std::max(1, cup_.sectors);
+  for (int j = 0; j < images; ++j) {
+    const double a = 2.0 * kPi * j / images, ca = std::cos(a), sa = std::sin(a);
+    for (std::size_t b = 0; b < kind_.size(); ++b) {
+      if (kind_[b] == 2) continue;  // the vane: drawn from its drive
+      const double dx = pos[3 * b] - cup_.cup_cx_m, dy = pos[3 * b + 1] - cup_.cup_cy_m;
+      out.x.push_back(cup_.cup_cx_m + ca * dx - sa * dy);
+      out.y.push_back(cup_.cup_cy_m + sa * dx + ca * dy);
+      out.z.push_back(pos[3 * b + 2]);
+      out.id.push_back(static_cast<std::int64_t>(b) * images + j);
+      out.mobile.push_back(kind_[b] == 0);
+    }
+  }
+  return out;
+}
+
+void CupLook::validate() const {
+  if (!(noise >= 0 && noise <= 1)) throw ConfigError(fmt::format("--noise {}: expected 0..1 of full scale", noise));
+  if (!(blur_px >= 0 && blur_px <= 50)) throw ConfigError(fmt::format("--blur-px {}: expected 0..50 px", blur_px));
+  if (!(jpeg_quality >= 0 && jpeg_quality <= 100))
+    throw ConfigError(fmt::format("--jpeg-quality {}: expected 1..100, or 0 for none", jpeg_quality));
+  if (!(depth_fade_d > 0 && albedo_spread >= 0 && albedo_spread < 1))
+    throw ConfigError("look: expected depth_fade_d > 0 and 0 <= albedo_spread < 1");
+}
+
+ProjectedBeads project_beads(const synth::DownCamera& cam, const RenderedCup& cup, const FrameBodies& bodies,
+                             double surface_z_m, const CupLook& look) {
+  ProjectedBeads p;
+  const double d = cup.bead_diameter_m;
+  const double s_ref = cam.px_per_m(surface_z_m);
+  for (std::size_t b = 0; b < bodies.x.size(); ++b) {
+    // Beads under the rim (the wall's own) are hidden by it.
+    if (std::hypot(bodies.x[b] - cup.cup_cx_m, bodies.y[b] - cup.cup_cy_m) > cup.cup_radius_m + d) continue;
+    double x = 0, y = 0;
+    cam.project(bodies.x[b], bodies.y[b], bodies.z[b], x, y);
+    const double dpx = d * cam.px_per_m(bodies.z[b]);
+    if (x < -dpx || y < -dpx || x > cam.width_px + dpx || y > cam.height_px + dpx) continue;
+    const auto u = static_cast<double>(synth::splitmix64(look.seed ^ synth::splitmix64(
+                                                              static_cast<std::uint64_t>(bodies.id[b]) + 1)) >>
+                                       11) *
+                   0x1.0p-53;
+    double albedo = 1.0 + look.albedo_spread * (2.0 * u - 1.0);
+    if (bodies.z[b] < surface_z_m) albedo *= std::exp(-(surface_z_m - bodies.z[b]) / (look.depth_fade_d * d));
+    if (!bodies.mobile[b]) albedo *= 0.6;  // the floor's fixed beads: rougher, duller
+    p.x.push_back(x);
+    p.y.push_back(y);
+    p.top.push_back((bodies.z[b] + 0.5 * d) * s_ref);
+    p.diameter.push_back(dpx);
+    p.albedo.push_back(albedo);
+    p.id.push_back(bodies.id[b]);
+  }
+  return p;
+}
+
+CupImage cup_image(const synth::DownCamera& cam, const RenderedCup& cup, double surface_z_m) {
+  CupImage im;
+  cam.project(cup.cup_cx_m, cup.cup_cy_m, surface_z_m, im.centre_x_px, im.centre_y_px);
+  im.cup_radius_px = cup.cup_radius_m * cam.px_per_m(surface_z_m);
+  im.rim_radius_px = cup.cup_radius_m * cam.px_per_m(cup.cup_height_m);
+  if (cup.vane_blades > 0) {
+    const double s = cam.px_per_m(cup.vane_height_m);
+    im.vane_radius_px = cup.vane_radius_m * s;
+    im.vane_half_width_px = 0.5 * cup.bead_diameter_m * s;
+    im.vane_surface_radius_px = cup.vane_radius_m * cam.px_per_m(surface_z_m);
+  }
+  return im;
+}
+
+cv::Mat render_cup_frame(const synth::DownCamera& cam, const RenderedCup& cup, double surface_z_m,
+                         const ProjectedBeads& beads, double vane_angle_rad, const CupLook& look,
+                         std::uint64_t frame) {
+  const cv::Size size(cam.width_px, cam.height_px);
+  cv::Mat ideal = synth::render_beads(beads.x, beads.y, beads.top, beads.albedo, beads.diameter, size, look.shading);
+  // The rim: its top face a bright ring of rim_width_px beyond the wall's inner edge (the
+  // line --detect-cup fits), the outside beyond it; inside it a dark band: the wall's
+  // inner face (seen between the bead surface's and the rim's radius in a pinhole view)
+  // and its shadow, at least 4 px or 0.3 d wide. Anti-aliased by 4 x 4 samples near edges.
+  const CupImage im = cup_image(cam, cup, surface_z_m);
+  const double R = im.rim_radius_px;
+  const double d_px = cup.bead_diameter_m * cam.px_per_m(surface_z_m);
+  const double R_in = R - std::max({4.0, 0.3 * d_px, R - im.cup_radius_px});
+  const double R_out = R + look.rim_width_px;
+  auto level_at = [&](double x, double y) {
+    const double r = std::hypot(x - im.centre_x_px, y - im.centre_y_px);
+    if (r > R_out) return look.outside_level;
+    return r > R ? look.rim_level : (r > R_in ? look.wall_level : -1.0);  // -1: the beads
+  };
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < ideal.rows; ++i) {
+    double* row = ideal.ptr<double>(i);
+    for (int j = 0; j < ideal.cols; ++j) {
+      const double r = std::hypot(j - im.centre_x_px, i - im.centre_y_px);
+      if (r < R_in - 1.0) continue;
+      if ((r > R_in + 1.0 && r < R - 1.0) || (r > R + 1.0 && r < R_out - 1.0) || r > R_out + 1.0) {
+        row[j] = level_at(j, i);
+        continue;
+      }
+      double acc = 0.0;
+      for (int si = 0; si < 4; ++si)
+        for (int sj = 0; sj < 4; ++sj) {
+          const double v = level_at(j - 0.5 + (sj + 0.5) / 4, i - 0.5 + (si + 0.5) / 4);
+          acc += v < 0 ? row[j] : v;
+        }
+      row[j] = acc / 16.0;
+    }
+  }
+  if (cup.vane_blades > 0)
+    synth::draw_vane(ideal, im.centre_x_px, im.centre_y_px, vane_angle_rad, cup.vane_blades, im.vane_half_width_px,
+                     im.vane_radius_px, look.vane_level);
+  if (look.blur_px > 0) cv::GaussianBlur(ideal, ideal, cv::Size(0, 0), look.blur_px, look.blur_px, cv::BORDER_REFLECT);
+  cv::Mat out = synth::quantise(ideal, 0.0, look.noise, 8, look.seed, frame);
+  if (look.jpeg_quality > 0) {
+    std::vector<unsigned char> buf;
+    cv::imencode(".jpg", out, buf, {cv::IMWRITE_JPEG_QUALITY, look.jpeg_quality});
+    out = cv::imdecode(buf, cv::IMREAD_GRAYSCALE);
+  }
+  return out;
+}
+
+core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& b, const std::vector<double>& xs,
+                                 const std::vector<double>& ys, const CupImage& im, int blades, double vane_angle_a) {
+  core::VectorField f;
+  f.x_px = xs;
+  f.y_px = ys;
+  f.resize_to_grid();
+  // Buckets of the frame-a discs.
+  double cell = 1.0;
+  for (const double d : a.diameter) cell = std::max(cell, d);
+  auto key = [cell](double x, double y) {
+    return std::pair<long, long>(static_cast<long>(std::floor(x / cell)), static_cast<long>(std::floor(y / cell)));
+  };
+  std::map<std::pair<long, long>, std::vector<std::size_t>> buckets;
+  for (std::size_t k = 0; k < a.x.size(); ++k) buckets[key(a.x[k], a.y[k])].push_back(k);
+  std::map<std::int64_t, std::size_t> in_b;
+  for (std::size_t k = 0; k < b.id.size(); ++k) in_b.emplace(b.id[k], k);
+  for (std::size_t i = 0; i < ys.size(); ++i) {
+    for (std::size_t j = 0; j < xs.size(); ++j) {
+      const std::size_t n = f.index(i, j);
+      const double x = xs[j], y = ys[i];
+      f.u_px[n] = f.v_px[n] = 0.0f;
+      f.peak[n] = 1.0f;
+      f.peak_ratio[n] = 10.0f;
+      if (std::hypot(x - im.centre_x_px, y - im.centre_y_px) > im.cup_radius_px ||
+          (blades > 0 && synth::inside_vane(x, y, im.centre_x_px, im.centre_y_px, vane_angle_a, blades,
+                                            im.vane_half_width_px, im.vane_radius_px))) {
+        f.flag[n] = core::VectorFlag::kMasked;
+        continue;
+      }
+      const auto [cx, cy] = key(x, y);
+      double best = -1e300;
+      std::int64_t seen = -1;
+      std::size_t seen_k = 0;
+      for (long dy = -1; dy <= 1; ++dy)
+        for (long dx = -1; dx <= 1; ++dx) {
+          const auto it = buckets.find({cx + dx, cy + dy});
+          if (it == buckets.end()) continue;
+          for (const std::size_t k : it->second) {
+            const double R = 0.5 * a.diameter[k];
+            const double rho2 = (x - a.x[k]) * (x - a.x[k]) + (y - a.y[k]) * (y - a.y[k]);
+            if (rho2 >= R * R) continue;
+            const double h = a.top[k] - R + std::sqrt(R * R - rho2);
+            if (h > best) {
+              best = h;
+              seen = a.id[k];
+              seen_k = k;
+            }
+          }
+        }
+      const auto hit = seen >= 0 ? in_b.find(seen) : in_b.end();
+      if (hit == in_b.end()) {
+        f.flag[n] = core::VectorFlag::kInvalid;
+        continue;
+      }
+      f.u_px[n] = static_cast<float>(b.x[hit->second] - a.x[seen_k]);
+      f.v_px[n] = static_cast<float>(b.y[hit->second] - a.y[seen_k]);
+      f.flag[n] = core::VectorFlag::kValid;
+    }
+  }
+  return f;
+}
+
+synth::DownCamera cup_camera(const RenderedCup& cup, double surface_z_m, bool orthographic, int width_px,
+                             int height_px, double m_per_px, double height_m) {
+  synth::DownCamera c;
+  c.orthographic = orthographic;
+  c.width_px = width_px;
+  c.height_px = height_px;
+  c.centre_x_px = 0.5 * (width_px - 1);
+  c.centre_y_px = 0.5 * (height_px - 1);
+  c.axis_x_m = cup.cup_cx_m;
+  c.axis_y_m = cup.cup_cy_m;
+  c.z_ref_m = surface_z_m;
+  c.height_m = height_m;
+  if (core::is_set(m_per_px)) {
+    c.m_per_px = m_per_px;
+  } else {
+    const double target_px = 0.45 * std::min(width_px, height_px);
+    // The rim at the cup's top: R f / (height + z_ref - z_rim) = target, f = height / m.
+    c.m_per_px = orthographic ? cup.cup_radius_m / target_px
+                              : cup.cup_radius_m * height_m / ((height_m + surface_z_m - cup.cup_height_m) * target_px);
+  }
+  if (!orthographic && !(cup.cup_height_m < surface_z_m + height_m))
+    throw ConfigError(fmt::format("--height-m {}: the pinhole must be above the cup's rim ({} m above the bead "
+                                  "surface)",
+                                  height_m, cup.cup_height_m - surface_z_m));
+  c.validate();
+  return c;
+}
+
+void SimRenderOptions::validate() const {
+  if (format != "mp4" && format != "png")
+    throw ConfigError(fmt::format("--format \"{}\": expected mp4 or png", format));
+  if (codec != "mp4v" && codec != "avc1") throw ConfigError(fmt::format("--codec \"{}\": expected mp4v or avc1", codec));
+  if (projection != "pinhole" && projection != "orthographic")
+    throw ConfigError(fmt::format("--projection \"{}\": expected pinhole or orthographic", projection));
+  if (!(width_px >= 16 && width_px <= 16384 && height_px >= 16 && height_px <= 16384))
+    throw ConfigError(fmt::format("--size {}x{}: expected 16..16384 px each way", width_px, height_px));
+  if (format == "mp4" && (width_px % 2 != 0 || height_px % 2 != 0))
+    throw ConfigError(fmt::format("--size {}x{}: an MP4 needs even sizes", width_px, height_px));
+  if (core::is_set(m_per_px) && !(m_per_px > 0 && std::isfinite(m_per_px)))
+    throw ConfigError(fmt::format("--m-per-px {}: expected a finite scale > 0", m_per_px));
+  if (!(height_m > 0 && std::isfinite(height_m)))
+    throw ConfigError(fmt::format("--height-m {}: expected a finite height > 0", height_m));
+  if (first_frame < 0 || (last_frame >= 0 && last_frame < first_frame + 1))
+    throw ConfigError(fmt::format("--first {} --last {}: expected 0 <= first < last (or last -1: to the end)",
+                                  first_frame, last_frame));
+  look.validate();
+}
+
+SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata& header,
+                                const core::ProgressCallback& progress) {
+  o.validate();
+  const auto t0 = std::chrono::steady_clock::now();
+  const FramesFile frames(o.run_dir / "frames.h5");
+  const RenderedCup& cup = frames.cup();
+  const std::int64_t last =
+      o.last_frame < 0 ? static_cast<std::int64_t>(frames.size()) - 1 : o.last_frame;
+  if (last >= static_cast<std::int64_t>(frames.size()) || o.first_frame >= last)
+    throw ConfigError(fmt::format("--first {} --last {}: {} holds frames 0..{} (a video needs two)", o.first_frame,
+                                  o.last_frame, frames.path(), frames.size() - 1));
+  SimRenderSummary sum;
+  sum.surface_z_m = frames.surface_z_m();
+  sum.camera = cup_camera(cup, sum.surface_z_m, o.projection == "orthographic", o.width_px, o.height_px, o.m_per_px,
+                          o.height_m);
+  const synth::DownCamera& cam = sum.camera;
+  sum.image = cup_image(cam, cup, sum.surface_z_m);
+  const CupImage& im = sum.image;
+  const double t_first = frames.time(static_cast<std::size_t>(o.first_frame));
+  // The drive in video time (t = 0 at the first frame drawn).
+  const double phase_video = cup.vane_phase_rad + 2.0 * kPi * cup.f_Hz * t_first;
+
+  io::AtomicOutputSet out(o.output_dir, o.force);
+  const std::size_t count = static_cast<std::size_t>(last - o.first_frame + 1);
+  std::vector<std::string> names;
+  if (o.format == "mp4") {
+    names.push_back("video.mp4");
+  } else {
+    for (std::size_t k = 0; k < count; ++k) names.push_back(fmt::format("frame_{:06d}.png", k));
+  }
+  for (const auto& n : names) out.check(n);
+  for (const char* n : {"camera.json", "piv.toml", "vane_angle.csv"}) out.check(n);
+
+  std::unique_ptr<io::VideoWriter> writer;
+  if (o.format == "mp4") {
+    auto& f = out.add(names[0]);
+    writer = std::make_unique<io::VideoWriter>(f.temp_path(), cup.fps, cv::Size(o.width_px, o.height_px), o.codec);
+  }
+  core::Metadata meta = header;
+  meta.emplace_back("run", o.run_dir.string());
+  meta.emplace_back("time_s", "video time: 0 at the first frame drawn (simulated time " + num(t_first) + " s)");
+  meta.emplace_back("angle_rad", "vane deflection phi, > 0 counter-clockwise seen from above (and on the image)");
+  io::CsvWriter angles(out.add("vane_angle.csv").stream(), meta, {"time_s", "angle_rad"});
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t fk = static_cast<std::size_t>(o.first_frame) + k;
+    const FrameBodies bodies = frames.frame(fk);
+    const ProjectedBeads beads = project_beads(cam, cup, bodies, sum.surface_z_m, o.look);
+    const double phi = cup.vane_angle(bodies.t_s);
+    const cv::Mat img = render_cup_frame(cam, cup, sum.surface_z_m, beads, phi, o.look, fk);
+    if (writer) {
+      writer->write(img);
+    } else {
+      const std::string bytes = io::encode_image(img, o.output_dir / names[k]);
+      out.add(names[k]).stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    }
+    angles.row(std::vector<double>{bodies.t_s - t_first, phi});
+    if (progress) progress(k + 1, count);
+  }
+  if (writer) writer->close();
+
+  // camera.json: everything in px that the lab pipeline needs, and how it was drawn.
+  {
+    std::string j = "{\n";
+    auto add = [&j](const std::string& k, const std::string& v) { j += "  \"" + k + "\": " + v + ",\n"; };
+    auto str = [](const std::string& s) { return "\"" + s + "\""; };
+    add("source", str("shearzone sim render"));
+    add("run", str(o.run_dir.generic_string()));
+    add("video", str(o.format == "mp4" ? "video.mp4" : "frame_%06d.png"));
+    add("frames", std::to_string(count));
+    add("fps", num(cup.fps));
+    add("t0_sim_s", num(t_first));
+    add("projection", str(cam.projection_name()));
+    add("width_px", std::to_string(cam.width_px));
+    add("height_px", std::to_string(cam.height_px));
+    add("m_per_px", num(cam.m_per_px));
+    add("m_per_px_plane_z_m", num(sum.surface_z_m));
+    if (!cam.orthographic) {
+      add("pinhole_height_m", num(cam.height_m));
+      add("focal_px", num(cam.focal_px()));
+    }
+    add("centre_x_px", num(im.centre_x_px));
+    add("centre_y_px", num(im.centre_y_px));
+    add("cup_radius_px", num(im.cup_radius_px));
+    add("rim_radius_px", num(im.rim_radius_px));
+    add("rim_line_radius_px", num(im.rim_radius_px + 0.5 * o.look.rim_width_px));
+    add("vane_radius_px", num(im.vane_surface_radius_px));
+    add("vane_drawn_radius_px", num(im.vane_radius_px));
+    add("vane_blades", std::to_string(cup.vane_blades));
+    add("vane_half_width_px", num(im.vane_half_width_px));
+    add("bead_diameter_m", num(cup.bead_diameter_m));
+    add("bead_diameter_px", num(cup.bead_diameter_m * cam.px_per_m(sum.surface_z_m)));
+    add("cup_radius_m", num(cup.cup_radius_m));
+    add("N", std::to_string(cup.N));
+    add("f_Hz", num(cup.f_Hz));
+    add("phi0_rad", num(cup.phi0_rad));
+    add("vane_phase_rad", num(phase_video));
+    add("angle_log", str("vane_angle.csv"));
+    add("noise", num(o.look.noise));
+    add("blur_px", num(o.look.blur_px));
+    add("jpeg_quality", std::to_string(o.look.jpeg_quality));
+    add("seed", std::to_string(o.look.seed));
+    j += "  \"conventions\": \"pixel centres at integers; x right along world +X, y down along world -Y (seen from "
+         "above); vane angle phi(t) = phi0_rad sin(2 pi f_Hz t + vane_phase_rad), t video time (0 at frame 0), "
+         "blade j at phi + 2 pi j / vane_blades counter-clockwise from +x; m_per_px holds on the plane "
+         "z = m_per_px_plane_z_m (the bead surface: the 90th percentile of the bead centres' heights)\"\n}\n";
+    out.add("camera.json").stream() << j;
+  }
+  // piv.toml: the options of `shearzone piv` that this camera fixes.
+  {
+    std::string t = "# `shearzone piv VIDEO --config piv.toml -o fields.h5`: written by `shearzone sim render` for "
+                    "this video\n";
+    t += fmt::format("fps = {}\n", num(cup.fps));
+    t += fmt::format("centre = [{}, {}]\n", num(im.centre_x_px), num(im.centre_y_px));
+    // The profile's first bin edge: the vane's radius on the bead surface.
+    const double rv_surface_px = im.vane_surface_radius_px;
+    t += fmt::format("annulus = [{}, {}]\n", num(rv_surface_px), num(im.cup_radius_px));
+    if (cup.vane_blades > 0) {
+      t += fmt::format("vane = [{}, {}, {}]\n", cup.vane_blades, num(im.vane_half_width_px), num(im.vane_radius_px));
+      t += "vane-margin-px = 2\n";
+      if (cup.f_Hz > 0) {
+        t += fmt::format("phi0-rad = {}\nf-hz = {}\nphase-rad = {}\n", num(cup.phi0_rad), num(cup.f_Hz),
+                         num(phase_video));
+      }
+    }
+    t += fmt::format("m-per-px = {}\n", num(cam.m_per_px));
+    t += fmt::format("N = {}\n", cup.N);
+    t += fmt::format("attr = [\"cup_radius_px={}\", \"vane_radius_px={}\", \"bead_diameter_m={}\"]\n",
+                     num(im.cup_radius_px), num(rv_surface_px), num(cup.bead_diameter_m));
+    out.add("piv.toml").stream() << t;
+  }
+  out.commit_all();
+  for (const auto& n : names) sum.files.push_back(o.output_dir / n);
+  for (const char* n : {"camera.json", "piv.toml", "vane_angle.csv"}) sum.files.push_back(o.output_dir / n);
+  sum.frames = count;
+  sum.bead_diameter_px = cup.bead_diameter_m * cam.px_per_m(sum.surface_z_m);
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return sum;
+}
+
+}  // namespace shearzone::pipeline
