@@ -141,6 +141,7 @@ struct CheckCli {
   pipeline::SimCheckOptions job;
   std::string run, output;
   std::vector<int> size, windows, final_windows, spacings{1};
+  std::string estimator = "auto";
 };
 
 int run_check(CheckCli& s, const Context& ctx) {
@@ -148,6 +149,8 @@ int run_check(CheckCli& s, const Context& ctx) {
   j.run_dir = s.run;
   j.output_dir = s.output;
   apply_size(j.render, s.size);
+  if (!profile::parse_estimator(s.estimator, j.width.estimator))
+    throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
   if (!s.windows.empty()) j.piv.piv.windows_px = s.windows;
   std::vector<std::vector<int>> grids;
   for (const int w : s.final_windows) {
@@ -231,6 +234,10 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx) {
       ->delimiter(',')
       ->capture_default_str();
   ck->add_option("--vc", k->job.width.v_c_m_per_s, "Threshold velocity v_c of every width, m/s; range: > 0")
+      ->capture_default_str();
+  ck->add_option("--estimator", k->estimator,
+                 "Width estimator of every width: mean-abs (the paper's mean |v|), lockin (the drive-locked part) or "
+                 "auto (width's default)")
       ->capture_default_str();
   ck->add_option("--bootstrap", k->job.width.bootstrap, "Bootstrap resamples of every width; range: 0..1000000")
       ->capture_default_str();

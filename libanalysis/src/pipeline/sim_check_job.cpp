@@ -17,6 +17,7 @@
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
 #include "shearzone/io/profile_csv.hpp"
+#include "shearzone/io/video.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/width_job.hpp"
 
@@ -45,6 +46,9 @@ std::vector<std::pair<std::string, fs::path>> branches_of(const fs::path& run) {
                                  run.string()));
   return out;
 }
+
+constexpr std::size_t kStaticFrames = 10;                  // the noise reference clip
+constexpr std::uint64_t kStaticSeedOffset = 1000000000ull;  // its noise streams, apart from the video's
 
 /// A width row for a stage that gave no profile.
 WidthRow no_result(const std::string& why) {
@@ -175,10 +179,11 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       f.commit();
     }
     auto profile_and_width = [&](const fs::path& field, const fs::path& prof, const fs::path& wid, double* prof_s,
-                                 double* wid_s) -> WidthRow {
+                                 double* wid_s, const fs::path& noise_ref = {}) -> WidthRow {
       auto t1 = Clock::now();
       ProfileJobOptions po;
       po.input = field;
+      po.noise_ref = noise_ref;
       po.output = prof;
       po.force = o.force;
       po.bead_diameter_m = d;
@@ -202,6 +207,22 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
                                                bout / "truth_centres_width.csv", nullptr, nullptr);
     const WidthRow surface = profile_and_width(dir / "surface.h5", bout / "truth_surface_profile.csv",
                                                bout / "truth_surface_width.csv", nullptr, nullptr);
+    // The PIV's noise floor, as in the lab: a static clip (frame 0's packing and vane,
+    // fresh sensor noise per frame) through the same PIV setting is `profile`'s
+    // --noise-ref. (The default floor, the motion in the outer 15 % of the annulus, is
+    // motion here: the zone of a small cup reaches its wall.)
+    const fs::path static_clip = bout / "static.mp4";
+    {
+      io::AtomicOutput f(static_clip, o.force);
+      {
+        io::VideoWriter w(f.temp_path(), cup.fps, cv::Size(rs.camera.width_px, rs.camera.height_px), ro.codec);
+        for (std::size_t k = 0; k < kStaticFrames; ++k)
+          w.write(render_cup_frame(rs.camera, cup, rs.surface_z_m, proj[0], vane_angles[0], ro.look,
+                                   kStaticSeedOffset + k));
+        w.close();
+      }
+      f.commit();
+    }
     const double truth_s = since(t);
 
     // 3. The lab pipeline, per PIV setting.
@@ -243,13 +264,36 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       p.validate();
       say(fmt::format("{}: piv {}", name, st.label()));
       t = Clock::now();
-      const PivJobSummary ps = run_piv_job(p, header);
+      PivJobSummary ps;
+      try {
+        ps = run_piv_job(p, header);
+      } catch (const InputError& e) {
+        // A setting the video cannot take (windows larger than the unmasked cup): a row
+        // that says so, not the end of the grid.
+        row.piv_s = since(t);
+        row.video = no_result(e.what());
+        row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
+        row.piv_rms_error_px = row.piv_bias_u_px = row.piv_bias_v_px = core::kUnset;
+        row.invalid_fraction = core::kUnset;
+        rows.push_back(std::move(row));
+        continue;
+      }
       row.piv_s = since(t);
       row.pairs = ps.pairs;
       const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
       row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
       say(fmt::format("{}: profile {}", name, st.label()));
-      row.video = profile_and_width(p.output, sout / "profile.csv", sout / "width.csv", &row.profile_s, &row.width_s);
+      // The same setting on the static clip: the noise floor (vane at rest: no vane mask).
+      PivJobOptions ps0 = p;
+      ps0.inputs = {static_clip.string()};
+      ps0.output = sout / "static_fields.h5";
+      ps0.vane.f_Hz = 0.0;
+      ps0.vane.phi0_rad = 0.0;
+      ps0.vane.phase_rad = 0.0;
+      ps0.vane.angle0_deg = vane_angles[0] * 180.0 / std::numbers::pi;
+      (void)run_piv_job(ps0, header);
+      row.video = profile_and_width(p.output, sout / "profile.csv", sout / "width.csv", &row.profile_s, &row.width_s,
+                                    ps0.output);
       if (fs::exists(sout / "profile.csv")) {
         row.profile_rms_diff_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_centres_profile.csv");
         row.profile_rms_diff_surface_m_per_s =
