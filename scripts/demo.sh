@@ -86,6 +86,15 @@ echo "== 10. Contact dynamics: a small vane cup through the protocol (fill, pre-
 "$SZ" laos "$OUT/sim_cup/phi0_0.020/torque.csv" "$OUT/sim_cup/phi0_0.300/torque.csv" -o "$OUT/sim_cup/laos"
 "$SZ" profile "$OUT/sim_cup/phi0_0.300/surface.h5" -o "$OUT/sim_cup/profile.csv"
 "$SZ" width "$OUT/sim_cup/profile.csv" -o "$OUT/sim_cup/widths.csv" --vc 2e-3
+echo "== 10b. The closed loop: the large branch filmed by a virtual camera, the video through the lab pipeline"
+# The camera's files carry the geometry: piv needs no --centre, --vane or drive.
+"$SZ" sim render "$OUT/sim_cup/phi0_0.300" -o "$OUT/sim_cup/video" --size 640,360
+"$SZ" piv "$OUT/sim_cup/video/video.mp4" --config "$OUT/sim_cup/video/piv.toml" -o "$OUT/sim_cup/video/fields.h5"
+"$SZ" profile "$OUT/sim_cup/video/fields.h5" -o "$OUT/sim_cup/video/profile.csv" --bead-diameter-m 0.004
+# Both branches filmed at 14 px per bead and set against the simulator's truth, two PIV
+# settings and two pair spacings: r_c from the video and from the truth, per row.
+"$SZ" sim check "$OUT/sim_cup" -o "$OUT/sim_cup/check" --size 256,192 --vc 2e-3 --final-windows 8,16 --spacings 1,2
+"$PY" scripts/plot_closed_loop.py "$OUT/sim_cup/check"
 echo "== 11. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \
     --image "$OUT/pair_rotation/A.png" --every 2
