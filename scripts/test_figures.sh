@@ -46,34 +46,7 @@ L="$OUT/laos"
 "$SZ" laos $D/laos/vane_N1.csv $D/laos/vane_N9.csv $D/laos/vane_N45.csv --interval-col interval -o "$L" -q
 "$SZ" fit power "$L/summary.csv" --x N --y tau_max_N_m --group phi0_nominal_rad -o "$L/tau_power.csv" -q
 # A short filmed cup (60 beads, 5 frames) through the closed loop
-mkdir -p "$OUT/sim_cup"
-cat > "$OUT/sim_cup/cup.toml" <<'SCENE'
-[sim]
-duration_s = 0.16
-time_step_s = 1e-3
-tolerance = 1e-3
-max_iterations = 100
-[output]
-snapshot_every = 0
-[cylinder]
-radius_m = 0.024
-height_m = 0.02
-bead_diameter_m = 0.004
-[beads]
-diameter_m = 0.004
-density_kg_per_m3 = 7800
-[vane]
-radius_m = 0.01
-height_m = 0.02
-phi0_rad = 0.3
-f_Hz = 1.0
-[fill]
-count = 60
-settle = true
-[camera]
-fps = 25
-SCENE
-"$SZ" sim "$OUT/sim_cup/cup.toml" -o "$OUT/sim_cup/run" -q
+"$SZ" sim $D/sim/filmed_cup.toml -o "$OUT/sim_cup/run" -q
 "$SZ" sim check "$OUT/sim_cup/run" -o "$OUT/sim_cup/check" --size 256,192 --vc 2e-3 --final-windows 8,16 -q
 "$SZ" bench piv --quick --repeats 1 -o "$OUT/bench_piv" -q
 "$SZ" bench sim --quick --threads 1,2 -o "$OUT/bench_sim" -q

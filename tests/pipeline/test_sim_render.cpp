@@ -80,32 +80,24 @@ void centroid(const cv::Mat& img, double x, double y, int half, double floor, do
   cy = sy / s;
 }
 
-// A short vane cup with a camera: 60 settled beads, 5 frames at 25 fps.
-const std::string kFilmedCup = R"([sim]
-duration_s = 0.16
-time_step_s = 1e-3
-tolerance = 1e-3
-max_iterations = 100
-[output]
-snapshot_every = 0
-[cylinder]
-radius_m = 0.024
-height_m = 0.02
-bead_diameter_m = 0.004
-[beads]
-diameter_m = 0.004
-density_kg_per_m3 = 7800
-[vane]
-radius_m = 0.01
-height_m = 0.02
-phi0_rad = 0.3
-f_Hz = 1.0
-[fill]
-count = 60
-settle = true
-[camera]
-fps = 25
-)";
+/// data-samples/sim/filmed_cup.toml (60 settled beads, 5 frames at 25 fps) run into dir/run.
+void film_run(const TempDir& dir) {
+  pipeline::SimJobOptions so;
+  so.scene = std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "filmed_cup.toml";
+  so.output_dir = dir / "run";
+  (void)pipeline::run_sim_job(so, core::standard_metadata("test"));
+}
+
+/// The closed loop of dir/run into dir/check, filmed at 256 x 192 (14 px per bead), v_c given.
+pipeline::SimCheckOptions check_options(const TempDir& dir, double v_c) {
+  pipeline::SimCheckOptions o;
+  o.run_dir = dir / "run";
+  o.output_dir = dir / "check";
+  o.render.width_px = 256;
+  o.render.height_px = 192;
+  o.width.v_c_m_per_s = v_c;
+  return o;
+}
 
 std::string read_bytes(const std::filesystem::path& p) { return testing::read_file(p); }
 
@@ -242,11 +234,7 @@ TEST_CASE("sim render: a rigid rotation of packing and vane, filmed and measured
 TEST_CASE("sim render: a filmed run renders to the same bytes twice; camera.json and piv.toml carry the geometry",
           "[pipeline][sim][render]") {
   TempDir dir("sim_render");
-  testing::write_file(dir / "s.toml", kFilmedCup);
-  pipeline::SimJobOptions so;
-  so.scene = dir / "s.toml";
-  so.output_dir = dir / "run";
-  (void)pipeline::run_sim_job(so, core::standard_metadata("test"));
+  film_run(dir);
   REQUIRE(std::filesystem::exists(dir / "run" / "frames.h5"));
   const pipeline::FramesFile frames(dir / "run" / "frames.h5");
   CHECK(frames.size() == 5);  // frames 0..4 of 0.16 s at 25 fps
@@ -293,17 +281,8 @@ TEST_CASE("sim check: a filmed run through the closed loop writes one row per br
           "what it cannot run",
           "[pipeline][sim][render]") {
   TempDir dir("sim_check");
-  testing::write_file(dir / "s.toml", kFilmedCup);
-  pipeline::SimJobOptions so;
-  so.scene = dir / "s.toml";
-  so.output_dir = dir / "run";
-  (void)pipeline::run_sim_job(so, core::standard_metadata("test"));
-  pipeline::SimCheckOptions o;
-  o.run_dir = dir / "run";
-  o.output_dir = dir / "check";
-  o.render.width_px = 256;
-  o.render.height_px = 192;
-  o.width.v_c_m_per_s = 2e-3;
+  film_run(dir);
+  pipeline::SimCheckOptions o = check_options(dir, 2e-3);
   o.width.bootstrap = 200;
   o.settings = {{{32, 16, 8}, 1}, {{32, 16, 8}, 2}};
   const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
@@ -345,12 +324,7 @@ TEST_CASE("closed loop: on the data-samples cup at three amplitudes (no zone, a 
   so.scene = dir / "cup.toml";
   so.output_dir = dir / "run";
   (void)pipeline::run_sim_protocol(so, core::standard_metadata("test"));
-  pipeline::SimCheckOptions o;
-  o.run_dir = dir / "run";
-  o.output_dir = dir / "check";
-  o.render.width_px = 256;
-  o.render.height_px = 192;
-  o.width.v_c_m_per_s = 5e-4;
+  pipeline::SimCheckOptions o = check_options(dir, 5e-4);
   o.settings = {{{32, 16, 8}, 1}};
   const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
   REQUIRE(rows.size() == 3);
