@@ -140,7 +140,8 @@ void apply_size(pipeline::SimRenderOptions& j, const std::vector<int>& size) {
 struct CheckCli {
   pipeline::SimCheckOptions job;
   std::string run, output;
-  std::vector<int> size, windows, final_windows, spacings{1};
+  std::vector<int> size, windows, final_windows, passes{3}, spacings{1};
+  std::vector<std::string> interpolations;
   std::string estimator = "auto";
 };
 
@@ -152,17 +153,25 @@ int run_check(CheckCli& s, const Context& ctx) {
   if (!profile::parse_estimator(s.estimator, j.width.estimator))
     throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
   if (!s.windows.empty()) j.piv.piv.windows_px = s.windows;
+  // The grid: final windows x passes (halving down to the final window) x
+  // interpolations x pair spacings; --windows alone is one window list.
   std::vector<std::vector<int>> grids;
   for (const int w : s.final_windows) {
     if (w != 8 && w != 16 && w != 32 && w != 64)
-      throw ConfigError(fmt::format("--final-windows {}: expected 8, 16, 32 or 64 px (the passes 4W, 2W, W are powers "
-                                    "of two up to 256 px)",
-                                    w));
-    grids.push_back({4 * w, 2 * w, w});  // three passes, halving to the final window
+      throw ConfigError(fmt::format("--final-windows {}: expected 8, 16, 32 or 64 px", w));
+    for (const int p : s.passes) {
+      if (!(p >= 1 && p <= 6)) throw ConfigError(fmt::format("--passes {}: expected 1..6", p));
+      std::vector<int> g;
+      for (int q = p - 1; q >= 0; --q) g.push_back(w << q);
+      grids.push_back(std::move(g));
+    }
   }
   if (grids.empty()) grids.push_back(j.piv.piv.windows_px);
+  std::vector<std::string> interps = s.interpolations;
+  if (interps.empty()) interps.push_back("");
   for (const auto& g : grids)
-    for (const int k : s.spacings) j.settings.push_back({g, k});
+    for (const auto& in : interps)
+      for (const int k : s.spacings) j.settings.push_back({g, k, in});
   const auto rows = pipeline::run_sim_check(j, ctx.header(), [&](const std::string& st) {
     if (ctx.level == core::LogLevel::kVerbose) std::fprintf(stderr, "sim check: %s\n", st.c_str());
   });
@@ -228,7 +237,14 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx) {
   add_camera_options(ck, k->job.render, k->size);
   ck->add_option("--windows", k->windows, "PIV window sizes per pass, px (default: piv's 64,32,16); range: powers of two, 8..256")->delimiter(',');
   ck->add_option("--final-windows", k->final_windows,
-                 "Grid of PIV settings: final window W, passes 4W,2W,W, px; range: 8, 16, 32 or 64")
+                 "Grid of PIV settings: final window W, px, with --passes P: windows 2^(P-1) W, ..., 2W, W; range: "
+                 "8, 16, 32 or 64")
+      ->delimiter(',');
+  ck->add_option("--passes", k->passes, "Grid: passes per final window; range: 1..6 (windows up to 256 px)")
+      ->delimiter(',')
+      ->capture_default_str();
+  ck->add_option("--interpolations", k->interpolations,
+                 "Grid: image deformation interpolations (bilinear, bicubic, bspline, bspline5; default: piv's)")
       ->delimiter(',');
   ck->add_option("--spacings", k->spacings, "Grid of pair spacings k: pairs (i, i+k); range: 1..1000")
       ->delimiter(',')

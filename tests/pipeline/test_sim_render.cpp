@@ -284,7 +284,7 @@ TEST_CASE("sim check: a filmed run through the closed loop writes one row per br
   film_run(dir);
   pipeline::SimCheckOptions o = check_options(dir, 2e-3);
   o.width.bootstrap = 200;
-  o.settings = {{{32, 16, 8}, 1}, {{32, 16, 8}, 2}};
+  o.settings = {{{32, 16, 8}, 1, ""}, {{32, 16, 8}, 2, ""}};
   const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
   REQUIRE(rows.size() == 2);
   CHECK(rows[0].branch == "run");
@@ -303,7 +303,7 @@ TEST_CASE("sim check: a filmed run through the closed loop writes one row per br
   o.force = true;
   CHECK(pipeline::run_sim_check(o, {}).size() == 2);
   // A window the PIV refuses is refused before any rendering.
-  o.settings = {{{48, 24, 12}, 1}};
+  o.settings = {{{48, 24, 12}, 1, ""}};
   o.output_dir = dir / "check2";
   CHECK_THROWS_AS(pipeline::run_sim_check(o, {}), ConfigError);
   CHECK(!std::filesystem::exists(dir / "check2"));
@@ -325,7 +325,7 @@ TEST_CASE("closed loop: on the data-samples cup at three amplitudes (no zone, a 
   so.output_dir = dir / "run";
   (void)pipeline::run_sim_protocol(so, core::standard_metadata("test"));
   pipeline::SimCheckOptions o = check_options(dir, 5e-4);
-  o.settings = {{{32, 16, 8}, 1}};
+  o.settings = {{{32, 16, 8}, 1, ""}};
   const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
   REQUIRE(rows.size() == 3);
   const double d = 0.004;
@@ -342,5 +342,34 @@ TEST_CASE("closed loop: on the data-samples cup at three amplitudes (no zone, a 
     // The surface field's material points carry the beads' spin, which shiny spheres do
     // not show: its r_c is never below the camera's (measured: +1.1 d at 0.15 rad).
     CHECK(r.surface.rc_m >= r.centres.rc_m - 1e-12);
+  }
+}
+
+TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four images", "[pipeline][sim][render]") {
+  TempDir dir("sim_render_sector");
+  std::string scene = testing::read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "filmed_cup.toml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"bead_diameter_m = 0.004\n", "bead_diameter_m = 0.004\nsectors = 4\n"}, {"count = 60", "count = 15"}}) {
+    REQUIRE(scene.find(from) != std::string::npos);
+    scene.replace(scene.find(from), from.size(), to);
+  }
+  testing::write_file(dir / "s.toml", scene);
+  pipeline::SimJobOptions so;
+  so.scene = dir / "s.toml";
+  so.output_dir = dir / "run";
+  const auto sum = pipeline::run_sim_job(so, core::standard_metadata("test"));
+  const pipeline::FramesFile frames(dir / "run" / "frames.h5");
+  CHECK(frames.cup().sectors == 4);
+  const pipeline::FrameBodies b = frames.frame(0);
+  CHECK(b.x.size() == 4u * static_cast<std::size_t>(sum.bodies - sum.kinematic_bodies));
+  // Image j of a bead is the bead turned by j quarter turns about the axis.
+  const double r0 = std::hypot(b.x[0], b.y[0]);
+  const std::size_t per = b.x.size() / 4;
+  for (std::size_t j = 1; j < 4; ++j) {
+    CHECK(b.id[j * per] == b.id[0] + static_cast<std::int64_t>(j));
+    CHECK(std::hypot(b.x[j * per], b.y[j * per]) == Approx(r0).epsilon(1e-12));
+    CHECK(std::atan2(b.y[j * per], b.x[j * per]) - std::atan2(b.y[0], b.x[0]) ==
+          Approx(std::remainder(j * kPi / 2 + std::atan2(b.y[0], b.x[0]), 2 * kPi) - std::atan2(b.y[0], b.x[0]))
+              .margin(1e-12));
   }
 }

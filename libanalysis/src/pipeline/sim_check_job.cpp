@@ -20,6 +20,7 @@
 #include "shearzone/io/video.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/width_job.hpp"
+#include "shearzone/piv/options.hpp"
 
 namespace shearzone::pipeline {
 namespace {
@@ -86,6 +87,7 @@ double profile_rms_diff(const fs::path& a_path, const fs::path& b_path) {
 std::string SimCheckSetting::label() const {
   std::string s = "w";
   for (std::size_t k = 0; k < windows_px.size(); ++k) s += (k ? "-" : "") + std::to_string(windows_px[k]);
+  if (!interpolation.empty()) s += "_" + interpolation;
   return s + "_k" + std::to_string(spacing);
 }
 
@@ -100,6 +102,7 @@ void SimCheckOptions::validate() const {
       throw ConfigError(fmt::format("--spacings {}: expected 1..1000", s.spacing));
     piv::PivOptions p = piv.piv;  // the PIV's own checks, before hours of rendering
     p.windows_px = s.windows_px;
+    if (!s.interpolation.empty()) p.interpolation = piv::interpolation_from_name(s.interpolation);
     p.validate();
   }
 }
@@ -109,7 +112,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
   o.validate();
   const auto branches = branches_of(o.run_dir);
   std::vector<SimCheckSetting> settings = o.settings;
-  if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1});
+  if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1, ""});
   if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
     throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
   auto say = [&](const std::string& s) {
@@ -243,6 +246,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       p.output = sout / "fields.h5";
       p.force = o.force;
       p.piv.windows_px = st.windows_px;
+      if (!st.interpolation.empty()) p.piv.interpolation = piv::interpolation_from_name(st.interpolation);
       p.pair_spacing = st.spacing;
       p.fps = cup.fps;
       p.centre_x_px = im.centre_x_px;

@@ -31,12 +31,14 @@
 
 namespace shearzone::pipeline {
 
-/// One PIV setting of the grid: the window sizes per pass and the pair spacing k
-/// (pairs (i, i + k) of the video's frames).
+/// One PIV setting of the grid: the window sizes per pass, the pair spacing k (pairs
+/// (i, i + k) of the video's frames) and the image deformation's interpolation (empty:
+/// the PIV options').
 struct SimCheckSetting {
   std::vector<int> windows_px;
   int spacing = 1;
-  [[nodiscard]] std::string label() const;  ///< "w64-32-16_k1"
+  std::string interpolation;
+  [[nodiscard]] std::string label() const;  ///< "w64-32-16_k1", "w64-32-16_bilinear_k1"
 };
 
 struct SimCheckOptions {
