@@ -172,9 +172,13 @@ int run_check(CheckCli& s, const Context& ctx) {
   for (const auto& g : grids)
     for (const auto& in : interps)
       for (const int k : s.spacings) j.settings.push_back({g, k, in});
-  const auto rows = pipeline::run_sim_check(j, ctx.header(), [&](const std::string& st) {
-    if (ctx.level == core::LogLevel::kVerbose) std::fprintf(stderr, "sim check: %s\n", st.c_str());
-  });
+  core::ProgressReporter progress("sim check: stages", ctx.level);
+  const auto rows =
+      pipeline::run_sim_check(j, ctx.header(), [&](const std::string& st, std::size_t done, std::size_t total) {
+        if (ctx.level == core::LogLevel::kVerbose) std::fprintf(stderr, "sim check: %s\n", st.c_str());
+        progress.update(done, total);
+      });
+  progress.finish();
   if (ctx.level != core::LogLevel::kQuiet) {
     auto rc = [](const pipeline::WidthRow& r) {
       return r.label == "no_result" ? std::string("no result")

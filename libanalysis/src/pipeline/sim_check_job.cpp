@@ -108,15 +108,19 @@ void SimCheckOptions::validate() const {
 }
 
 std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Metadata& header,
-                                       const std::function<void(const std::string&)>& stage) {
+                                       const SimCheckProgress& stage) {
   o.validate();
   const auto branches = branches_of(o.run_dir);
   std::vector<SimCheckSetting> settings = o.settings;
   if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1, ""});
   if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
     throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
+  // Progress in stages: per branch the render, the truths, then each setting.
+  const std::size_t total = branches.size() * (2 + settings.size());
+  std::size_t done = 0;
   auto say = [&](const std::string& s) {
-    if (stage) stage(s);
+    if (stage) stage(s, done, total);
+    if (s.find(": profile ") == std::string::npos) ++done;
   };
 
   std::vector<SimCheckRow> rows;

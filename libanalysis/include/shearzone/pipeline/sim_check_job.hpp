@@ -67,7 +67,11 @@ struct SimCheckRow {
   double render_s = 0, piv_s = 0, profile_s = 0, width_s = 0, truth_s = 0;
 };
 
+/// Called as each stage starts: its name ("phi0_0.300: piv w64-32-16_k1"), the stages
+/// done and their total.
+using SimCheckProgress = std::function<void(const std::string& stage, std::size_t done, std::size_t total)>;
+
 std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& options, const core::Metadata& header,
-                                       const std::function<void(const std::string&)>& stage = {});
+                                       const SimCheckProgress& stage = {});
 
 }  // namespace shearzone::pipeline
