@@ -116,9 +116,14 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
     throw InputError(fmt::format("{}: frame {}: size {}x{} differs from the first frame's {}x{}",
                                  path_, next_, frame.cols, frame.rows, info_.width,
                                  info_.height));
-  // The FFmpeg back-end reports the presentation time of the frame just read.
+  // The FFmpeg back-end reports the presentation time of the frame just read, except for
+  // the frames an H.264 decoder still holds at the end of the stream (B-frame delay):
+  // OpenCV 4.6 reports 0 for those. A time that does not move forward is such a gap:
+  // the frame follows the previous one by 1/fps.
   t_s = cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
   if (!std::isfinite(t_s) || t_s < 0) t_s = static_cast<double>(next_) / info_.fps;
+  if (next_ > 0 && !(t_s > last_t_s_)) t_s = last_t_s_ + 1.0 / info_.fps;
+  last_t_s_ = t_s;
   gray = frame.depth() == CV_8U ? to_gray(frame, grey_mode_) : cv::Mat();
   if (gray.empty())
     throw InputError(fmt::format("{}: frame {}: unsupported sample depth; expected 8-bit video",

@@ -2,7 +2,8 @@
 //
 // VideoReader gives grey frames with their timestamps from the container
 // (CAP_PROP_POS_MSEC), so that velocity = displacement / (t_b - t_a) holds even for
-// variable frame rates. A file that will not open, or whose frames stop decoding
+// variable frame rates; a time that does not move forward (the frames an H.264 decoder
+// flushes at the end of a stream come with 0) is the previous one plus 1/fps. A file that will not open, or whose frames stop decoding
 // before the frame count the container declares, is an InputError naming the file
 // and the frame index.
 //
@@ -63,6 +64,7 @@ class VideoReader {
   std::unique_ptr<cv::VideoCapture> cap_;
   VideoInfo info_;
   std::int64_t next_ = 0;
+  double last_t_s_ = 0.0;  ///< the previous frame's time
   GreyMode grey_mode_ = GreyMode::kLuma;
   bool last_damaged_ = false;
   std::int64_t damaged_ = 0;
