@@ -110,6 +110,18 @@ struct RenderCli {
   std::vector<int> size;
 };
 
+/// Beads much larger than the PIV's final window read low (docs/sim.md, "Where the
+/// pipeline loses it": a 2 px shift of 54 px beads reads 1.72 px with the default windows).
+constexpr double kLargeBeadPx = 30.0;
+void warn_bead_size(double bead_px) {
+  if (bead_px > kLargeBeadPx)
+    std::fprintf(stderr,
+                 "sim render: note: beads are %.0f px across; PIV with final windows under a bead reads such "
+                 "beads low (docs/sim.md, \"Where the pipeline loses it\"): film at 10-15 px per bead (--size "
+                 "or --m-per-px) or use final windows of at least a bead\n",
+                 bead_px);
+}
+
 /// The camera and look options that `sim render` and `sim check` share.
 void add_camera_options(CLI::App* c, pipeline::SimRenderOptions& j, std::vector<int>& size) {
   c->add_option("--codec", j.codec, "MP4 codec: mp4v or avc1 (H.264 where FFmpeg has it)")->capture_default_str();
@@ -192,6 +204,7 @@ int run_check(CheckCli& s, const Context& ctx) {
                   r.branch.c_str(), r.setting.c_str(), rc(r.video).c_str(), rc(r.centres).c_str(),
                   rc(r.surface).c_str(), r.piv_rms_error_px, r.compared_vectors, 100.0 * r.invalid_fraction, r.piv_s);
     std::printf("sim check: %zu rows -> %s/closed_loop.csv\n", rows.size(), s.output.c_str());
+    if (!rows.empty()) warn_bead_size(rows.front().bead_diameter_px);
   }
   return kExitOk;
 }
@@ -213,6 +226,7 @@ int run_render(RenderCli& s, const Context& ctx) {
                 "`shearzone piv` takes them from %s/piv.toml\n",
                 sum.image.centre_x_px, sum.image.centre_y_px, sum.image.cup_radius_px, sum.image.rim_radius_px,
                 sum.image.vane_radius_px, s.output.c_str());
+    warn_bead_size(sum.bead_diameter_px);
   }
   return kExitOk;
 }

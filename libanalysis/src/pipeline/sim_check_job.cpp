@@ -240,6 +240,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       row.phi0_rad = cup.phi0_rad;
       row.N = cup.N;
       row.bead_diameter_m = d;
+      row.bead_diameter_px = rs.bead_diameter_px;
       row.render_s = render_s;
       row.truth_s = truth_s;
       row.centres = centres;

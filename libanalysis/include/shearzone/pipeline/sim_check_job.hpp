@@ -56,6 +56,7 @@ struct SimCheckOptions {
 struct SimCheckRow {
   std::string branch, setting;
   double phi0_rad = 0, bead_diameter_m = 0;
+  double bead_diameter_px = 0;  ///< on the video, at the bead surface
   int N = 1;
   std::size_t pairs = 0;
   WidthRow video, centres, surface;
