@@ -15,6 +15,7 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/field_file.hpp"
 #include "shearzone/pipeline/sim_check_job.hpp"
 #include "shearzone/pipeline/sim_job.hpp"
 #include "shearzone/pipeline/sim_render_job.hpp"
@@ -345,7 +346,9 @@ TEST_CASE("closed loop: on the data-samples cup at three amplitudes (no zone, a 
   }
 }
 
-TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four images", "[pipeline][sim][render]") {
+TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four images, and goes through the "
+          "closed loop",
+          "[pipeline][sim][render]") {
   TempDir dir("sim_render_sector");
   std::string scene = testing::read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "filmed_cup.toml");
   for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
@@ -372,4 +375,24 @@ TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four
           Approx(std::remainder(j * kPi / 2 + std::atan2(b.y[0], b.x[0]), 2 * kPi) - std::atan2(b.y[0], b.x[0]))
               .margin(1e-12));
   }
+  // The closed loop takes it like a whole cup: the camera's truth sees beads in all four
+  // quarters, and the PIV is compared with it there.
+  pipeline::SimCheckOptions o = check_options(dir, 2e-3);
+  o.width.bootstrap = 100;
+  o.settings = {{{32, 16, 8}, 1, ""}};
+  const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
+  REQUIRE(rows.size() == 1);
+  CHECK(rows[0].pairs == 4);
+  CHECK(rows[0].compared_vectors > 100);
+  const auto truth = io::open_field_file(dir / "check" / "run" / "truth_centres.h5", core::kUnset);
+  core::VectorField f;
+  double ta = 0, dt = 0;
+  truth->read(0, f, ta, dt);
+  int quarters[4] = {0, 0, 0, 0};
+  const double cx = truth->attribute("centre_x_px"), cy = truth->attribute("centre_y_px");
+  for (std::size_t i = 0; i < f.ny(); ++i)
+    for (std::size_t jx = 0; jx < f.nx(); ++jx)
+      if (f.flag[f.index(i, jx)] == core::VectorFlag::kValid)
+        ++quarters[(f.x_px[jx] > cx ? 1 : 0) + (f.y_px[i] > cy ? 2 : 0)];
+  for (const int q : quarters) CHECK(q > 10);
 }
