@@ -55,7 +55,8 @@ FramesFile::FramesFile(const std::filesystem::path& path) : path_(path.string())
     throw InputError(fmt::format("{}: not found: expected the frames of a run whose scene has a [camera] with "
                                  "frames = true",
                                  path_));
-  const io::H5File f = io::H5File::open_read(path);
+  file_ = std::make_unique<io::H5File>(io::H5File::open_read(path));
+  const io::H5File& f = *file_;
   RenderedCup& c = cup_;
   c.fps = attr_number(f, "camera_fps", true);
   c.bead_diameter_m = attr_number(f, "bead_diameter_m", true);
@@ -97,10 +98,11 @@ FramesFile::FramesFile(const std::filesystem::path& path) : path_(path.string())
   surface_z_ = zs[static_cast<std::size_t>(q)];
 }
 
+FramesFile::~FramesFile() = default;
+
 FrameBodies FramesFile::frame(std::size_t k) const {
-  const io::H5File f = io::H5File::open_read(path_);
   std::vector<double> pos(kind_.size() * 3);
-  f.read_record("/position", k, pos.data());
+  file_->read_record("/position", k, pos.data());
   FrameBodies out;
   out.t_s = times_.at(k);
   const int images = std::max(1, cup_.sectors);
@@ -185,8 +187,7 @@ cv::Mat render_cup_frame(const synth::DownCamera& cam, const RenderedCup& cup, d
   const double d_px = cup.bead_diameter_m * cam.px_per_m(surface_z_m);
   const double R_in = R - std::max({4.0, 0.3 * d_px, R - im.cup_radius_px});
   const double R_out = R + look.rim_width_px;
-  auto level_at = [&](double x, double y) {
-    const double r = std::hypot(x - im.centre_x_px, y - im.centre_y_px);
+  auto level_of = [&](double r) {  // at distance r from the axis' image
     if (r > R_out) return look.outside_level;
     return r > R ? look.rim_level : (r > R_in ? look.wall_level : -1.0);  // -1: the beads
   };
@@ -197,13 +198,14 @@ cv::Mat render_cup_frame(const synth::DownCamera& cam, const RenderedCup& cup, d
       const double r = std::hypot(j - im.centre_x_px, i - im.centre_y_px);
       if (r < R_in - 1.0) continue;
       if ((r > R_in + 1.0 && r < R - 1.0) || (r > R + 1.0 && r < R_out - 1.0) || r > R_out + 1.0) {
-        row[j] = level_at(j, i);
+        row[j] = level_of(r);
         continue;
       }
       double acc = 0.0;
       for (int si = 0; si < 4; ++si)
         for (int sj = 0; sj < 4; ++sj) {
-          const double v = level_at(j - 0.5 + (sj + 0.5) / 4, i - 0.5 + (si + 0.5) / 4);
+          const double v = level_of(std::hypot(j - 0.5 + (sj + 0.5) / 4 - im.centre_x_px,
+                                               i - 0.5 + (si + 0.5) / 4 - im.centre_y_px));
           acc += v < 0 ? row[j] : v;
         }
       row[j] = acc / 16.0;
@@ -234,8 +236,26 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
   auto key = [cell](double x, double y) {
     return std::pair<long, long>(static_cast<long>(std::floor(x / cell)), static_cast<long>(std::floor(y / cell)));
   };
-  std::map<std::pair<long, long>, std::vector<std::size_t>> buckets;
-  for (std::size_t k = 0; k < a.x.size(); ++k) buckets[key(a.x[k], a.y[k])].push_back(k);
+  // A dense grid of cells over the discs' extent (the beads lie within the image, give
+  // or take a diameter: project_beads drops the rest).
+  long cx0 = 0, cy0 = 0, cx1 = -1, cy1 = -1;
+  for (std::size_t k = 0; k < a.x.size(); ++k) {
+    const auto [kx, ky] = key(a.x[k], a.y[k]);
+    if (k == 0 || kx < cx0) cx0 = kx;
+    if (k == 0 || ky < cy0) cy0 = ky;
+    if (k == 0 || kx > cx1) cx1 = kx;
+    if (k == 0 || ky > cy1) cy1 = ky;
+  }
+  const long ncx = cx1 - cx0 + 1, ncy = cy1 - cy0 + 1;
+  std::vector<std::vector<std::size_t>> buckets(static_cast<std::size_t>(std::max(0L, ncx * ncy)));
+  auto bucket = [&](long kx, long ky) -> const std::vector<std::size_t>* {
+    if (kx < cx0 || kx > cx1 || ky < cy0 || ky > cy1) return nullptr;
+    return &buckets[static_cast<std::size_t>((ky - cy0) * ncx + (kx - cx0))];
+  };
+  for (std::size_t k = 0; k < a.x.size(); ++k) {
+    const auto [kx, ky] = key(a.x[k], a.y[k]);
+    buckets[static_cast<std::size_t>((ky - cy0) * ncx + (kx - cx0))].push_back(k);
+  }
   std::map<std::int64_t, std::size_t> in_b;
   for (std::size_t k = 0; k < b.id.size(); ++k) in_b.emplace(b.id[k], k);
   for (std::size_t i = 0; i < ys.size(); ++i) {
@@ -257,9 +277,9 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
       std::size_t seen_k = 0;
       for (long dy = -1; dy <= 1; ++dy)
         for (long dx = -1; dx <= 1; ++dx) {
-          const auto it = buckets.find({cx + dx, cy + dy});
-          if (it == buckets.end()) continue;
-          for (const std::size_t k : it->second) {
+          const std::vector<std::size_t>* members = bucket(cx + dx, cy + dy);
+          if (members == nullptr) continue;
+          for (const std::size_t k : *members) {
             const double R = 0.5 * a.diameter[k];
             const double rho2 = (x - a.x[k]) * (x - a.x[k]) + (y - a.y[k]) * (y - a.y[k]);
             if (rho2 >= R * R) continue;

@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,10 @@
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/synth/camera.hpp"
 #include "shearzone/synth/render.hpp"
+
+namespace shearzone::io {
+class H5File;
+}  // namespace shearzone::io
 
 namespace shearzone::pipeline {
 
@@ -72,6 +77,9 @@ struct FrameBodies {
 class FramesFile {
  public:
   explicit FramesFile(const std::filesystem::path& path);
+  ~FramesFile();
+  FramesFile(const FramesFile&) = delete;
+  FramesFile& operator=(const FramesFile&) = delete;
   [[nodiscard]] const RenderedCup& cup() const { return cup_; }
   [[nodiscard]] std::size_t size() const { return times_.size(); }
   [[nodiscard]] double time(std::size_t k) const { return times_.at(k); }
@@ -83,6 +91,7 @@ class FramesFile {
 
  private:
   std::string path_;
+  std::unique_ptr<io::H5File> file_;  ///< open for the frames' reads (one thread)
   RenderedCup cup_;
   std::vector<double> times_;
   std::vector<std::uint8_t> kind_;
