@@ -49,10 +49,15 @@ def widths_row(widths, profile_path, meta, n_profiles):
     """The row of the widths CSV that belongs to this profile (label, then N and phi0)."""
     if not widths:
         return None
-    stem = os.path.splitext(os.path.basename(profile_path))[0]
+    # a study's collected table names each row's folder (`item`): the surest match
+    folder = os.path.normpath(os.path.dirname(os.path.abspath(profile_path)))
     for w in widths:
-        if w.get("label") == stem:
+        if w.get("item") and folder.endswith(os.sep + os.path.normpath(w["item"])):
             return w
+    stem = os.path.splitext(os.path.basename(profile_path))[0]
+    by_label = [w for w in widths if w.get("label") == stem]
+    if len(by_label) == 1:
+        return by_label[0]
     for w in widths:
         if ("N" in meta and "phi0_rad" in meta and math.isclose(num(w.get("N")), num(meta["N"]))
                 and math.isclose(num(w.get("phi0_rad")), num(meta["phi0_rad"]), rel_tol=1e-6)):

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   for (auto& s : add_fit(app, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_laos(app, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_sim(app, ctx)) subs.push_back(std::move(s));
+  for (auto& s : add_study(app, ctx)) subs.push_back(std::move(s));
   CLI::App* collapse = app.add_subcommand(
       "collapse",
       "Data collapse of r_c(phi0) curves: erf (parametric, global Ceres fit) or fss "

@@ -23,6 +23,7 @@ namespace {
 struct SimCli {
   pipeline::SimJobOptions job;
   std::string scene, output, restart;
+  bool preshear = false;
 };
 
 void print_summary(const pipeline::SimJobSummary& sum, const std::string& output, const Context& ctx) {
@@ -68,6 +69,21 @@ int run_sim(CLI::App& c, SimCli& s, const Context& ctx) {
                                  drop.finish();
                                  relax.update(k, n);
                                }};
+  if (s.preshear) {
+    // The protocol's pre-shear alone (a study's job): the folder the protocol writes as run/preshear.
+    core::ProgressReporter progress("sim: preshear steps", ctx.level);
+    const auto sum = pipeline::run_sim_preshear(
+        s.job, ctx.header(),
+        [&](std::size_t k, std::size_t n) {
+          drop.finish();
+          relax.finish();
+          progress.update(k, n);
+        },
+        fill);
+    progress.finish();
+    print_summary(sum, s.output, ctx);
+    return kExitOk;
+  }
   if (s.restart.empty() && pipeline::scene_has_protocol(s.job.scene)) {
     // The whole protocol: pre-shear, then every amplitude branch, each in its own folder.
     auto progress = std::make_unique<core::ProgressReporter>("sim: preshear steps", ctx.level);
@@ -291,6 +307,9 @@ std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx) {
   c->add_option("--restart", s->restart,
                 "Continue from this checkpoint .h5 (the scene then gives duration and output cadence)");
   c->add_flag("--force", s->job.force, "Replace existing outputs");
+  c->add_flag("--preshear", s->preshear,
+              "A [protocol] scene: run only its fill and pre-shear into -o (what the protocol writes to "
+              "RUN/preshear; branches then restart from its checkpoint.h5)");
   c->add_option("--phi0", s->job.branch_phi0_rad,
                 "Amplitude branch from --restart: the vane turns phi0 sin(2 pi f (t - t_checkpoint)), rad; "
                 "range: |phi0| <= 100");

@@ -43,6 +43,9 @@ std::vector<Subcommand> add_sim(CLI::App& root, Context& ctx);
 /// `shearzone sim render` (`sim` is the `sim` subcommand).
 std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx);
 
+/// `shearzone study run`.
+std::vector<Subcommand> add_study(CLI::App& root, Context& ctx);
+
 /// `shearzone width`.
 std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 

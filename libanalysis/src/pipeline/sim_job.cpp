@@ -376,6 +376,34 @@ bool scene_has_protocol(const std::filesystem::path& scene) {
   return sim::load_scene(scene, true).protocol.has_value();
 }
 
+namespace {
+
+/// The protocol's pre-shear: the scene's fill and drive into its own folder, without
+/// frames.h5 (its minutes of frames are not a measurement).
+SimJobSummary run_preshear_stage(SimJobOptions pre, const sim::SceneProtocol& p, const core::Metadata& header,
+                                 const core::ProgressCallback& progress, const sim::FillProgress& fill_progress) {
+  pre.camera_frames = false;
+  core::Metadata h = header;
+  h.emplace_back("protocol_stage",
+                 fmt::format("pre-shear: phi = {} sin(2 pi {} t) for {} s (stop_change {})",
+                             io::format_number(p.preshear_phi0_rad), io::format_number(p.preshear_f_Hz),
+                             io::format_number(p.preshear_s), io::format_number(p.stop_change)));
+  return run_sim_job(pre, h, progress, fill_progress);
+}
+
+}  // namespace
+
+SimJobSummary run_sim_preshear(const SimJobOptions& o, const core::Metadata& header,
+                               const core::ProgressCallback& progress, const sim::FillProgress& fill_progress) {
+  if (!o.restart.empty() || !std::isnan(o.branch_phi0_rad) || !std::isnan(o.branch_f_Hz) ||
+      !std::isnan(o.branch_cycles))
+    throw ConfigError("--preshear starts from the scene's fill: it takes no --restart, --phi0, --f-hz or --cycles");
+  const sim::LoadedScene checked = sim::load_scene(o.scene, true);
+  if (!checked.protocol)
+    throw ConfigError(fmt::format("{}: --preshear needs a [protocol] section (docs/sim.md)", o.scene.string()));
+  return run_preshear_stage(o, *checked.protocol, header, progress, fill_progress);
+}
+
 SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata& header,
                                     const core::ProgressCallback& progress,
                                     const std::function<void(const SimProtocolStage&)>& on_stage,
@@ -407,13 +435,8 @@ SimProtocolSummary run_sim_protocol(const SimJobOptions& o, const core::Metadata
   {
     SimJobOptions pre = o;
     pre.output_dir = o.output_dir / "preshear";
-    pre.camera_frames = false;
-    core::Metadata h = header;
-    h.emplace_back("protocol_stage",
-                   fmt::format("pre-shear: phi = {} sin(2 pi {} t) for {} s (stop_change {})",
-                               io::format_number(p.preshear_phi0_rad), io::format_number(p.preshear_f_Hz),
-                               io::format_number(p.preshear_s), io::format_number(p.stop_change)));
-    SimProtocolStage st{"preshear", p.preshear_phi0_rad, p.preshear_f_Hz, run_sim_job(pre, h, progress, fill_progress)};
+    SimProtocolStage st{"preshear", p.preshear_phi0_rad, p.preshear_f_Hz,
+                        run_preshear_stage(pre, p, header, progress, fill_progress)};
     if (on_stage) on_stage(st);
     out.stages.push_back(std::move(st));
   }

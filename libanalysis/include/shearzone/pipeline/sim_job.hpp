@@ -82,6 +82,14 @@ struct SimProtocolSummary {
 /// True when the scene file has a [protocol] section (sim/scene.hpp).
 bool scene_has_protocol(const std::filesystem::path& scene);
 
+/// `shearzone sim scene.toml --preshear -o pre/`: the protocol's pre-shear alone (the fill
+/// and the drive of [protocol], no frames.h5), exactly what run_sim_protocol writes to
+/// run/preshear/; a branch then restarts from pre/checkpoint.h5 (--restart, --phi0,
+/// --f-hz, --cycles). A study runs the protocol this way, one job per stage.
+SimJobSummary run_sim_preshear(const SimJobOptions& options, const core::Metadata& header,
+                               const core::ProgressCallback& progress = {},
+                               const sim::FillProgress& fill_progress = {});
+
 /// `shearzone sim scene.toml -o run/` on a scene with [protocol]: the fill (fill.settle),
 /// the pre-shear into run/preshear/ (a run_sim_job of the scene: torque.csv, cycles.csv,
 /// surface.h5 with a [camera], checkpoint.h5), then per amplitude a branch restarted

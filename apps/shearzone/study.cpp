@@ -1,0 +1,162 @@
+// `shearzone study run STUDY.toml -o OUT`: a whole study (lab clips and logs, a
+// simulation grid) through the Snakemake workflow in scripts/study/, locally or on SLURM.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/pipeline/study.hpp"
+#include "subcommands.hpp"
+
+#ifndef SHEARZONE_SOURCE_DIR
+#define SHEARZONE_SOURCE_DIR ""
+#endif
+
+namespace shearzone::apps {
+namespace {
+namespace fs = std::filesystem;
+
+struct StudyCli {
+  std::string study, output;
+  int jobs = 0;
+  bool slurm = false, dry_run = false, keep_going = false;
+};
+
+/// Does `shearzone <stage>` have the long option --key?
+bool has_option(CLI::App& root, const std::string& stage, const std::string& key) {
+  CLI::App* sub = nullptr;
+  try {
+    if (stage == "render") sub = root.get_subcommand("sim")->get_subcommand("render");
+    else if (stage == "erf" || stage == "power") sub = root.get_subcommand("fit")->get_subcommand(stage);
+    else if (stage == "collapse") sub = root.get_subcommand("collapse")->get_subcommand("erf");
+    else sub = root.get_subcommand(stage);
+  } catch (const CLI::Error&) {
+    return false;
+  }
+  for (const CLI::Option* o : sub->get_options())
+    for (const std::string& n : o->get_lnames())
+      if (n == key) return true;
+  return false;
+}
+
+/// The folder of the workflow and figure scripts: $SHEARZONE_SCRIPTS, else the source tree's.
+fs::path scripts_dir() {
+  if (const char* env = std::getenv("SHEARZONE_SCRIPTS"); env && *env) return env;
+  return fs::path(SHEARZONE_SOURCE_DIR) / "scripts";
+}
+
+fs::path find_program(const std::string& name, const std::vector<fs::path>& first) {
+  for (const fs::path& p : first)
+    if (::access(p.c_str(), X_OK) == 0) return p;
+  if (const char* path = std::getenv("PATH"))
+    for (std::string_view rest = path; !rest.empty();) {
+      const auto colon = rest.find(':');
+      const fs::path p = fs::path(std::string(rest.substr(0, colon))) / name;
+      if (::access(p.c_str(), X_OK) == 0) return p;
+      if (colon == std::string_view::npos) break;
+      rest.remove_prefix(colon + 1);
+    }
+  return {};
+}
+
+int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
+  const pipeline::Study study = pipeline::load_study(
+      s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); });
+  const fs::path scripts = scripts_dir();
+  const fs::path snakefile = scripts / "study" / "Snakefile";
+  if (!fs::is_regular_file(snakefile))
+    throw ConfigError(fmt::format("{}: no workflow here (set SHEARZONE_SCRIPTS to the scripts/ folder of the "
+                                  "shearzone sources)",
+                                  snakefile.string()));
+  // Debian's snakemake first: a python3 earlier on PATH (pyenv) may lack its module.
+  const fs::path snakemake = find_program("snakemake", {"/usr/bin/snakemake"});
+  if (snakemake.empty())
+    throw ConfigError("snakemake: not found (Debian 12: apt-get install snakemake, or scripts/setup.sh)");
+  const fs::path python = find_program("python3", {"/usr/bin/python3"});
+  std::error_code ec;
+  fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) self = fs::absolute(fs::path("shearzone"));
+  if (fs::exists(s.output) && !fs::is_directory(s.output))
+    throw ConfigError(fmt::format("{}: exists and is not a folder (expected the study's output folder)", s.output));
+  fs::create_directories(s.output);
+  pipeline::write_study_plan(study, s.output, self, python, scripts);
+
+  const int jobs = s.jobs > 0 ? s.jobs : (s.slurm ? 50 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  std::vector<std::string> argv{snakemake.string(),
+                                "--snakefile", snakefile.string(),
+                                "--directory", s.output,
+                                "--configfile", (fs::path(s.output) / "study.json").string(),
+                                "--printshellcmds",
+                                "--nocolor"};
+  if (s.slurm) {
+    // The flags tested with Snakemake 7.21 and slurm-wlm 22.05 (docs/study.md): above 1
+    // status check per second, 7.21 silently polls every 33 s.
+    argv.insert(argv.end(), {"--slurm", "--jobs", std::to_string(jobs), "--max-status-checks-per-second", "1",
+                             "--latency-wait", "10"});
+    if (!std::getenv("USER")) ::setenv("USER", std::to_string(::getuid()).c_str(), 0);
+  } else {
+    argv.insert(argv.end(), {"--cores", std::to_string(jobs)});
+  }
+  if (s.dry_run) argv.push_back("--dry-run");
+  if (s.keep_going) argv.push_back("--keep-going");
+  if (ctx.level == core::LogLevel::kQuiet) argv.push_back("--quiet");
+  if (ctx.level == core::LogLevel::kVerbose) argv.push_back("--verbose");
+
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", snakemake.string()));
+  if (pid == 0) {
+    std::vector<char*> args;
+    for (auto& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    ::execv(snakemake.c_str(), args.data());
+    std::fprintf(stderr, "shearzone: error: cannot run %s\n", snakemake.c_str());
+    ::_exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+  const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  if (rc != 0) {
+    std::fprintf(stderr,
+                 "shearzone: error: %s: the workflow stopped (snakemake exit %d; the failed job's message is above); "
+                 "the same command resumes it\n",
+                 s.output.c_str(), rc);
+    return kExitNoResult;
+  }
+  if (ctx.level != core::LogLevel::kQuiet && !s.dry_run)
+    std::printf("study: %zu clips, %zu logs, %zu simulated groups x %zu amplitudes -> %s (figures in %s/figures)\n",
+                study.clips.size(), study.logs.size(), study.groups.size(), study.sim_phi0_rad.size(),
+                s.output.c_str(), s.output.c_str());
+  return kExitOk;
+}
+
+}  // namespace
+
+std::vector<Subcommand> add_study(CLI::App& root, Context& ctx) {
+  CLI::App* st = root.add_subcommand("study", "A whole study (lab clips and torque logs, a simulation grid) from "
+                                              "one TOML file to every result and figure, via Snakemake");
+  st->require_subcommand(1);
+  auto s = std::make_shared<StudyCli>();
+  CLI::App* c = st->add_subcommand("run", "Run (or resume) a study: STUDY.toml -> OUT/ (docs/study.md)");
+  c->add_option("study", s->study, "Study file (TOML)")->required();
+  c->add_option("-o,--output", s->output, "Output folder (a rerun resumes it and runs only what changed)")->required();
+  c->add_option("--jobs", s->jobs,
+                "Cores used at once locally (default: all), or jobs queued at once with --slurm (default 50); "
+                "range: >= 1")
+      ->check(CLI::Range(1, 100000));
+  c->add_flag("--slurm", s->slurm, "Submit every job to SLURM (sbatch) instead of running it here");
+  c->add_flag("--dry-run", s->dry_run, "Check the study and list the jobs that would run; run nothing");
+  c->add_flag("--keep-going", s->keep_going, "Go on with independent jobs after a job fails");
+  return {{c, [&root, s, &ctx] { return run_study(root, *s, ctx); }}};
+}
+
+}  // namespace shearzone::apps

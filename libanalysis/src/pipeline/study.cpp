@@ -1,0 +1,645 @@
+// A study file -> the workflow's plan (docs/study.md).
+#include "shearzone/pipeline/study.hpp"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <toml.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/toml_config.hpp"
+#include "shearzone/sim/scene.hpp"
+
+namespace shearzone::pipeline {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Tags a clip or log carries, and the pattern's regex for a number.
+const std::vector<std::string> kClipTags{"N", "phi0_rad", "f_Hz"};
+const std::vector<std::string> kLogTags{"N"};
+const char* const kNumberRe = "([-+]?(?:[0-9]+\\.?[0-9]*|\\.[0-9]+)(?:[eE][-+]?[0-9]+)?)";
+
+// Options the workflow sets itself, per stage: a study file may not set them.
+const std::map<std::string, std::set<std::string>> kReserved{
+    {"piv", {"output", "config", "force", "N", "phi0-rad", "f-hz", "quiet", "verbose"}},
+    {"profile", {"output", "config", "force", "quiet", "verbose"}},
+    {"width", {"output", "config", "force", "quiet", "verbose", "tag"}},
+    {"laos", {"output", "config", "force", "quiet", "verbose", "tag"}},
+    {"render", {"output", "config", "force", "quiet", "verbose", "format"}},
+    {"erf", {"output", "config", "force", "x", "y", "sigma", "group", "quiet", "verbose"}},
+    {"power", {"output", "config", "force", "x", "y", "sigma", "group", "subtract-at", "quiet", "verbose"}},
+    {"collapse", {"output", "config", "force", "x", "y", "sigma", "group", "quiet", "verbose"}},
+};
+
+bool valid_name(const std::string& s) {
+  return !s.empty() && s.size() <= 100 && s.front() != '.' && s.front() != '-' &&
+         std::all_of(s.begin(), s.end(), [](char c) {
+           return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' || c == '+';
+         });
+}
+
+class Reader {
+ public:
+  Reader(const io::TomlConfig& c, KnownOption known) : c_(c), known_(std::move(known)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", c_.source(), c_.line(key), key, what));
+  }
+  bool has(const std::string& k) const { return c_.has(k); }
+  std::string str(const std::string& k) const { return c_.get_string(k); }
+  double number(const std::string& k) const { return c_.get_double(k); }
+
+  std::vector<double> numbers(const std::string& k) const {
+    std::vector<double> out;
+    for (const std::string& t : c_.texts(k)) {
+      double v = 0;
+      const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+      if (r.ec != std::errc() || r.ptr != t.data() + t.size() || !std::isfinite(v))
+        fail(k, fmt::format("\"{}\" (expected a number or a list of numbers)", t));
+      out.push_back(v);
+    }
+    if (out.empty()) fail(k, "an empty list (expected at least one value)");
+    return out;
+  }
+  std::vector<long long> integers(const std::string& k, long long lo, long long hi) const {
+    std::vector<long long> out;
+    for (const double v : numbers(k)) {
+      if (v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi))
+        fail(k, fmt::format("{} (expected integers in [{}, {}])", io::format_number(v), lo, hi));
+      out.push_back(static_cast<long long>(v));
+    }
+    return out;
+  }
+  double positive(const std::string& k, double hi) const {
+    const double v = number(k);
+    if (!(v > 0.0 && v <= hi)) fail(k, fmt::format("{} (expected 0 < value <= {})", io::format_number(v), hi));
+    return v;
+  }
+  int chain_length(const std::string& k) const {
+    const double v = number(k);
+    if (v != std::floor(v) || v < 1 || v > 100000)
+      fail(k, fmt::format("{} (expected the beads per chain, an integer in [1, 100000])", io::format_number(v)));
+    return static_cast<int>(v);
+  }
+  fs::path existing_file(const std::string& k) const {
+    fs::path p = str(k);
+    if (p.is_relative()) p = fs::absolute(c_.source()).parent_path() / p;
+    p = p.lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(p, ec))
+      fail(k, fmt::format("\"{}\": no such file ({})", str(k), p.string()));
+    return p;
+  }
+
+  /// `<prefix>.<option>` keys -> command-line words for `shearzone <stage>`.
+  StageArgs stage_args(const std::string& prefix, const std::string& stage) const {
+    StageArgs out;
+    for (const std::string& key : c_.keys()) {
+      if (key.rfind(prefix + ".", 0) != 0) continue;
+      const std::string opt = key.substr(prefix.size() + 1);
+      if (opt.find('.') != std::string::npos)
+        fail(key, fmt::format("a table inside [{}] (expected options of shearzone {})", prefix, stage_name(stage)));
+      if (kReserved.at(stage).count(opt))
+        fail(key, fmt::format("set by the study itself (expected another option of shearzone {})", stage_name(stage)));
+      if (!known_(stage, opt)) fail(key, fmt::format("shearzone {} has no option --{}", stage_name(stage), opt));
+      const auto& texts = c_.texts(key);
+      if (!c_.is_array(key) && (texts[0] == "true" || texts[0] == "false")) {
+        // a flag: present when true
+        if (texts[0] == "true") out.push_back("--" + opt);
+        continue;
+      }
+      out.push_back("--" + opt);
+      std::string joined;
+      for (std::size_t i = 0; i < texts.size(); ++i) joined += (i ? "," : "") + texts[i];
+      if (texts.empty()) fail(key, "an empty list");
+      out.push_back(joined);
+    }
+    return out;
+  }
+  static std::string stage_name(const std::string& stage) {
+    if (stage == "render") return "sim render";
+    if (stage == "erf" || stage == "power") return "fit " + stage;
+    if (stage == "collapse") return "collapse erf";
+    return stage;
+  }
+
+  const io::TomlConfig& c_;
+  KnownOption known_;
+};
+
+/// A tag pattern ("N{N}_phi{phi0_rad}") -> a regex over the file stem and its tags.
+struct TagPattern {
+  std::regex re;
+  std::vector<std::string> tags;
+};
+
+TagPattern compile_pattern(const Reader& r, const std::string& key, const std::vector<std::string>& allowed) {
+  const std::string p = r.str(key);
+  TagPattern out;
+  std::string re;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const char c = p[i];
+    if (c == '{') {
+      const std::size_t e = p.find('}', i);
+      if (e == std::string::npos) r.fail(key, fmt::format("\"{}\": a '{{' without its '}}'", p));
+      const std::string tag = p.substr(i + 1, e - i - 1);
+      if (std::find(allowed.begin(), allowed.end(), tag) == allowed.end()) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "{" : ", {") + a + "}";
+        r.fail(key, fmt::format("\"{}\": unknown tag {{{}}} (expected {})", p, tag, list));
+      }
+      if (std::find(out.tags.begin(), out.tags.end(), tag) != out.tags.end())
+        r.fail(key, fmt::format("\"{}\": tag {{{}}} appears twice", p, tag));
+      out.tags.push_back(tag);
+      re += kNumberRe;
+      i = e;
+    } else if (c == '}') {
+      r.fail(key, fmt::format("\"{}\": a '}}' without its '{{'", p));
+    } else if (c == '*') {
+      re += ".*";
+    } else {
+      if (std::string("\\^$.|?+()[]").find(c) != std::string::npos) re += '\\';
+      re += c;
+    }
+  }
+  if (out.tags.empty()) r.fail(key, fmt::format("\"{}\": no tag (expected e.g. \"N{{N}}_phi{{phi0_rad}}\")", p));
+  out.re = std::regex(re);
+  return out;
+}
+
+std::vector<fs::path> glob_files(const Reader& r, const std::string& key) {
+  std::string pat = r.str(key);
+  fs::path base = fs::absolute(r.c_.source()).parent_path();
+  const std::string full = fs::path(pat).is_relative() ? (base / pat).string() : pat;
+  glob_t g{};
+  const int rc = ::glob(full.c_str(), 0, nullptr, &g);
+  std::vector<fs::path> out;
+  if (rc == 0)
+    for (std::size_t i = 0; i < g.gl_pathc; ++i) {
+      std::error_code ec;
+      if (fs::is_regular_file(g.gl_pathv[i], ec)) out.push_back(fs::path(g.gl_pathv[i]).lexically_normal());
+    }
+  globfree(&g);
+  if (out.empty()) r.fail(key, fmt::format("\"{}\" matches no file ({})", pat, full));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+/// The tags of one globbed file: from the pattern, else the glob table's fixed values.
+std::map<std::string, double> file_tags(const Reader& r, const std::string& table, const TagPattern& tp,
+                                        const fs::path& file, const std::vector<std::string>& allowed) {
+  std::map<std::string, double> tags;
+  std::smatch m;
+  const std::string stem = file.stem().string();
+  if (!std::regex_match(stem, m, tp.re))
+    r.fail(table + ".pattern", fmt::format("\"{}\" does not match the file name {} (its stem \"{}\")",
+                                           r.str(table + ".pattern"), file.string(), stem));
+  for (std::size_t i = 0; i < tp.tags.size(); ++i) tags[tp.tags[i]] = std::stod(m[i + 1].str());
+  for (const std::string& t : allowed)
+    if (r.has(table + "." + t)) {
+      if (tags.count(t)) r.fail(table + "." + t, fmt::format("also a tag of the pattern: give it once"));
+      tags[t] = r.number(table + "." + t);
+    }
+  return tags;
+}
+
+void check_clip_tags(const Reader& r, const std::string& key, const std::string& what, double N, double phi0,
+                     double f) {
+  if (!(N >= 1 && N <= 100000 && N == std::floor(N)))
+    r.fail(key, fmt::format("{}: N = {} (expected the beads per chain, an integer >= 1)", what, io::format_number(N)));
+  if (!(phi0 > 0 && phi0 <= 100))
+    r.fail(key, fmt::format("{}: phi0_rad = {} (expected 0 < phi0 <= 100)", what, io::format_number(phi0)));
+  if (!(f >= 0 && f <= 1000 && std::isfinite(f)))
+    r.fail(key, fmt::format("{}: f_Hz = {} (expected 0 < f <= 1000)", what, io::format_number(f)));
+}
+
+std::string json_string(const std::string& s) {
+  std::string o = "\"";
+  for (const char c : s) {
+    switch (c) {
+      case '"': o += "\\\""; break;
+      case '\\': o += "\\\\"; break;
+      case '\n': o += "\\n"; break;
+      case '\t': o += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20) o += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
+        else o += c;
+    }
+  }
+  return o + "\"";
+}
+std::string json_list(const std::vector<std::string>& v) {
+  std::string o = "[";
+  for (std::size_t i = 0; i < v.size(); ++i) o += (i ? ", " : "") + json_string(v[i]);
+  return o + "]";
+}
+std::string json_number(double v) { return io::format_number(v); }
+
+/// Writes `text` to `path` unless it already holds exactly that (keeps its time stamp,
+/// so the workflow sees nothing new).
+void write_if_changed(const fs::path& path, const std::string& text) {
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (in) {
+      std::ostringstream old;
+      old << in.rdbuf();
+      if (old.str() == text) return;
+    }
+  }
+  fs::create_directories(path.parent_path());
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out.flush()) throw InputError(fmt::format("{}: cannot write", tmp.string()));
+  }
+  fs::rename(tmp, path);
+}
+
+using OrderedToml = toml::basic_value<toml::discard_comments, std::map, std::vector>;
+
+/// The cup scene with one grid point's values.
+std::string group_scene(const fs::path& scene, const StudySimGroup& g, bool set_chains, bool set_lmax,
+                        bool set_angle, long long beads, int threads) {
+  OrderedToml root = toml::parse<toml::discard_comments, std::map, std::vector>(scene.string());
+  auto& t = root.as_table();
+  if (set_chains) t["chains"]["beads_per_chain"] = g.N;
+  if (set_lmax) t["chains"]["l_max_m"] = g.l_max_m;
+  if (set_angle) t["chains"]["max_angle_deg"] = g.max_angle_deg;
+  t["fill"]["seed"] = g.seed;
+  if (beads > 0) t["fill"]["count"] = beads / g.N;
+  t["sim"]["threads"] = threads;
+  std::ostringstream o;
+  o << "# generated by `shearzone study run` from " << scene.string() << ": " << g.name << "\n";
+  o << toml::format(root, 0, 17);
+  return o.str();
+}
+
+}  // namespace
+
+const std::vector<std::string>& study_rules() {
+  static const std::vector<std::string> r{"preshear", "branch", "render", "piv", "profile", "width",
+                                          "laos", "collect", "fit", "figures"};
+  return r;
+}
+
+std::string study_branch_name(double phi0_rad) { return sim::SceneProtocol::branch_folder(phi0_rad); }
+
+Study load_study(const fs::path& file, const KnownOption& known_option) {
+  const io::TomlConfig c = io::TomlConfig::load(file);
+  const Reader r(c, known_option);
+  Study s;
+  s.file = fs::absolute(file).lexically_normal();
+
+  // Every key, known: the fixed ones, the named tables, the stages' options.
+  const std::set<std::string> fixed{
+      "lab.f_Hz", "lab.clip_glob.files", "lab.clip_glob.pattern", "lab.clip_glob.N", "lab.clip_glob.phi0_rad",
+      "lab.clip_glob.f_Hz", "lab.log_glob.files", "lab.log_glob.pattern", "lab.log_glob.N",
+      "sim.scene", "sim.N", "sim.l_max_m", "sim.max_angle_deg", "sim.seeds", "sim.beads", "sim.phi0_rad",
+      "sim.f_Hz", "sim.cycles", "sim.threads", "slurm.partition", "slurm.time_min", "slurm.mem_mb"};
+  const std::vector<std::pair<std::string, std::string>> stage_tables{
+      {"lab.piv", "piv"},       {"lab.profile", "profile"}, {"lab.width", "width"},   {"lab.laos", "laos"},
+      {"sim.render", "render"}, {"sim.piv", "piv"},         {"sim.profile", "profile"}, {"sim.width", "width"},
+      {"sim.laos", "laos"},     {"fits.erf", "erf"},        {"fits.power", "power"}, {"fits.collapse", "collapse"}};
+  std::vector<std::string> all_known(fixed.begin(), fixed.end());
+  for (const auto& [t, st] : stage_tables) all_known.push_back(t + ".<option>");
+  for (const std::string& key : c.keys()) {
+    if (fixed.count(key)) continue;
+    bool ok = false;
+    for (const auto& [t, st] : stage_tables) ok = ok || key.rfind(t + ".", 0) == 0;
+    for (const char* named : {"lab.clips.", "lab.logs."})
+      if (key.rfind(named, 0) == 0) ok = true;
+    if (key.rfind("slurm.", 0) == 0) {
+      const auto dot = key.find('.', 6);
+      const std::string rule = key.substr(6, dot == std::string::npos ? std::string::npos : dot - 6);
+      const std::string field = dot == std::string::npos ? "" : key.substr(dot + 1);
+      const auto& rules = study_rules();
+      if (std::find(rules.begin(), rules.end(), rule) == rules.end()) {
+        std::string list;
+        for (const auto& x : rules) list += (list.empty() ? "" : ", ") + x;
+        r.fail(key, fmt::format("unknown key (expected slurm.partition, slurm.time_min, slurm.mem_mb or a table "
+                                "[slurm.RULE], RULE one of {})",
+                                list));
+      }
+      if (field != "partition" && field != "time_min" && field != "mem_mb")
+        r.fail(key, "unknown key (expected partition, time_min or mem_mb)");
+      ok = true;
+    }
+    if (!ok) {
+      std::string best;
+      std::size_t bd = 1000;
+      for (const auto& k : all_known)
+        if (const std::size_t d = io::edit_distance(key, k); d < bd) bd = d, best = k;
+      r.fail(key, fmt::format("unknown key{}", bd <= 3 ? fmt::format(" (did you mean \"{}\"?)", best) : ""));
+    }
+  }
+
+  // ---- lab: clips ----
+  const double lab_f = c.has("lab.f_Hz") ? r.positive("lab.f_Hz", 1000) : 0.0;
+  std::set<std::string> names;
+  std::set<std::string> clip_tables, log_tables;
+  for (const std::string& key : c.keys()) {
+    for (const auto& [prefix, set] : {std::pair<std::string, std::set<std::string>*>{"lab.clips.", &clip_tables},
+                                      std::pair<std::string, std::set<std::string>*>{"lab.logs.", &log_tables}}) {
+      if (key.rfind(prefix, 0) != 0) continue;
+      const std::string rest = key.substr(prefix.size());
+      const auto dot = rest.find('.');
+      if (dot == std::string::npos)
+        r.fail(key, fmt::format("a value (expected a table [{}NAME] with its file and tags)", prefix));
+      set->insert(rest.substr(0, dot));
+    }
+  }
+  for (const std::string& name : clip_tables) {
+    const std::string t = "lab.clips." + name;
+    if (!valid_name(name)) r.fail(t + ".video", fmt::format("clip name \"{}\" (expected letters, digits, _ - . +)", name));
+    for (const std::string& key : c.keys())
+      if (key.rfind(t + ".", 0) == 0) {
+        const std::string k = key.substr(t.size() + 1);
+        if (k != "video" && k != "N" && k != "phi0_rad" && k != "f_Hz" && k.rfind("piv.", 0) != 0)
+          r.fail(key, "unknown key (expected video, N, phi0_rad, f_Hz or a [piv] table of piv options)");
+      }
+    for (const char* need : {"video", "N", "phi0_rad"})
+      if (!c.has(t + "." + need)) r.fail(t + ".video", fmt::format("clip \"{}\" has no {}", name, need));
+    StudyClip clip;
+    clip.name = name;
+    clip.video = r.existing_file(t + ".video");
+    clip.N = r.chain_length(t + ".N");
+    clip.phi0_rad = r.number(t + ".phi0_rad");
+    clip.f_Hz = c.has(t + ".f_Hz") ? r.number(t + ".f_Hz") : lab_f;
+    check_clip_tags(r, t + ".N", "clip " + name, clip.N, clip.phi0_rad, clip.f_Hz);
+    clip.piv = r.stage_args(t + ".piv", "piv");
+    s.clips.push_back(std::move(clip));
+  }
+  if (c.has("lab.clip_glob.files") || c.has("lab.clip_glob.pattern")) {
+    if (!c.has("lab.clip_glob.files") || !c.has("lab.clip_glob.pattern"))
+      r.fail(c.has("lab.clip_glob.files") ? "lab.clip_glob.files" : "lab.clip_glob.pattern",
+             "[lab.clip_glob] needs both files (a glob) and pattern (the tags in the file name)");
+    const TagPattern tp = compile_pattern(r, "lab.clip_glob.pattern", kClipTags);
+    for (const fs::path& f : glob_files(r, "lab.clip_glob.files")) {
+      auto tags = file_tags(r, "lab.clip_glob", tp, f, kClipTags);
+      if (!tags.count("N") || !tags.count("phi0_rad"))
+        r.fail("lab.clip_glob.pattern", "every clip needs N and phi0_rad: put them in the pattern or the table");
+      StudyClip clip;
+      clip.name = f.stem().string();
+      clip.video = f;
+      const double N = tags["N"];
+      clip.phi0_rad = tags["phi0_rad"];
+      clip.f_Hz = tags.count("f_Hz") ? tags["f_Hz"] : lab_f;
+      check_clip_tags(r, "lab.clip_glob.pattern", f.string(), N, clip.phi0_rad, clip.f_Hz);
+      clip.N = static_cast<int>(N);
+      if (!valid_name(clip.name))
+        r.fail("lab.clip_glob.files", fmt::format("{}: its name \"{}\" (expected letters, digits, _ - . +)",
+                                                  f.string(), clip.name));
+      s.clips.push_back(std::move(clip));
+    }
+  }
+  for (const auto& cl : s.clips)
+    if (!names.insert("clip:" + cl.name).second)
+      r.fail(c.has("lab.clip_glob.files") ? "lab.clip_glob.files" : "lab.clips." + cl.name + ".video",
+             fmt::format("two clips named \"{}\" (each clip's outputs go to lab/clips/NAME)", cl.name));
+
+  // ---- lab: torque logs ----
+  for (const std::string& name : log_tables) {
+    const std::string t = "lab.logs." + name;
+    if (!valid_name(name)) r.fail(t + ".file", fmt::format("log name \"{}\" (expected letters, digits, _ - . +)", name));
+    for (const std::string& key : c.keys())
+      if (key.rfind(t + ".", 0) == 0 && key != t + ".file" && key != t + ".N")
+        r.fail(key, "unknown key (expected file and N)");
+    for (const char* need : {"file", "N"})
+      if (!c.has(t + "." + need)) r.fail(t + ".file", fmt::format("log \"{}\" has no {}", name, need));
+    s.logs.push_back({name, r.existing_file(t + ".file"), r.chain_length(t + ".N")});
+  }
+  if (c.has("lab.log_glob.files") || c.has("lab.log_glob.pattern")) {
+    if (!c.has("lab.log_glob.files") || !c.has("lab.log_glob.pattern"))
+      r.fail(c.has("lab.log_glob.files") ? "lab.log_glob.files" : "lab.log_glob.pattern",
+             "[lab.log_glob] needs both files (a glob) and pattern (the tags in the file name)");
+    const TagPattern tp = compile_pattern(r, "lab.log_glob.pattern", kLogTags);
+    for (const fs::path& f : glob_files(r, "lab.log_glob.files")) {
+      auto tags = file_tags(r, "lab.log_glob", tp, f, kLogTags);
+      if (!tags.count("N")) r.fail("lab.log_glob.pattern", "every log needs N: put it in the pattern or the table");
+      const double N = tags["N"];
+      if (!(N >= 1 && N == std::floor(N) && N <= 100000))
+        r.fail("lab.log_glob.pattern", fmt::format("{}: N = {} (expected an integer >= 1)", f.string(),
+                                                    io::format_number(N)));
+      s.logs.push_back({f.stem().string(), f, static_cast<int>(N)});
+    }
+  }
+  for (const auto& l : s.logs)
+    if (!valid_name(l.name) || !names.insert("log:" + l.name).second)
+      r.fail(c.has("lab.log_glob.files") ? "lab.log_glob.files" : "lab.logs." + l.name + ".file",
+             fmt::format("log name \"{}\" used twice or not letters, digits, _ - . + (outputs go to lab/logs/NAME)",
+                         l.name));
+  s.lab_piv = r.stage_args("lab.piv", "piv");
+  s.lab_profile = r.stage_args("lab.profile", "profile");
+  s.lab_width = r.stage_args("lab.width", "width");
+  s.lab_laos = r.stage_args("lab.laos", "laos");
+
+  // ---- simulation ----
+  bool any_sim = false;
+  for (const std::string& key : c.keys()) any_sim = any_sim || key.rfind("sim.", 0) == 0;
+  if (any_sim) {
+    if (!c.has("sim.scene")) {
+      std::string first;
+      for (const std::string& key : c.keys())
+        if (first.empty() && key.rfind("sim.", 0) == 0) first = key;
+      r.fail(first, "[sim] has no scene (expected sim.scene, a cup scene with [vane], [camera] and [protocol])");
+    }
+    s.scene = r.existing_file("sim.scene");
+    sim::LoadedScene checked;
+    try {
+      checked = sim::load_scene(s.scene, true);
+    } catch (const Error& e) {
+      throw ConfigError(fmt::format("{} (the scene of {}:{}: key \"sim.scene\")", e.what(), c.source(),
+                                    c.line("sim.scene")));
+    }
+    if (!checked.protocol || !checked.camera)
+      r.fail("sim.scene", fmt::format("{}: a study's cup scene needs [vane], [camera] and [protocol] (docs/sim.md)",
+                                      s.scene.string()));
+    const sim::SceneProtocol& p = *checked.protocol;
+    s.sim_phi0_rad = c.has("sim.phi0_rad") ? r.numbers("sim.phi0_rad") : p.phi0_rad;
+    std::set<std::string> branch_names;
+    for (const double a : s.sim_phi0_rad) {
+      if (!(a > 0 && a <= 100)) r.fail("sim.phi0_rad", fmt::format("{} (expected 0 < phi0 <= 100 rad)", io::format_number(a)));
+      if (!branch_names.insert(study_branch_name(a)).second)
+        r.fail("sim.phi0_rad", fmt::format("{} appears twice", io::format_number(a)));
+    }
+    s.sim_f_Hz = c.has("sim.f_Hz") ? r.positive("sim.f_Hz", 1000) : p.f_Hz;
+    s.sim_cycles = c.has("sim.cycles") ? r.positive("sim.cycles", 1e6) : p.cycles;
+    s.sim_threads = c.has("sim.threads") ? static_cast<int>(r.integers("sim.threads", 1, 256)[0]) : 1;
+    // The scene's own chain values unless the study sets a grid.
+    OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
+    const auto scene_number = [&](const char* table, const char* key, double def) {
+      if (!tmpl.contains(table) || !tmpl.at(table).contains(key)) return def;
+      const auto& v = tmpl.at(table).at(key);
+      return v.is_integer() ? static_cast<double>(v.as_integer()) : v.as_floating();
+    };
+    std::vector<long long> Ns = c.has("sim.N") ? r.integers("sim.N", 1, 100000)
+                                               : std::vector<long long>{static_cast<long long>(checked.beads_per_chain)};
+    std::vector<double> lmax = c.has("sim.l_max_m") ? r.numbers("sim.l_max_m")
+                                                    : std::vector<double>{scene_number("chains", "l_max_m", 0.0)};
+    std::vector<double> angle = c.has("sim.max_angle_deg") ? r.numbers("sim.max_angle_deg")
+                                                           : std::vector<double>{scene_number("chains", "max_angle_deg", 180.0)};
+    std::vector<long long> seeds = c.has("sim.seeds") ? r.integers("sim.seeds", 0, (1LL << 53))
+                                                      : std::vector<long long>{static_cast<long long>(scene_number("fill", "seed", 1))};
+    const long long beads = c.has("sim.beads") ? r.integers("sim.beads", 1, 100000000)[0] : 0;
+    for (const double l : lmax)
+      if (!(l >= 0)) r.fail("sim.l_max_m", fmt::format("{} (expected >= 0 m)", io::format_number(l)));
+    for (const double a : angle)
+      if (!(a > 0 && a <= 180)) r.fail("sim.max_angle_deg", fmt::format("{} (expected 0 < angle <= 180 deg)", io::format_number(a)));
+    for (const auto N : Ns)
+      if (beads > 0 && beads / N < 1)
+        r.fail("sim.beads", fmt::format("{} beads make no chain of N = {}", beads, N));
+    for (const double l : lmax)
+      for (const double a : angle)
+        for (const auto N : Ns)
+          for (const auto seed : seeds) {
+            StudySimGroup g;
+            g.N = static_cast<int>(N);
+            g.l_max_m = l;
+            g.max_angle_deg = a;
+            g.seed = seed;
+            g.dataset = fmt::format("sim_l{}_a{}", l, a);
+            g.name = fmt::format("N{}_l{}_a{}_s{}", N, l, a, seed);
+            g.scene_text = group_scene(s.scene, g, c.has("sim.N"), c.has("sim.l_max_m"), c.has("sim.max_angle_deg"),
+                                       beads, s.sim_threads);
+            s.groups.push_back(std::move(g));
+          }
+    s.sim_render = r.stage_args("sim.render", "render");
+    s.sim_piv = r.stage_args("sim.piv", "piv");
+    s.sim_profile = r.stage_args("sim.profile", "profile");
+    s.sim_width = r.stage_args("sim.width", "width");
+    s.sim_laos = r.stage_args("sim.laos", "laos");
+  }
+  if (s.clips.empty() && s.logs.empty() && s.groups.empty())
+    throw ConfigError(fmt::format("{}: no clip, no torque log and no [sim]: nothing to study (docs/study.md)",
+                                  c.source()));
+
+  s.fit_erf = r.stage_args("fits.erf", "erf");
+  s.fit_power = r.stage_args("fits.power", "power");
+  s.collapse_erf = r.stage_args("fits.collapse", "collapse");
+
+  // ---- slurm ----
+  if (c.has("slurm.partition")) s.slurm.partition = r.str("slurm.partition");
+  if (c.has("slurm.time_min")) s.slurm.time_min = r.integers("slurm.time_min", 1, 10000000)[0];
+  if (c.has("slurm.mem_mb")) s.slurm.mem_mb = r.integers("slurm.mem_mb", 1, 100000000)[0];
+  for (const std::string& rule : study_rules()) {
+    StudySlurm::Rule rr;
+    const std::string t = "slurm." + rule;
+    if (c.has(t + ".partition")) rr.partition = r.str(t + ".partition");
+    if (c.has(t + ".time_min")) rr.time_min = r.integers(t + ".time_min", 1, 10000000)[0];
+    if (c.has(t + ".mem_mb")) rr.mem_mb = r.integers(t + ".mem_mb", 1, 100000000)[0];
+    s.slurm.rules[rule] = rr;
+  }
+  return s;
+}
+
+void write_study_plan(const Study& s, const fs::path& out, const fs::path& shearzone, const fs::path& python,
+                      const fs::path& scripts) {
+  // The generated scenes, each checked as the simulator will read it.
+  for (const auto& g : s.groups) {
+    const fs::path scene = out / "sim" / g.name / "scene.toml";
+    write_if_changed(scene, g.scene_text);
+    try {
+      (void)sim::load_scene(scene, true);
+    } catch (const Error& e) {
+      throw ConfigError(fmt::format("{} (the scene generated for group {} from {})", e.what(), g.name,
+                                    s.scene.string()));
+    }
+  }
+  std::ostringstream j;
+  j << "{\n";
+  j << "  \"study_file\": " << json_string(s.file.string()) << ",\n";
+  j << "  \"shearzone\": " << json_string(shearzone.string()) << ",\n";
+  j << "  \"python\": " << json_string(python.string()) << ",\n";
+  j << "  \"scripts\": " << json_string(scripts.string()) << ",\n";
+  // lab
+  j << "  \"clips\": {";
+  for (std::size_t i = 0; i < s.clips.size(); ++i) {
+    const auto& cl = s.clips[i];
+    StageArgs piv = s.lab_piv;
+    piv.insert(piv.end(), cl.piv.begin(), cl.piv.end());
+    piv.insert(piv.end(), {"--N", std::to_string(cl.N), "--phi0-rad", io::format_number(cl.phi0_rad)});
+    if (cl.f_Hz > 0) piv.insert(piv.end(), {"--f-hz", io::format_number(cl.f_Hz)});
+    j << (i ? ",\n" : "\n") << "    " << json_string(cl.name) << ": {\"video\": " << json_string(cl.video.string())
+      << ", \"N\": " << cl.N << ", \"phi0_rad\": " << json_number(cl.phi0_rad) << ", \"piv\": " << json_list(piv)
+      << "}";
+  }
+  j << (s.clips.empty() ? "},\n" : "\n  },\n");
+  j << "  \"logs\": {";
+  for (std::size_t i = 0; i < s.logs.size(); ++i)
+    j << (i ? ",\n" : "\n") << "    " << json_string(s.logs[i].name) << ": {\"file\": "
+      << json_string(s.logs[i].file.string()) << ", \"N\": " << s.logs[i].N << "}";
+  j << (s.logs.empty() ? "},\n" : "\n  },\n");
+  // simulation
+  j << "  \"groups\": {";
+  for (std::size_t i = 0; i < s.groups.size(); ++i) {
+    const auto& g = s.groups[i];
+    j << (i ? ",\n" : "\n") << "    " << json_string(g.name) << ": {\"dataset\": " << json_string(g.dataset)
+      << ", \"N\": " << g.N << ", \"l_max_m\": " << json_number(g.l_max_m)
+      << ", \"max_angle_deg\": " << json_number(g.max_angle_deg) << ", \"seed\": " << g.seed << "}";
+  }
+  j << (s.groups.empty() ? "},\n" : "\n  },\n");
+  j << "  \"branches\": {";
+  for (std::size_t i = 0; i < s.sim_phi0_rad.size(); ++i)
+    j << (i ? ", " : "") << json_string(study_branch_name(s.sim_phi0_rad[i])) << ": " << json_number(s.sim_phi0_rad[i]);
+  j << "},\n";
+  j << "  \"sim_f_Hz\": " << json_number(s.sim_f_Hz) << ", \"sim_cycles\": " << json_number(s.sim_cycles)
+    << ", \"sim_threads\": " << s.sim_threads << ",\n";
+  // datasets: the lab, and one per (l_max, theta_max) of the grid
+  std::map<std::string, std::vector<std::string>> widths, laos;
+  std::map<std::string, std::set<int>> Ns;
+  for (const auto& cl : s.clips) {
+    widths["lab"].push_back("lab/clips/" + cl.name + "/width.csv");
+    Ns["lab"].insert(cl.N);
+  }
+  for (const auto& l : s.logs) laos["lab"].push_back("lab/logs/" + l.name);
+  for (const auto& g : s.groups)
+    for (const double a : s.sim_phi0_rad) {
+      const std::string b = "sim/" + g.name + "/" + study_branch_name(a);
+      widths[g.dataset].push_back(b + "/width.csv");
+      laos[g.dataset].push_back(b + "/laos");
+      Ns[g.dataset].insert(g.N);
+    }
+  std::set<std::string> datasets;
+  for (const auto& [k, v] : widths) datasets.insert(k);
+  for (const auto& [k, v] : laos) datasets.insert(k);
+  j << "  \"datasets\": {";
+  std::size_t i = 0;
+  for (const std::string& d : datasets) {
+    const bool sim = d != "lab";
+    j << (i++ ? ",\n" : "\n") << "    " << json_string(d) << ": {\"widths\": " << json_list(widths[d])
+      << ", \"laos\": " << json_list(laos[d]) << ", \"n_N\": " << Ns[d].size()
+      << ", \"has_N1\": " << (Ns[d].count(1) ? "true" : "false") << ", \"sim\": " << (sim ? "true" : "false") << "}";
+  }
+  j << (datasets.empty() ? "},\n" : "\n  },\n");
+  j << "  \"args\": {";
+  const std::vector<std::pair<std::string, const StageArgs*>> args{
+      {"lab_profile", &s.lab_profile}, {"lab_width", &s.lab_width},     {"lab_laos", &s.lab_laos},
+      {"sim_render", &s.sim_render},   {"sim_piv", &s.sim_piv},         {"sim_profile", &s.sim_profile},
+      {"sim_width", &s.sim_width},     {"sim_laos", &s.sim_laos},       {"fit_erf", &s.fit_erf},
+      {"fit_power", &s.fit_power},     {"collapse_erf", &s.collapse_erf}};
+  for (std::size_t k = 0; k < args.size(); ++k)
+    j << (k ? ",\n" : "\n") << "    " << json_string(args[k].first) << ": " << json_list(*args[k].second);
+  j << "\n  },\n";
+  j << "  \"slurm\": {\"partition\": " << json_string(s.slurm.partition) << ", \"time_min\": " << s.slurm.time_min
+    << ", \"mem_mb\": " << s.slurm.mem_mb << ", \"rules\": {";
+  i = 0;
+  for (const auto& [rule, rr] : s.slurm.rules)
+    j << (i++ ? ", " : "") << json_string(rule) << ": {\"partition\": " << json_string(rr.partition)
+      << ", \"time_min\": " << rr.time_min << ", \"mem_mb\": " << rr.mem_mb << "}";
+  j << "}}\n}\n";
+  write_if_changed(out / "study.json", j.str());
+}
+
+}  // namespace shearzone::pipeline
