@@ -179,7 +179,10 @@ void H5File::write_raw(const std::string& dataset, const std::vector<std::size_t
   Handle space(H5Screate_simple(static_cast<int>(hd.size()), hd.data(), nullptr));
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
   H5Pset_create_intermediate_group(lcpl.get(), 1);
-  Handle dset(H5Dcreate2(id_, dataset.c_str(), file_type, space.get(), lcpl.get(), H5P_DEFAULT,
+  // No modification times in the objects: the same data gives the same bytes.
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  H5Pset_obj_track_times(dcpl.get(), 0);
+  Handle dset(H5Dcreate2(id_, dataset.c_str(), file_type, space.get(), lcpl.get(), dcpl.get(),
                          H5P_DEFAULT));
   if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot create (exists already?)", dataset));
   if (H5Dwrite(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
@@ -217,6 +220,7 @@ void H5File::create_appendable(const std::string& dataset,
   Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), maxdims.data()));
   Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
   H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data());
+  H5Pset_obj_track_times(dcpl.get(), 0);  // the same data gives the same bytes
   if (compression_level > 0) H5Pset_deflate(dcpl.get(), static_cast<unsigned>(compression_level));
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
   H5Pset_create_intermediate_group(lcpl.get(), 1);
