@@ -2,8 +2,10 @@
 # scripts/demo.sh: install dependencies, build shearzone (Release) and run the main
 # job on data-samples/. Outputs go to demo-output/ (replaced on every run).
 #
-# For now the main job renders the synthetic inputs described in
-# data-samples/README.md; later stages (PIV, profiles, fits, LAOS) extend it.
+# The main job is a study (data-samples/study/): 28 synthetic lab clips, three torque
+# logs and a simulated cup branch, through the Snakemake workflow on the local cores to
+# r_c(phi0), the fits, LAOS and the paper's figures. Then a tour of the single commands
+# the study runs, on the synthetic inputs described in data-samples/README.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -24,6 +26,21 @@ rm -rf "$OUT"
 mkdir -p "$OUT"
 
 echo "== $("$SZ" --version)"
+echo "== 0. The main job: a study (lab clips and logs, a simulated branch) -> r_c(phi0), fits, LAOS, figures"
+# A study folder holds the study file and its inputs (paths are relative to the file).
+S="$OUT/study"
+mkdir -p "$S/logs"
+cp data-samples/study/study.toml "$S/"
+cp data-samples/sim/vane_cup.toml "$S/cup.toml"
+cp data-samples/laos/vane_N1.csv data-samples/laos/vane_N9.csv data-samples/laos/vane_N45.csv "$S/logs/"
+"$PY" data-samples/study/make_clips.py "$SZ" "$S/clips"
+"$SZ" study run "$S/study.toml" -o "$S/out" --jobs "$(nproc)" > "$S/workflow.log" 2>&1 ||
+  { tail -40 "$S/workflow.log"; exit 1; }
+tail -1 "$S/workflow.log"
+echo "   figures of the study (made or skipped, and why):"
+sed -e '1,2d' -e 's/^/     /' "$S/out/figures/figures.csv"
+# every figure the study made is a real picture
+"$PY" scripts/check_figures.py "$S/out/figures" $(awk -F, '$2 == "made" { printf "%s.png ", $1 }' "$S/out/figures/figures.csv")
 echo "== 1. PIV test pair: uniform shift (2.25, -1.5) px"
 "$SZ" synth particles --config data-samples/synth/pair_uniform.toml -o "$OUT/pair_uniform"
 echo "== 2. Rotating particle pair (omega = 0.01 rad/frame, counter-clockwise)"
@@ -106,3 +123,4 @@ echo "== 12. Every figure present and a valid PNG"
 echo
 echo "Outputs are in $OUT/:"
 find "$OUT" -maxdepth 2 -type f ! -name 'frame_*' | sort | sed 's/^/  /'
+echo "  $OUT/study/out/: the study's results/ and figures/ (PNG + SVG)"

@@ -19,23 +19,37 @@ PACKAGES=(
   # figure scripts (h5py: PIV fields in HDF5; opencv: video frames under the vectors)
   python3 python3-matplotlib python3-numpy python3-h5py python3-opencv
 )
+# studies (`shearzone study run`): Snakemake 7.21, and SLURM 22.05 with munge for --slurm and
+# its test cluster. Installed with their recommended packages (the tested recipe: Snakemake
+# imports some of them, e.g. its remote-storage modules).
+WORKFLOW_PACKAGES=(snakemake slurm-wlm munge)
 
-missing=()
-for p in "${PACKAGES[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
-    missing+=("$p")
-  fi
-done
+missing_of() {
+  local p
+  for p in "$@"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      echo "$p"
+    fi
+  done
+}
+mapfile -t missing < <(missing_of "${PACKAGES[@]}")
+mapfile -t missing_wf < <(missing_of "${WORKFLOW_PACKAGES[@]}")
+total=$(( ${#PACKAGES[@]} + ${#WORKFLOW_PACKAGES[@]} ))
 
-if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all ${#PACKAGES[@]} system packages present"
+if [ ${#missing[@]} -eq 0 ] && [ ${#missing_wf[@]} -eq 0 ]; then
+  echo "setup: all ${total} system packages present"
   exit 0
 fi
 
-echo "setup: installing ${#missing[@]} missing package(s): ${missing[*]}"
+echo "setup: installing $(( ${#missing[@]} + ${#missing_wf[@]} )) missing package(s): ${missing[*]} ${missing_wf[*]}"
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+if [ ${#missing[@]} -gt 0 ]; then
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+if [ ${#missing_wf[@]} -gt 0 ]; then
+  $SUDO apt-get install -y -qq "${missing_wf[@]}" >/dev/null
+fi
 echo "setup: done"

@@ -132,10 +132,16 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
                  s.output.c_str(), rc);
     return kExitNoResult;
   }
-  if (ctx.level != core::LogLevel::kQuiet && !s.dry_run)
-    std::printf("study: %zu clips, %zu logs, %zu simulated groups x %zu amplitudes -> %s (figures in %s/figures)\n",
-                study.clips.size(), study.logs.size(), study.groups.size(), study.sim_phi0_rad.size(),
-                s.output.c_str(), s.output.c_str());
+  if (ctx.level != core::LogLevel::kQuiet && !s.dry_run) {
+    std::string what = fmt::format("{} clip{}, {} torque log{}", study.clips.size(), study.clips.size() == 1 ? "" : "s",
+                                   study.logs.size(), study.logs.size() == 1 ? "" : "s");
+    if (!study.groups.empty())
+      what += fmt::format(", {} simulated group{} x {} amplitude{}", study.groups.size(),
+                          study.groups.size() == 1 ? "" : "s", study.sim_phi0_rad.size(),
+                          study.sim_phi0_rad.size() == 1 ? "" : "s");
+    std::printf("study: %s done -> %s (figures: %s/figures/figures.csv)\n", what.c_str(), s.output.c_str(),
+                s.output.c_str());
+  }
   return kExitOk;
 }
 

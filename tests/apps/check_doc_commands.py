@@ -19,7 +19,8 @@ test or by a script, so the documentation cannot rot.
      name repository files relative to the repository root, the tests run in a scratch
      folder) and so is `${SZ_CLI_WORK}/<test>/` (another test's scratch folder); or
    - a `"$SZ" ...` line of a shell script under scripts/ (scripts/demo.sh,
-     scripts/test_figures.sh ...), with the script's variables replaced by the values
+     scripts/test_figures.sh ...) or of a test's shell script under tests/ (the study
+     workflow's, tests/study/), with the script's variables replaced by the values
      assigned to them earlier in the script; a variable whose value is only known at
      run time ($(...), $1) stands for the folder the commands run in, so
      `"$OUT/fits/erf.csv"` is `fits/erf.csv` (and a bare `"$OUT"` is `.`).
@@ -384,7 +385,9 @@ def main(argv):
     root, binary = os.path.abspath(args[0]), args[1]
     runs = cli_test_runs(os.path.join(root, "tests", "apps", "CMakeLists.txt"))
     n_tests = len(runs)
-    for script in sorted(glob.glob(os.path.join(root, "scripts", "*.sh"))):
+    scripts = sorted(glob.glob(os.path.join(root, "scripts", "*.sh")))
+    scripts += sorted(glob.glob(os.path.join(root, "tests", "**", "*.sh"), recursive=True))
+    for script in scripts:
         for k, v in script_runs(script, root).items():
             runs.setdefault(k, v)
     helps = Help(binary)
@@ -396,7 +399,7 @@ def main(argv):
         where = runs.get(tuple(words))
         if reason is None and where is None:
             reason = ("not run by any shearzone_cli_test (ARGS or SETUP_ARGS) in "
-                      "tests/apps/CMakeLists.txt nor by a script under scripts/")
+                      "tests/apps/CMakeLists.txt nor by a script under scripts/ or tests/")
         if reason is not None:
             failures.append(f"{path}:{no}: {shown}: {reason}")
             continue

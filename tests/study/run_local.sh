@@ -51,6 +51,10 @@ for f in lab/clips/N9_phi0.3/width.csv results/lab/rc_phi0.csv results/lab/erf_w
 done
 same A B "--jobs 2 and --jobs 1 gave different outputs"
 grep -q '^fig2c_lab,made' A/figures/figures.csv || fail "figure 2C of the lab not made"
+made=$(awk -F, '$2 == "made" { print $1 }' A/figures/figures.csv)
+for f in $made; do [ -s "A/figures/$f.svg" ] || fail "A/figures/$f.svg missing"; done
+# shellcheck disable=SC2046
+/usr/bin/python3 "$SRC/scripts/check_figures.py" A/figures $(printf '%s.png ' $made) || fail "a figure is not a valid PNG"
 grep -q '^fig2a_sim_l0.0004_a90_N2,made' A/figures/figures.csv || fail "figure 2A of the grid not made"
 
 # 2. a finished study reruns nothing

@@ -1,0 +1,83 @@
+// The study file -> the workflow's plan (pipeline/study.hpp). The workflow itself runs in
+// tests/study (run_local.sh, run_slurm.sh); here: tags, the grid, the generated scenes.
+#include <catch2/catch.hpp>
+
+#include <fstream>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/pipeline/study.hpp"
+#include "shearzone/sim/scene.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using shearzone::testing::TempDir;
+using shearzone::testing::read_file;
+using shearzone::testing::write_file;
+
+namespace {
+const auto any_option = [](const std::string&, const std::string&) { return true; };
+}
+
+TEST_CASE("study: clip tags come from the file name's pattern, the table fills the rest", "[study]") {
+  TempDir t("study_tags");
+  for (const char* f : {"N9_phi0.25.mp4", "N45_phi1e-1.mp4", "notes.txt"}) write_file(t / f, "x");
+  write_file(t / "study.toml",
+             "[lab]\nf_Hz = 0.1\n[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n"
+             "[lab.clips.extra]\nvideo = \"notes.txt\"\nN = 1\nphi0_rad = 0.5\nf_Hz = 0.2\n"
+             "[lab.clips.extra.piv]\ncentre = [10, 20]\n");
+  const pipeline::Study s = pipeline::load_study(t / "study.toml", any_option);
+  REQUIRE(s.clips.size() == 3);
+  // named tables first (sorted), then the glob's files (sorted)
+  CHECK(s.clips[0].name == "extra");
+  CHECK(s.clips[0].f_Hz == 0.2);
+  CHECK(s.clips[0].piv == pipeline::StageArgs{"--centre", "10,20"});
+  CHECK(s.clips[1].name == "N45_phi1e-1");
+  CHECK(s.clips[1].N == 45);
+  CHECK(s.clips[1].phi0_rad == 0.1);
+  CHECK(s.clips[2].name == "N9_phi0.25");
+  CHECK(s.clips[2].N == 9);
+  CHECK(s.clips[2].phi0_rad == 0.25);
+  CHECK(s.clips[2].f_Hz == 0.1);  // the lab's default frequency
+}
+
+TEST_CASE("study: a tag that is not a chain length is refused with its line", "[study]") {
+  TempDir t("study_badtag");
+  write_file(t / "N2.5_phi0.3.mp4", "x");
+  write_file(t / "study.toml", "[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n");
+  CHECK_THROWS_WITH(pipeline::load_study(t / "study.toml", any_option),
+                    Catch::Contains("study.toml:3: key \"lab.clip_glob.pattern\"") && Catch::Contains("N = 2.5"));
+}
+
+TEST_CASE("study: the simulation grid makes one scene per point, each loadable", "[study]") {
+  TempDir t("study_grid");
+  const std::string cup = read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "vane_cup.toml");
+  write_file(t / "cup.toml", cup);
+  write_file(t / "study.toml",
+             "[sim]\nscene = \"cup.toml\"\nN = [1, 4]\nl_max_m = [0.0004]\nmax_angle_deg = [60, 120]\n"
+             "seeds = [3]\nbeads = 150\nphi0_rad = [0.1]\nthreads = 2\n");
+  const pipeline::Study s = pipeline::load_study(t / "study.toml", any_option);
+  REQUIRE(s.groups.size() == 4);
+  CHECK(s.groups[0].name == "N1_l0.0004_a60_s3");
+  CHECK(s.groups[0].dataset == "sim_l0.0004_a60");
+  CHECK(s.groups[3].name == "N4_l0.0004_a120_s3");
+  CHECK(s.sim_phi0_rad == std::vector<double>{0.1});
+  CHECK(s.sim_f_Hz == 0.5);   // the scene's protocol
+  CHECK(s.sim_cycles == 2.0);
+  pipeline::write_study_plan(s, t / "out", "/bin/shearzone", "/usr/bin/python3", "/scripts");
+  const auto scene = t / "out" / "sim" / "N4_l0.0004_a120_s3" / "scene.toml";
+  const sim::LoadedScene loaded = sim::load_scene(scene, true);
+  CHECK(loaded.beads_per_chain == 4);
+  REQUIRE(loaded.protocol);
+  const std::string text = read_file(scene);
+  CHECK_THAT(text, Catch::Contains("count = 37"));  // 150 beads in chains of 4
+  CHECK_THAT(text, Catch::Contains("seed = 3"));
+  CHECK_THAT(text, Catch::Contains("max_angle_deg = 120"));
+  CHECK_THAT(text, Catch::Contains("threads = 2"));
+  // a second plan leaves an unchanged scene's time stamp alone (a rerun schedules nothing)
+  const auto before = std::filesystem::last_write_time(scene);
+  pipeline::write_study_plan(s, t / "out", "/bin/shearzone", "/usr/bin/python3", "/scripts");
+  CHECK(std::filesystem::last_write_time(scene) == before);
+  const std::string plan = read_file(t / "out" / "study.json");
+  CHECK_THAT(plan, Catch::Contains("\"sim/N4_l0.0004_a120_s3/phi0_0.100/width.csv\""));
+  CHECK_THAT(plan, Catch::Contains("\"sim_l0.0004_a60\": {\"widths\""));
+}
