@@ -1,5 +1,7 @@
 // `shearzone study run STUDY.toml -o OUT`: a whole study (lab clips and logs, a
 // simulation grid) through the Snakemake workflow in scripts/study/, locally or on SLURM.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -67,6 +69,32 @@ fs::path find_program(const std::string& name, const std::vector<fs::path>& firs
   return {};
 }
 
+/// Runs argv[0] with its arguments and returns its exit status (128 + signal if killed).
+int run_program(std::vector<std::string> argv, bool silent) {
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", argv[0]));
+  if (pid == 0) {
+    if (silent) {
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      if (devnull >= 0) {
+        ::dup2(devnull, 1);
+        ::dup2(devnull, 2);
+      }
+    }
+    std::vector<char*> args;
+    for (auto& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    std::fprintf(stderr, "shearzone: error: cannot run %s\n", args[0]);
+    ::_exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   const pipeline::Study study = pipeline::load_study(
       s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); });
@@ -87,6 +115,16 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   if (fs::exists(s.output) && !fs::is_directory(s.output))
     throw ConfigError(fmt::format("{}: exists and is not a folder (expected the study's output folder)", s.output));
   fs::create_directories(s.output);
+  // One `study run` per folder at a time: an advisory lock that the kernel drops when the
+  // process (and the Snakemake it starts, which inherits it) ends, even by SIGKILL. Holding
+  // it proves that a Snakemake lock left in the folder is stale (a killed run): it is
+  // cleared, so the same command resumes the study.
+  const fs::path lock_path = fs::path(s.output) / ".study.lock";
+  const int lock_fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock_fd < 0) throw ConfigError(fmt::format("{}: cannot create (is the folder writable?)", lock_path.string()));
+  ::fcntl(lock_fd, F_SETFD, 0);  // inherited by Snakemake: the lock lasts while it runs
+  if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
+    throw ConfigError(fmt::format("{}: another `shearzone study run` is running on this folder", s.output));
   pipeline::write_study_plan(study, s.output, self, python, scripts);
 
   const int jobs = s.jobs > 0 ? s.jobs : (s.slurm ? 50 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
@@ -95,7 +133,9 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
                                 "--directory", s.output,
                                 "--configfile", (fs::path(s.output) / "study.json").string(),
                                 "--printshellcmds",
-                                "--nocolor"};
+                                "--nocolor",
+                                // a killed run's unfinished jobs are run again, not refused
+                                "--rerun-incomplete"};
   if (s.slurm) {
     // The flags tested with Snakemake 7.21 and slurm-wlm 22.05 (docs/study.md): above 1
     // status check per second, 7.21 silently polls every 33 s.
@@ -110,21 +150,15 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   if (ctx.level == core::LogLevel::kQuiet) argv.push_back("--quiet");
   if (ctx.level == core::LogLevel::kVerbose) argv.push_back("--verbose");
 
-  std::fflush(nullptr);
-  const pid_t pid = ::fork();
-  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", snakemake.string()));
-  if (pid == 0) {
-    std::vector<char*> args;
-    for (auto& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    ::execv(snakemake.c_str(), args.data());
-    std::fprintf(stderr, "shearzone: error: cannot run %s\n", snakemake.c_str());
-    ::_exit(127);
+  const fs::path locks = fs::path(s.output) / ".snakemake" / "locks";
+  std::error_code lec;
+  if (fs::is_directory(locks, lec) && !fs::is_empty(locks, lec)) {
+    std::vector<std::string> unlock(argv.begin(), argv.begin() + 7);  // snakefile, directory, configfile
+    unlock.insert(unlock.end(), {"--unlock", "--quiet"});
+    if (run_program(unlock, true) != 0)
+      throw ConfigError(fmt::format("{}: cannot clear the lock a killed run left (snakemake --unlock failed)", s.output));
   }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
-  const int rc = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  const int rc = run_program(argv, false);
   if (rc != 0) {
     std::fprintf(stderr,
                  "shearzone: error: %s: the workflow stopped (snakemake exit %d; the failed job's message is above); "

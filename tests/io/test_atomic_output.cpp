@@ -141,3 +141,28 @@ TEST_CASE("Ctrl-C during a write leaves no partial file", "[io][atomic]") {
   CHECK(WTERMSIG(status) == SIGINT);
   CHECK(testing::list_dir(dir.path()).empty());
 }
+
+TEST_CASE("a temporary file that a killed process left is removed by the next writer", "[io][atomic]") {
+  // SIGKILL runs no handler: its <stem>.partial-<pid>-<n><ext> stays. A child that has
+  // exited stands for the killed writer (its pid no longer exists).
+  testing::TempDir dir("atomic_stale");
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  const std::string dead = "out.partial-" + std::to_string(child) + "-0.csv";
+  const std::string alive = "out.partial-" + std::to_string(::getppid()) + "-3.csv";  // a live process
+  testing::write_file(dir / dead, "half");
+  testing::write_file(dir / alive, "busy");
+  testing::write_file(dir / "other.partial-1-0.csv", "another output's");
+  fs::create_directory(dir / ("run.partial-" + std::to_string(child) + "-1"));  // a staging folder
+  {
+    io::AtomicOutput out(dir / "out.csv", false);
+    out.stream() << "whole\n";
+    out.commit();
+  }
+  io::AtomicOutputSet set(dir / "run", false);
+  set.commit_all();
+  CHECK(testing::list_dir(dir.path()) ==
+        std::vector<std::string>{"other.partial-1-0.csv", "out.csv", alive, "run"});
+}

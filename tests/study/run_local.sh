@@ -6,7 +6,10 @@
 #  2. a second run schedules no job;
 #  3. removing one amplitude's width file reruns exactly the jobs that depend on it;
 #  4. adding a clip runs its chain and the dataset's collect/fits/figures, nothing else;
-#  5. adding an amplitude to the grid runs its branches and what depends on them, no pre-shear.
+#  5. adding an amplitude to the grid runs its branches and what depends on them, no pre-shear;
+#  6. the commands the workflow printed, run by hand, give the same files;
+#  7. a run killed part-way (SIGKILL to its whole process group) resumes: the same command
+#     finishes it, with the same outputs as an uninterrupted run.
 set -euo pipefail
 SZ=$1 SRC=$2 WORK=$3
 rm -rf "$WORK"
@@ -20,7 +23,7 @@ cp "$SRC/data-samples/laos/vane_N1.csv" "$SRC/data-samples/laos/vane_N9.csv" log
 
 fail() { echo "run_local.sh: FAIL: $*" >&2; exit 1; }
 run() {  # run OUT JOBS LOG
-  "$SZ" study run study.toml -o "$1" --jobs "$2" > "$3" 2>&1 || { cat "$3"; fail "study run -o $1 --jobs $2 exited $?"; }
+  "$SZ" study run study.toml -o "$1" --jobs "$2" > "$3" 2>&1 || { rc=$?; cat "$3"; fail "study run -o $1 --jobs $2 exited $rc"; }
 }
 same() {  # every output identical (wall-clock times aside: compare_outputs.py)
   /usr/bin/python3 "$SRC/tests/study/compare_outputs.py" "$1" "$2" || fail "$3"
@@ -88,4 +91,19 @@ grep -E "^[^ ]*shearzone -q (piv|profile|width) .*lab/clips/N4_phi0.2/" a.log > 
 for f in fields.h5 profile.csv profile_groups.csv width.csv; do
   cmp -s "H/lab/clips/N4_phi0.2/$f" "A/lab/clips/N4_phi0.2/$f" || fail "by hand: lab/clips/N4_phi0.2/$f differs"
 done
+
+# 7. killed part-way, then resumed
+setsid "$SZ" study run study.toml -o K --jobs 2 > killed.log 2>&1 &
+pid=$!
+for _ in $(seq 1 100); do  # until some jobs have finished
+  [ "$(find K -name width.csv 2>/dev/null | wc -l)" -ge 3 ] && break
+  sleep 0.1
+done
+kill -KILL -- "-$pid" 2>/dev/null || true
+wait "$pid" 2>/dev/null || true
+[ ! -s K/figures/figures.csv ] || fail "the run finished before it could be killed"
+run K 2 resumed.log
+grep -q "Nothing to be done" resumed.log && fail "the resumed run found nothing to do"
+run A2 2 fresh.log
+same K A2 "the resumed run's outputs differ from an uninterrupted run's"
 echo "run_local.sh: all checks passed"

@@ -10,6 +10,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstdlib>
 #include <csignal>
 #include <cstring>
 #include <mutex>
@@ -108,6 +110,33 @@ fs::path folder_of(const fs::path& p) {
   return dir.empty() ? fs::path(".") : dir;
 }
 
+/// Removes the temporary files (or staging folders) of `final_path` that a killed
+/// process left (SIGKILL runs no handler): `<stem>.partial-<pid>-<n><ext>` whose process no
+/// longer exists. A study resumed after a kill then leaves no litter. Best effort.
+void remove_stale_partials(const fs::path& final_path, bool is_dir) noexcept {
+  std::error_code ec;
+  const fs::path dir = folder_of(final_path);
+  const std::string stem = is_dir ? final_path.filename().string() : final_path.stem().string();
+  const std::string ext = is_dir ? std::string() : final_path.extension().string();
+  const std::string prefix = stem + ".partial-";
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= prefix.size() + ext.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+        name.compare(name.size() - ext.size(), ext.size(), ext) != 0)
+      continue;
+    const std::string mid = name.substr(prefix.size(), name.size() - prefix.size() - ext.size());  // <pid>-<n>
+    const auto dash = mid.find('-');
+    if (dash == std::string::npos || dash == 0 || dash + 1 == mid.size() ||
+        mid.find_first_not_of("0123456789-") != std::string::npos || mid.find('-', dash + 1) != std::string::npos)
+      continue;
+    const long pid = std::strtol(mid.substr(0, dash).c_str(), nullptr, 10);
+    if (pid <= 0 || pid == ::getpid()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    std::error_code rec;
+    fs::remove_all(it->path(), rec);
+  }
+}
+
 }  // namespace
 
 namespace {
@@ -165,6 +194,7 @@ AtomicOutput::AtomicOutput(fs::path final_path, bool force)
     : final_path_(std::move(final_path)) {
   check_output_allowed(final_path_, force);
   created_dirs_ = create_missing_folders(folder_of(final_path_), final_path_);
+  remove_stale_partials(final_path_, false);
   temp_path_ = temp_name_for(final_path_);
   registry_slot_ = register_path(temp_path_, false);
 }
@@ -234,6 +264,7 @@ AtomicOutputSet::AtomicOutputSet(fs::path dir, bool force) : dir_(std::move(dir)
   }
   fs::path clean = dir_.lexically_normal();
   if (clean.filename().empty()) clean = clean.parent_path();
+  remove_stale_partials(clean, true);
   const fs::path parent = folder_of(clean);
   check_output_allowed(clean, force_);
   created_dirs_ = create_missing_folders(parent, dir_);
