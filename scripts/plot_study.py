@@ -117,7 +117,9 @@ def rcinf_difference(a):
     ax.set_xlabel(r"chain length $N$ (beads)")
     ax.set_ylabel(r"$r_{c\infty}(N) - r_{c\infty}(1)$ (mm)")
     ax.set_title(r"Fig. 2E  $r_{c\infty}(N) - r_{c\infty}(1)$")
-    ax.legend(loc="upper left", fontsize=7, title="interval: 95 % CI of the exponent", title_fontsize=6.5)
+    conf = num(header(a.power).get("confidence"))
+    ctext = f"{conf * 100:g} % CI" if math.isfinite(conf) else "confidence interval"
+    ax.legend(loc="upper left", fontsize=7, title=f"interval: {ctext} of the exponent", title_fontsize=6.5)
     szplot.save(fig, a.out)
 
 
@@ -149,7 +151,7 @@ def ratio_plot(a, y, ylabel, title):
 
 def phi_c_grid(a):
     """Fig. 2F: the erf's Phi_c against l_max (per theta_max) and theta_max (per l_max), per N."""
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(6.6, 2.8), sharey=True)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(6.6, 3.8), sharey=True)
     pts = a.points  # (l_max_m, angle_deg, N, phi_c, se)
     Ns = sorted({p[2] for p in pts})
     for ax, key, other, xlabel, scale in ((ax1, 0, 1, r"max. bond gap $l_{\max}$ (mm)", 1e3),
@@ -165,8 +167,8 @@ def phi_c_grid(a):
                 ax.errorbar(x, y, yerr=np.nan_to_num(e), ms=3.5, lw=0.9, label=lab, **szplot.series(i, line=True))
                 i += 1
         ax.set_xlabel(xlabel)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=6.5)
+        if ax.get_legend_handles_labels()[0]:  # below the axes: the lines stay visible
+            ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.22), ncol=2, frameon=False)
     ax1.set_ylabel(r"transition amplitude $\Phi_c$ (rad)")
     fig.suptitle(r"Fig. 2F  $\Phi_c$ of the erf fits against the chain constraints", fontsize=9)
     szplot.tight(fig)

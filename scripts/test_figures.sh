@@ -75,9 +75,21 @@ L="$OUT/laos"
 "$PY" scripts/plot_bench_piv.py "$OUT/bench_piv"
 "$PY" scripts/plot_bench_sim.py "$OUT/bench_sim"
 "$PY" scripts/plot_bench_sim.py "$OUT/bench_cup"
+# A study's Fig. 2F (Phi_c against l_max and theta_max) needs a grid of erf fits that no
+# quick run has: drawn here from made-up points (the other study panels are the panels
+# above, drawn by plot_study.py; tests/study runs it on a real study)
+"$PY" - "$OUT/fig2f_phi_c.png" <<'PY'
+import argparse, sys
+sys.path.insert(0, "scripts")
+import plot_study, szplot
+szplot.setup()
+pts = [(l, a, n, 0.2 + 100 * l + 0.001 * a + 0.02 * n, 0.01)
+       for l in (2e-4, 4e-4, 8e-4) for a in (60.0, 120.0) for n in (4, 9)]
+plot_study.phi_c_grid(argparse.Namespace(out=sys.argv[1], points=pts))
+PY
 
 # Every figure of the demo (check_figures.py's list) and the benchmark plots
 "$PY" scripts/check_figures.py "$OUT"
 "$PY" scripts/check_figures.py "$OUT" bench_piv/piv_speed_accuracy.png bench_piv/piv_failure_map.png \
-    bench_sim/sim_speed.png bench_sim/sim_accuracy.png bench_cup/sim_cup_accuracy.png
+    bench_sim/sim_speed.png bench_sim/sim_accuracy.png bench_cup/sim_cup_accuracy.png fig2f_phi_c.png
 echo "test_figures: all figures rendered and valid in $OUT"

@@ -137,10 +137,9 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
                                 // a killed run's unfinished jobs are run again, not refused
                                 "--rerun-incomplete"};
   if (s.slurm) {
-    // The flags tested with Snakemake 7.21 and slurm-wlm 22.05 (docs/study.md): above 1
-    // status check per second, 7.21 silently polls every 33 s.
-    argv.insert(argv.end(), {"--slurm", "--jobs", std::to_string(jobs), "--max-status-checks-per-second", "1",
-                             "--latency-wait", "10"});
+    // scripts/study/slurm/config.yaml: the flags tested with Snakemake 7.21 and slurm-wlm
+    // 22.05 (docs/study.md)
+    argv.insert(argv.end(), {"--profile", (scripts / "study" / "slurm").string(), "--jobs", std::to_string(jobs)});
     if (!std::getenv("USER")) ::setenv("USER", std::to_string(::getuid()).c_str(), 0);
   } else {
     argv.insert(argv.end(), {"--cores", std::to_string(jobs)});

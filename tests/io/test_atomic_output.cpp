@@ -2,7 +2,9 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <fstream>
 #include <stdexcept>
+#include <string>
 
 #include <catch2/catch.hpp>
 
@@ -150,6 +152,17 @@ TEST_CASE("a temporary file that a killed process left is removed by the next wr
   if (child == 0) ::_exit(0);
   int status = 0;
   ::waitpid(child, &status, 0);
+  // and a zombie (killed, not yet reaped: a container's init may never reap it) is as dead
+  const pid_t zombie = ::fork();
+  if (zombie == 0) ::_exit(0);
+  for (int i = 0; i < 200; ++i) {  // until it has exited (state Z)
+    std::ifstream st("/proc/" + std::to_string(zombie) + "/stat");
+    std::string line;
+    std::getline(st, line);
+    if (line.find(") Z") != std::string::npos) break;
+    ::usleep(10000);
+  }
+  testing::write_file(dir / ("out.partial-" + std::to_string(zombie) + "-7.csv"), "half too");
   const std::string dead = "out.partial-" + std::to_string(child) + "-0.csv";
   const std::string alive = "out.partial-" + std::to_string(::getppid()) + "-3.csv";  // a live process
   testing::write_file(dir / dead, "half");
@@ -163,6 +176,7 @@ TEST_CASE("a temporary file that a killed process left is removed by the next wr
   }
   io::AtomicOutputSet set(dir / "run", false);
   set.commit_all();
+  ::waitpid(zombie, &status, 0);
   CHECK(testing::list_dir(dir.path()) ==
         std::vector<std::string>{"other.partial-1-0.csv", "out.csv", alive, "run"});
 }

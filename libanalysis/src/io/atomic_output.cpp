@@ -110,6 +110,17 @@ fs::path folder_of(const fs::path& p) {
   return dir.empty() ? fs::path(".") : dir;
 }
 
+/// Whether process `pid` still runs on this machine. A zombie (killed, not yet reaped:
+/// containers whose init does not reap) counts as dead; a process we may not signal as alive.
+bool process_alive(long pid) noexcept {
+  if (::kill(static_cast<pid_t>(pid), 0) != 0) return errno != ESRCH;
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(stat, line)) return true;
+  const auto paren = line.rfind(')');  // "pid (comm) S ...": comm may hold spaces and ')'
+  return !(paren != std::string::npos && paren + 2 < line.size() && line[paren + 2] == 'Z');
+}
+
 /// Removes the temporary files (or staging folders) of `final_path` that a killed
 /// process left (SIGKILL runs no handler): `<stem>.partial-<pid>-<n><ext>` whose process no
 /// longer exists. A study resumed after a kill then leaves no litter. Best effort.
@@ -131,7 +142,7 @@ void remove_stale_partials(const fs::path& final_path, bool is_dir) noexcept {
       continue;
     const long pid = std::strtol(mid.substr(0, dash).c_str(), nullptr, 10);
     if (pid <= 0 || pid == ::getpid()) continue;
-    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    if (process_alive(pid)) continue;
     std::error_code rec;
     fs::remove_all(it->path(), rec);
   }

@@ -23,13 +23,13 @@ on_fail() {
   exit 1
 }
 start=$(date +%s)
-"$SZ" study run study.toml -o out --slurm --jobs 8 > slurm.log 2>&1 ||
+"$SZ" study run study.toml -o out --slurm --jobs 8 >slurm.log 2>&1 ||
   { cat slurm.log; on_fail "study run --slurm exited $?"; }
 echo "run_slurm.sh: SLURM run $(( $(date +%s) - start )) s"
 grep -q "slurm" slurm.log || on_fail "no job went through SLURM"
 ls out/.snakemake/slurm_logs/rule_preshear/*.log > /dev/null 2>&1 || on_fail "no SLURM log of the pre-shear"
-"$SZ" study run study.toml -o local --jobs 2 > local.log 2>&1 || { cat local.log; on_fail "local run exited $?"; }
+"$SZ" study run study.toml -o local --jobs 2 >local.log 2>&1 || { cat local.log; on_fail "local run exited $?"; }
 /usr/bin/python3 "$SRC/tests/study/compare_outputs.py" out local || on_fail "SLURM and local outputs differ"
-"$SZ" study run study.toml -o out --slurm > rerun.log 2>&1 || { cat rerun.log; on_fail "rerun exited $?"; }
+"$SZ" study run study.toml -o out --slurm >rerun.log 2>&1 || { cat rerun.log; on_fail "rerun exited $?"; }
 grep -q "Nothing to be done" rerun.log || { cat rerun.log; on_fail "a second SLURM run submitted jobs"; }
 echo "run_slurm.sh: all checks passed"
