@@ -69,22 +69,7 @@ int run_sim(CLI::App& c, SimCli& s, const Context& ctx) {
                                  drop.finish();
                                  relax.update(k, n);
                                }};
-  if (s.preshear) {
-    // The protocol's pre-shear alone (a study's job): the folder the protocol writes as run/preshear.
-    core::ProgressReporter progress("sim: preshear steps", ctx.level);
-    const auto sum = pipeline::run_sim_preshear(
-        s.job, ctx.header(),
-        [&](std::size_t k, std::size_t n) {
-          drop.finish();
-          relax.finish();
-          progress.update(k, n);
-        },
-        fill);
-    progress.finish();
-    print_summary(sum, s.output, ctx);
-    return kExitOk;
-  }
-  if (s.restart.empty() && pipeline::scene_has_protocol(s.job.scene)) {
+  if (!s.preshear && s.restart.empty() && pipeline::scene_has_protocol(s.job.scene)) {
     // The whole protocol: pre-shear, then every amplitude branch, each in its own folder.
     auto progress = std::make_unique<core::ProgressReporter>("sim: preshear steps", ctx.level);
     const auto stage = [&](const pipeline::SimProtocolStage& st) {
@@ -106,15 +91,16 @@ int run_sim(CLI::App& c, SimCli& s, const Context& ctx) {
                   sum.stages.size() - 1, s.output.c_str());
     return kExitOk;
   }
-  core::ProgressReporter progress("sim: steps", ctx.level);
-  const auto sum = pipeline::run_sim_job(
-      s.job, ctx.header(),
-      [&](std::size_t k, std::size_t n) {
-        drop.finish();
-        relax.finish();
-        progress.update(k, n);
-      },
-      fill);
+  // One run: the scene, a continuation or branch from --restart, or (--preshear) a
+  // protocol's pre-shear alone, the folder the protocol writes as run/preshear.
+  core::ProgressReporter progress(s.preshear ? "sim: preshear steps" : "sim: steps", ctx.level);
+  const core::ProgressCallback on_step = [&](std::size_t k, std::size_t n) {
+    drop.finish();
+    relax.finish();
+    progress.update(k, n);
+  };
+  const auto sum = s.preshear ? pipeline::run_sim_preshear(s.job, ctx.header(), on_step, fill)
+                              : pipeline::run_sim_job(s.job, ctx.header(), on_step, fill);
   progress.finish();
   print_summary(sum, s.output, ctx);
   return kExitOk;

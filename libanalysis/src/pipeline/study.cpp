@@ -214,6 +214,21 @@ std::map<std::string, double> file_tags(const Reader& r, const std::string& tabl
   return tags;
 }
 
+/// The files of a glob table ([lab.clip_glob], [lab.log_glob]) with their tags; none when
+/// the table is absent.
+std::vector<std::pair<fs::path, std::map<std::string, double>>> globbed(const Reader& r, const std::string& table,
+                                                                      const std::vector<std::string>& allowed) {
+  const bool files = r.has(table + ".files"), pattern = r.has(table + ".pattern");
+  if (!files && !pattern) return {};
+  if (!files || !pattern)
+    r.fail(files ? table + ".files" : table + ".pattern",
+           fmt::format("[{}] needs both files (a glob) and pattern (the tags in the file name)", table));
+  const TagPattern tp = compile_pattern(r, table + ".pattern", allowed);
+  std::vector<std::pair<fs::path, std::map<std::string, double>>> out;
+  for (const fs::path& f : glob_files(r, table + ".files")) out.emplace_back(f, file_tags(r, table, tp, f, allowed));
+  return out;
+}
+
 void check_clip_tags(const Reader& r, const std::string& key, const std::string& what, double N, double phi0,
                      double f) {
   if (!(N >= 1 && N <= 100000 && N == std::floor(N)))
@@ -381,28 +396,21 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     clip.piv = r.stage_args(t + ".piv", "piv");
     s.clips.push_back(std::move(clip));
   }
-  if (c.has("lab.clip_glob.files") || c.has("lab.clip_glob.pattern")) {
-    if (!c.has("lab.clip_glob.files") || !c.has("lab.clip_glob.pattern"))
-      r.fail(c.has("lab.clip_glob.files") ? "lab.clip_glob.files" : "lab.clip_glob.pattern",
-             "[lab.clip_glob] needs both files (a glob) and pattern (the tags in the file name)");
-    const TagPattern tp = compile_pattern(r, "lab.clip_glob.pattern", kClipTags);
-    for (const fs::path& f : glob_files(r, "lab.clip_glob.files")) {
-      auto tags = file_tags(r, "lab.clip_glob", tp, f, kClipTags);
-      if (!tags.count("N") || !tags.count("phi0_rad"))
-        r.fail("lab.clip_glob.pattern", "every clip needs N and phi0_rad: put them in the pattern or the table");
-      StudyClip clip;
-      clip.name = f.stem().string();
-      clip.video = f;
-      const double N = tags["N"];
-      clip.phi0_rad = tags["phi0_rad"];
-      clip.f_Hz = tags.count("f_Hz") ? tags["f_Hz"] : lab_f;
-      check_clip_tags(r, "lab.clip_glob.pattern", f.string(), N, clip.phi0_rad, clip.f_Hz);
-      clip.N = static_cast<int>(N);
-      if (!valid_name(clip.name))
-        r.fail("lab.clip_glob.files", fmt::format("{}: its name \"{}\" (expected letters, digits, _ - . +)",
-                                                  f.string(), clip.name));
-      s.clips.push_back(std::move(clip));
-    }
+  for (auto& [f, tags] : globbed(r, "lab.clip_glob", kClipTags)) {
+    if (!tags.count("N") || !tags.count("phi0_rad"))
+      r.fail("lab.clip_glob.pattern", "every clip needs N and phi0_rad: put them in the pattern or the table");
+    StudyClip clip;
+    clip.name = f.stem().string();
+    clip.video = f;
+    const double N = tags["N"];
+    clip.phi0_rad = tags["phi0_rad"];
+    clip.f_Hz = tags.count("f_Hz") ? tags["f_Hz"] : lab_f;
+    check_clip_tags(r, "lab.clip_glob.pattern", f.string(), N, clip.phi0_rad, clip.f_Hz);
+    clip.N = static_cast<int>(N);
+    if (!valid_name(clip.name))
+      r.fail("lab.clip_glob.files", fmt::format("{}: its name \"{}\" (expected letters, digits, _ - . +)",
+                                                f.string(), clip.name));
+    s.clips.push_back(std::move(clip));
   }
   for (const auto& cl : s.clips)
     if (!names.insert("clip:" + cl.name).second)
@@ -420,20 +428,13 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
       if (!c.has(t + "." + need)) r.fail(t + ".file", fmt::format("log \"{}\" has no {}", name, need));
     s.logs.push_back({name, r.existing_file(t + ".file"), r.chain_length(t + ".N")});
   }
-  if (c.has("lab.log_glob.files") || c.has("lab.log_glob.pattern")) {
-    if (!c.has("lab.log_glob.files") || !c.has("lab.log_glob.pattern"))
-      r.fail(c.has("lab.log_glob.files") ? "lab.log_glob.files" : "lab.log_glob.pattern",
-             "[lab.log_glob] needs both files (a glob) and pattern (the tags in the file name)");
-    const TagPattern tp = compile_pattern(r, "lab.log_glob.pattern", kLogTags);
-    for (const fs::path& f : glob_files(r, "lab.log_glob.files")) {
-      auto tags = file_tags(r, "lab.log_glob", tp, f, kLogTags);
-      if (!tags.count("N")) r.fail("lab.log_glob.pattern", "every log needs N: put it in the pattern or the table");
-      const double N = tags["N"];
-      if (!(N >= 1 && N == std::floor(N) && N <= 100000))
-        r.fail("lab.log_glob.pattern", fmt::format("{}: N = {} (expected an integer >= 1)", f.string(),
-                                                    io::format_number(N)));
-      s.logs.push_back({f.stem().string(), f, static_cast<int>(N)});
-    }
+  for (auto& [f, tags] : globbed(r, "lab.log_glob", kLogTags)) {
+    if (!tags.count("N")) r.fail("lab.log_glob.pattern", "every log needs N: put it in the pattern or the table");
+    const double N = tags["N"];
+    if (!(N >= 1 && N == std::floor(N) && N <= 100000))
+      r.fail("lab.log_glob.pattern",
+             fmt::format("{}: N = {} (expected an integer >= 1)", f.string(), io::format_number(N)));
+    s.logs.push_back({f.stem().string(), f, static_cast<int>(N)});
   }
   for (const auto& l : s.logs)
     if (!valid_name(l.name) || !names.insert("log:" + l.name).second)
