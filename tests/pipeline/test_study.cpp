@@ -24,13 +24,14 @@ TEST_CASE("study: clip tags come from the file name's pattern, the table fills t
   write_file(t / "study.toml",
              "[lab]\nf_Hz = 0.1\n[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n"
              "[lab.clips.extra]\nvideo = \"notes.txt\"\nN = 1\nphi0_rad = 0.5\nf_Hz = 0.2\n"
-             "[lab.clips.extra.piv]\ncentre = [10, 20]\n");
+             "[lab.clips.extra.piv]\ncentre = [10, 20]\n[lab.clips.extra.profile]\nradii-px = [5, 9]\n");
   const pipeline::Study s = pipeline::load_study(t / "study.toml", any_option);
   REQUIRE(s.clips.size() == 3);
   // named tables first (sorted), then the glob's files (sorted)
   CHECK(s.clips[0].name == "extra");
   CHECK(s.clips[0].f_Hz == 0.2);
   CHECK(s.clips[0].piv == pipeline::StageArgs{"--centre", "10,20"});
+  CHECK(s.clips[0].profile == pipeline::StageArgs{"--radii-px", "5,9"});
   CHECK(s.clips[1].name == "N45_phi1e-1");
   CHECK(s.clips[1].N == 45);
   CHECK(s.clips[1].phi0_rad == 0.1);

@@ -381,8 +381,9 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     for (const std::string& key : c.keys())
       if (key.rfind(t + ".", 0) == 0) {
         const std::string k = key.substr(t.size() + 1);
-        if (k != "video" && k != "N" && k != "phi0_rad" && k != "f_Hz" && k.rfind("piv.", 0) != 0)
-          r.fail(key, "unknown key (expected video, N, phi0_rad, f_Hz or a [piv] table of piv options)");
+        if (k != "video" && k != "N" && k != "phi0_rad" && k != "f_Hz" && k.rfind("piv.", 0) != 0 &&
+            k.rfind("profile.", 0) != 0)
+          r.fail(key, "unknown key (expected video, N, phi0_rad, f_Hz, or a [piv] or [profile] table of options)");
       }
     for (const char* need : {"video", "N", "phi0_rad"})
       if (!c.has(t + "." + need)) r.fail(t + ".video", fmt::format("clip \"{}\" has no {}", name, need));
@@ -394,6 +395,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     clip.f_Hz = c.has(t + ".f_Hz") ? r.number(t + ".f_Hz") : lab_f;
     check_clip_tags(r, t + ".N", "clip " + name, clip.N, clip.phi0_rad, clip.f_Hz);
     clip.piv = r.stage_args(t + ".piv", "piv");
+    clip.profile = r.stage_args(t + ".profile", "profile");
     s.clips.push_back(std::move(clip));
   }
   for (auto& [f, tags] : globbed(r, "lab.clip_glob", kClipTags)) {
@@ -572,9 +574,11 @@ void write_study_plan(const Study& s, const fs::path& out, const fs::path& shear
     piv.insert(piv.end(), cl.piv.begin(), cl.piv.end());
     piv.insert(piv.end(), {"--N", std::to_string(cl.N), "--phi0-rad", io::format_number(cl.phi0_rad)});
     if (cl.f_Hz > 0) piv.insert(piv.end(), {"--f-hz", io::format_number(cl.f_Hz)});
+    StageArgs profile = s.lab_profile;
+    profile.insert(profile.end(), cl.profile.begin(), cl.profile.end());
     j << (i ? ",\n" : "\n") << "    " << json_string(cl.name) << ": {\"video\": " << json_string(cl.video.string())
       << ", \"N\": " << cl.N << ", \"phi0_rad\": " << json_number(cl.phi0_rad) << ", \"piv\": " << json_list(piv)
-      << "}";
+      << ", \"profile\": " << json_list(profile) << "}";
   }
   j << (s.clips.empty() ? "},\n" : "\n  },\n");
   j << "  \"logs\": {";
@@ -626,7 +630,7 @@ void write_study_plan(const Study& s, const fs::path& out, const fs::path& shear
   j << (datasets.empty() ? "},\n" : "\n  },\n");
   j << "  \"args\": {";
   const std::vector<std::pair<std::string, const StageArgs*>> args{
-      {"lab_profile", &s.lab_profile}, {"lab_width", &s.lab_width},     {"lab_laos", &s.lab_laos},
+      {"lab_width", &s.lab_width},     {"lab_laos", &s.lab_laos},
       {"sim_render", &s.sim_render},   {"sim_piv", &s.sim_piv},         {"sim_profile", &s.sim_profile},
       {"sim_width", &s.sim_width},     {"sim_laos", &s.sim_laos},       {"fit_erf", &s.fit_erf},
       {"fit_power", &s.fit_power},     {"collapse_erf", &s.collapse_erf}};

@@ -29,6 +29,7 @@ struct StudyClip {
   double phi0_rad = 0.0;
   double f_Hz = 0.0;              ///< 0: not given (piv then takes no --f-hz)
   StageArgs piv;                  ///< this clip's own piv options (after the lab's)
+  StageArgs profile;              ///< this clip's own profile options (its geometry: radii, scale)
 };
 
 struct StudyLog {
