@@ -8,8 +8,9 @@
 #  4. adding a clip runs its chain and the dataset's collect/fits/figures, nothing else;
 #  5. adding an amplitude to the grid runs its branches and what depends on them, no pre-shear;
 #  6. the commands the workflow printed, run by hand, give the same files;
-#  7. a run killed part-way (SIGKILL to its whole process group) resumes: the same command
-#     finishes it, with the same outputs as an uninterrupted run.
+#  7. a second run on a folder in use is refused; a run killed part-way (SIGKILL to its
+#     whole process group) resumes: the same command finishes it, with the same outputs as
+#     an uninterrupted run.
 set -euo pipefail
 SZ=$1 SRC=$2 WORK=$3
 rm -rf "$WORK"
@@ -99,6 +100,11 @@ for _ in $(seq 1 100); do  # until some jobs have finished
   [ "$(find K -name width.csv 2>/dev/null | wc -l)" -ge 3 ] && break
   sleep 0.1
 done
+# meanwhile a second run on the same folder is refused (exit 2, one line)
+rc=0
+"$SZ" study run study.toml -o K --jobs 2 >second.log 2>&1 || rc=$?
+[ "$rc" -eq 2 ] && grep -q "K: another .shearzone study run. is running on this folder" second.log ||
+  { cat second.log; fail "a second run on a folder in use exited $rc"; }
 kill -KILL -- "-$pid" 2>/dev/null || true
 wait "$pid" 2>/dev/null || true
 [ ! -s K/figures/figures.csv ] || fail "the run finished before it could be killed"
