@@ -16,6 +16,7 @@
 #include <toml.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/toml_config.hpp"
 #include "shearzone/sim/scene.hpp"
@@ -272,22 +273,16 @@ void write_if_changed(const fs::path& path, const std::string& text) {
       if (old.str() == text) return;
     }
   }
-  fs::create_directories(path.parent_path());
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out.flush()) throw InputError(fmt::format("{}: cannot write", tmp.string()));
-  }
-  fs::rename(tmp, path);
+  io::AtomicOutput out(path, true);  // replaces a changed file whole
+  out.stream() << text;
+  out.commit();
 }
 
 using OrderedToml = toml::basic_value<toml::discard_comments, std::map, std::vector>;
 
 /// The cup scene with one grid point's values.
-std::string group_scene(const fs::path& scene, const StudySimGroup& g, bool set_chains, bool set_lmax,
-                        bool set_angle, long long beads, int threads) {
-  OrderedToml root = toml::parse<toml::discard_comments, std::map, std::vector>(scene.string());
+std::string group_scene(const fs::path& scene, OrderedToml root, const StudySimGroup& g, bool set_chains,
+                        bool set_lmax, bool set_angle, long long beads, int threads) {
   auto& t = root.as_table();
   if (set_chains) t["chains"]["beads_per_chain"] = g.N;
   if (set_lmax) t["chains"]["l_max_m"] = g.l_max_m;
@@ -481,7 +476,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     s.sim_cycles = c.has("sim.cycles") ? r.positive("sim.cycles", 1e6) : p.cycles;
     s.sim_threads = c.has("sim.threads") ? static_cast<int>(r.integers("sim.threads", 1, 256)[0]) : 1;
     // The scene's own chain values unless the study sets a grid.
-    OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
+    const OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
     const auto scene_number = [&](const char* table, const char* key, double def) {
       if (!tmpl.contains(table) || !tmpl.at(table).contains(key)) return def;
       const auto& v = tmpl.at(table).at(key);
@@ -514,7 +509,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
             g.seed = seed;
             g.dataset = fmt::format("sim_l{}_a{}", l, a);
             g.name = fmt::format("N{}_l{}_a{}_s{}", N, l, a, seed);
-            g.scene_text = group_scene(s.scene, g, c.has("sim.N"), c.has("sim.l_max_m"), c.has("sim.max_angle_deg"),
+            g.scene_text = group_scene(s.scene, tmpl, g, c.has("sim.N"), c.has("sim.l_max_m"), c.has("sim.max_angle_deg"),
                                        beads, s.sim_threads);
             s.groups.push_back(std::move(g));
           }
