@@ -69,8 +69,10 @@ class Figures:
                 return f"{rel} has no rows"
         return None
 
-    def make(self, name, fn, needs, **kw):
+    def make(self, name, fn, needs, check=None, **kw):
         why = self.usable(*needs)
+        if why is None and check is not None:
+            why = check()
         if why is None:
             try:
                 for ext in ("png", "svg"):
@@ -86,6 +88,18 @@ class Figures:
             w = csv.writer(f, lineterminator="\n")
             w.writerow(["figure", "status", "reason"])
             w.writerows(self.rows)
+
+
+def laos_rows_for(path, y):
+    """None if the LAOS summary has rows a per-N panel of y can draw, else why not."""
+    rows = read_csv(path)
+    if rows and "phi0_rad" not in rows[0]:
+        return "stress/strain logs (gamma0, Pa): the per-amplitude panels are drawn for torque/angle logs"
+    ok = [r for r in plot_laos.ok_rows(rows) if math.isfinite(num(r.get(y)))]
+    if not ok:
+        states = sorted({r.get("status") or "?" for r in rows})
+        return f"no summary row with status ok and a finite {y} (statuses: {', '.join(states)})"
+    return None
 
 
 def rcinf_difference(a):
@@ -226,22 +240,23 @@ def main():
                 F.make(f"fig3a_{d}_{name}", plot_laos.lissajous, [lao], outdir=F.path(lao), N=None)
             F.make(f"fig3d_{d}", lambda a: plot_laos.per_n_plot(
                 a, "tau_max_N_m", r"max. torque $\tau_{\max}$ (mN m)", "Fig. 3D  Maximum torque against amplitude",
-                scale=1e3), [S], summary=F.path(S))
-            F.make(f"fig3d_N_{d}", plot_laos.taun, [S, f"{R}/tau_power.csv"], summary=F.path(S),
+                scale=1e3), [S], check=lambda: laos_rows_for(F.path(S), "tau_max_N_m"), summary=F.path(S))
+            F.make(f"fig3d_N_{d}", plot_laos.taun, [S, f"{R}/tau_power.csv"],
+                   check=lambda: laos_rows_for(F.path(S), "tau_max_N_m"), summary=F.path(S),
                    power=F.path(f"{R}/tau_power.csv"), offset=2.0)
             F.make(f"fig6_{d}", lambda a: plot_laos.per_n_plot(
                 a, "tan_delta_1", r"loss tangent $\tan\delta_1$ (dimensionless)",
                 r"Fig. 6  Loss tangent $\tan\delta_1 = K_1''/K_1'$", hline=(1.0, r"$\tan\delta_1 = 1$")),
-                [S], summary=F.path(S))
+                [S], check=lambda: laos_rows_for(F.path(S), "tan_delta_1"), summary=F.path(S))
             F.make(f"fig5_harmonics_{d}", lambda a: plot_laos.per_n_plot(
                 a, "I3_over_I1", r"third harmonic $I_3/I_1$ (dimensionless)", "Fig. 5  Relative third harmonic"),
-                [S], summary=F.path(S))
+                [S], check=lambda: laos_rows_for(F.path(S), "I3_over_I1"), summary=F.path(S))
             F.make(f"fig5_chebyshev_e_{d}", lambda a: ratio_plot(
                 a, "e3_over_e1", r"elastic Chebyshev ratio $e_3/e_1$ (dimensionless)", "Fig. 5  Elastic nonlinearity"),
-                [S], summary=F.path(S))
+                [S], check=lambda: laos_rows_for(F.path(S), "e3_over_e1"), summary=F.path(S))
             F.make(f"fig5_chebyshev_v_{d}", lambda a: ratio_plot(
                 a, "v3_over_v1", r"viscous Chebyshev ratio $v_3/v_1$ (dimensionless)", "Fig. 5  Viscous nonlinearity"),
-                [S], summary=F.path(S))
+                [S], check=lambda: laos_rows_for(F.path(S), "v3_over_v1"), summary=F.path(S))
     if len({(p[0], p[1]) for p in grid}) >= 2:
         F.make("fig2f_phi_c", phi_c_grid, [], points=grid)
     else:

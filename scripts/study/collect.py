@@ -10,7 +10,8 @@ widths: one row per input, in the order given, the width file's columns plus `it
         width's `confidence` (1.96 at 0.95); empty where the interval is.
 laos:   the rows of every summary.csv, with `item` (the LAOS folder); a folder that LAOS
         refused (refused.txt) is named in a `# skipped:` line (exit 2 when all were).
-Columns must agree between inputs (else exit 2, one line). Written atomically.
+Columns must agree between inputs (else exit 2, one line naming the first column that
+differs: e.g. a stress/strain log among torque/angle logs). Written atomically.
 """
 import csv
 import io
@@ -54,9 +55,15 @@ def main():
             continue
         cols, rows = rows_of(src)
         if cols0 is None:
-            cols0 = cols
+            cols0, first = cols, src
         elif cols != cols0:
-            fail(f"{src}: columns {','.join(cols)} differ from {','.join(cols0)} of {inputs[0]}")
+            k = next((i for i, (a, b) in enumerate(zip(cols, cols0)) if a != b), min(len(cols), len(cols0)))
+            here = cols[k] if k < len(cols) else "(none)"
+            there = cols0[k] if k < len(cols0) else "(none)"
+            mode = (" (one dataset's logs must all be torque/angle or all stress/strain)"
+                    if kind == "laos" else "")
+            fail(f"{src}: column {k + 1} is {here}, but {there} in {first}: the tables cannot be "
+                 f"collected into one{mode}")
         # item: the clip (lab/clips/NAME) or group/branch (sim/G/phi0_X) the file belongs to
         parts = os.path.normpath(src).split(os.sep)
         item = "/".join(parts[:-1])
