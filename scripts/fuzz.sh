@@ -5,7 +5,10 @@
 # 16 GiB pass: HDF5 1.10 reserves such blocks, untouched, when a corrupt file declares
 # a huge object header; found by fuzz_field_h5). A crash, hang, leak or sanitizer
 # report stops that target; the input is kept in build/fuzz/findings/<target>/ and the
-# script exits 1 after running every target.
+# script exits 1 after running every target. The targets' own stderr is closed
+# (-close_fd_mask=2): libFuzzer and the sanitizers report on a copy of it, so a report
+# raised while the readers silence stderr around a decoder is not lost (a CI run once
+# stopped with no message that way).
 #
 #   scripts/fuzz.sh            # 30 s per target (CI smoke run)
 #   scripts/fuzz.sh 600        # 10 minutes per target
@@ -47,7 +50,7 @@ for t in $TARGETS; do
        LSAN_OPTIONS=suppressions="$PWD/tests/fuzz/lsan.supp" \
        OPENCV_FFMPEG_LOGLEVEL=-8 OPENCV_LOG_LEVEL=SILENT \
        "$BUILD_DIR/tests/fuzz/fuzz_$t" "$C/$t" -max_total_time="$SECONDS_PER_TARGET" -timeout=10 \
-       -rss_limit_mb=1024 -malloc_limit_mb=16384 -max_len=65536 -print_final_stats=1 \
+       -rss_limit_mb=1024 -malloc_limit_mb=16384 -max_len=65536 -print_final_stats=1 -close_fd_mask=2 \
        -artifact_prefix="$BUILD_DIR/findings/$t/" >"$BUILD_DIR/findings/$t.log" 2>&1; then
     echo "fuzz_$t: FOUND a problem (input in $BUILD_DIR/findings/$t/, log $BUILD_DIR/findings/$t.log)"
     tail -30 "$BUILD_DIR/findings/$t.log"

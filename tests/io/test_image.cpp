@@ -112,6 +112,37 @@ TEST_CASE("truncated and undecodable images are input errors naming the file", "
   CHECK_THROWS_WITH(io::read_image_gray(dir / "none.png"), Contains("none.png: no such file"));
 }
 
+TEST_CASE("JPEG 2000 headers that would cost gigabytes are refused before decoding", "[io][image]") {
+  if (!cv::haveImageWriter(".jp2")) return;
+  testing::TempDir dir("j2k");
+  REQUIRE(cv::imwrite((dir / "a.jp2").string(), ramp(CV_8U), {cv::IMWRITE_JPEG2000_COMPRESSION_X1000, 1000}));
+  const std::string good = testing::read_file(dir / "a.jp2");
+  const std::size_t at = good.find("\xFF\x4F\xFF\x51");
+  REQUIRE(at != std::string::npos);
+  auto forge = [&](std::size_t offset, std::uint32_t value, int bytes) {
+    std::string b = good;
+    for (int k = 0; k < bytes; ++k)
+      b[at + offset + static_cast<std::size_t>(k)] = static_cast<char>((value >> (8 * (bytes - 1 - k))) & 0xFF);
+    return b;
+  };
+  CHECK(cv::norm(io::decode_image_gray(good, "a.jp2"), ramp(CV_8U), cv::NORM_INF) == 0.0);
+  // Xsiz = Ysiz = 40000: a canvas of 1.6e9 px (OpenCV's own limit is 2^30).
+  std::string big = forge(8, 40000, 4);
+  big = std::string(big).replace(at + 12, 4, forge(12, 40000, 4).substr(at + 12, 4));
+  CHECK_THROWS_WITH(io::decode_image_gray(big, "big.jp2"),
+                    Contains("big.jp2: 40000 x 40000 px") && Contains("checked before decoding"));
+  // 200 components, each decoded at full size.
+  CHECK_THROWS_WITH(io::decode_image_gray(forge(40, 200, 2), "comps.jp2"),
+                    Contains("comps.jp2: a JPEG 2000 image with 200 components; expected 1 to 4"));
+  // 1 x 1 px tiles over a 4000 x 4000 px canvas: 16 million tiles.
+  std::string tiles = forge(8, 4000, 4);
+  tiles.replace(at + 12, 4, forge(12, 4000, 4).substr(at + 12, 4));
+  tiles.replace(at + 24, 4, forge(24, 1, 4).substr(at + 24, 4));
+  tiles.replace(at + 28, 4, forge(28, 1, 4).substr(at + 28, 4));
+  CHECK_THROWS_WITH(io::decode_image_gray(tiles, "tiles.jp2"),
+                    Contains("tiles.jp2: a JPEG 2000 image of 16000000 tiles; expected at most 65535"));
+}
+
 TEST_CASE("write_image refuses 16-bit JPEG and unknown extensions", "[io][image]") {
   testing::TempDir dir("img");
   CHECK_THROWS_AS(io::write_image(dir / "a.jpg", ramp(CV_16U), false), ConfigError);

@@ -64,8 +64,8 @@ constexpr const char* kDecodedFormats =
 
 using detail::StderrSilencer;
 
-/// Width and height from the header of PNG, BMP, Netpbm, JPEG, TIFF and WebP files
-/// (0, 0 when not found; JPEG 2000 is left to OpenCV's own limit of 2^30 pixels).
+/// Width and height from the header of PNG, BMP, Netpbm, JPEG, TIFF, WebP and JPEG 2000
+/// files (0, 0 when not found).
 std::pair<long long, long long> header_size(const std::string& b, Format f) {
   auto u = [&](std::size_t i) -> long long { return i < b.size() ? static_cast<unsigned char>(b[i]) : 0; };
   switch (f) {
@@ -145,9 +145,45 @@ std::pair<long long, long long> header_size(const std::string& b, Format f) {
         return {1 + (bits & 0x3FFF), 1 + ((bits >> 14) & 0x3FFF)};
       }
       break;
+    case Format::kJpeg2000: {
+      // The codestream's SIZ marker segment (FF 51, right after SOC FF 4F; in a JP2 file
+      // inside the jp2c box): Lsiz, Rsiz, then Xsiz, Ysiz, XOsiz, YOsiz, big-endian.
+      // The image is (Xsiz - XOsiz) x (Ysiz - YOsiz) (Csiz components follow: see
+      // check_j2k_layout). Without this check a forged header lets OpenJPEG allocate
+      // gigabytes.
+      const std::size_t at = b.find("\xFF\x4F\xFF\x51");
+      if (at == std::string::npos || at + 42 > b.size()) break;
+      auto be32 = [&](std::size_t i) { return (u(i) << 24) | (u(i + 1) << 16) | (u(i + 2) << 8) | u(i + 3); };
+      const std::size_t siz = at + 4;  // Lsiz
+      const long long xs = be32(siz + 4), ys = be32(siz + 8), xo = be32(siz + 12), yo = be32(siz + 16);
+      if (xs <= xo || ys <= yo) break;  // OpenJPEG refuses an empty image itself
+      return {xs - xo, ys - yo};
+    }
     default: break;
   }
   return {0, 0};
+}
+
+/// Refuses JPEG 2000 headers whose decoding would cost far more than the image: more
+/// than 4 components (each decoded at full size) or more tiles than the standard's
+/// 65535 (tiny tiles over a large canvas: per-tile structures by the million).
+void check_j2k_layout(const std::string& b, const std::string& source) {
+  const std::size_t at = b.find("\xFF\x4F\xFF\x51");
+  if (at == std::string::npos || at + 42 > b.size()) return;
+  auto u = [&](std::size_t i) -> long long { return static_cast<unsigned char>(b[i]); };
+  auto be32 = [&](std::size_t i) { return (u(i) << 24) | (u(i + 1) << 16) | (u(i + 2) << 8) | u(i + 3); };
+  const long long comps = (u(at + 40) << 8) | u(at + 41);
+  if (comps > 4)
+    throw InputError(fmt::format("{}: a JPEG 2000 image with {} components; expected 1 to 4 (grey, "
+                                 "colour, colour + alpha)",
+                                 source, comps));
+  const long long xs = be32(at + 8), ys = be32(at + 12), xt = be32(at + 24), yt = be32(at + 28);
+  const long long xto = be32(at + 32), yto = be32(at + 36);
+  if (xt > 0 && yt > 0 && xs > xto && ys > yto) {
+    const long long tiles = ((xs - xto + xt - 1) / xt) * ((ys - yto + yt - 1) / yt);
+    if (tiles > 65535)
+      throw InputError(fmt::format("{}: a JPEG 2000 image of {} tiles; expected at most 65535", source, tiles));
+  }
 }
 
 /// Checks the end marker of formats whose decoders may accept truncated data.
@@ -281,6 +317,7 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
       check_image_size(static_cast<int>(std::min<long long>(w, INT32_MAX)),
                        static_cast<int>(std::min<long long>(h, INT32_MAX)), source);
   }
+  if (f == Format::kJpeg2000) check_j2k_layout(bytes, source);
   cv::Mat raw;
   try {
     std::vector<uchar> buf(bytes.begin(), bytes.end());
