@@ -37,7 +37,8 @@ seed "$C/csv" data-samples/widths/*.csv data-samples/laos/*.csv tests/data/logs/
 seed "$C/toml" data-samples/synth/*.toml data-samples/sim/*.toml tests/data/regressions/*.toml
 seed "$C/log" data-samples/laos/*.csv tests/data/logs/* tests/data/rheometer-exports/*
 seed "$C/image" data-samples/pivlab-sand/*.jpeg tests/data/openpiv-test1/*.bmp \
-  tests/data/fluidimage-oseen/*.tif tests/data/regressions/*.png
+  tests/data/fluidimage-oseen/*.tif tests/data/regressions/*.png \
+  tests/data/regressions/*.webp tests/data/regressions/*.pgm tests/data/regressions/*.tif
 seed "$C/video" tests/data/regressions/*.mp4
 seed "$C/field_h5" tests/data/regressions/*.h5
 seed "$C/profile_csv" data-samples/widths/*.csv tests/data/profiles/*.csv

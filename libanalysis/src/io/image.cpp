@@ -310,6 +310,14 @@ cv::Mat decode_image_gray(const std::string& bytes, const std::string& source, i
   if (f == Format::kHdr || f == Format::kExr)
     throw InputError(fmt::format("{}: a floating-point {} image; expected 8- or 16-bit samples ({})",
                                  source, f == Format::kHdr ? "Radiance HDR" : "OpenEXR", kDecodedFormats));
+  // OpenCV tries its decoders in turn: one that rejects a malformed header of the
+  // sniffed format hands the bytes on, and GDCM takes anything with "DICM" at byte 128
+  // (a DICOM preamble), then aborts the process on the rest (found by fuzzing: a broken
+  // WebP header). No image read here has those bytes there but by a 1 in 4e9 chance.
+  if (bytes.size() >= 132 && bytes.compare(128, 4, "DICM") == 0)
+    throw InputError(fmt::format("{}: bytes 128-131 read \"DICM\" (a DICOM preamble); DICOM is not read "
+                                 "(expected {})",
+                                 source, kDecodedFormats));
   check_complete(bytes, f, source);
   {
     const auto [w, h] = header_size(bytes, f);
