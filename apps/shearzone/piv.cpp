@@ -187,6 +187,10 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--duplicate-tolerance", j.duplicate_tolerance,
                 "Frames differing by at most this (grey levels) are repeats; range: >= 0")
       ->capture_default_str();
+  c->add_option("--threads", j.threads,
+                "Threads, 0 = all cores (a stream runs one pair per thread; the fields are the same for "
+                "any count); range: 0..1024")
+      ->capture_default_str();
   // Masks
   c->add_option("--centre", s->centre, "Cup centre X,Y in px; range: any finite numbers")
       ->expected(2)

@@ -3,9 +3,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <deque>
+#include <exception>
+#include <memory>
+#include <mutex>
 #include <numbers>
+#include <thread>
 #include <utility>
+
+#include <omp.h>
 
 #include <fmt/format.h>
 
@@ -78,6 +85,112 @@ std::string metadata_text(const core::Metadata& m) {
   return s;
 }
 
+/// A frame PIV may still pair: the frame, what PIV sees (preprocessed if asked) and
+/// its mask (static + vane at this frame's time).
+struct Unique {
+  io::Frame frame;
+  cv::Mat image;
+  cv::Mat mask;
+};
+
+/// One pair in flight.
+struct PairTask {
+  std::shared_ptr<const Unique> a, b;
+  piv::PivResult result;
+  std::exception_ptr error;
+  bool done = false;
+};
+
+/// Runs pairs on worker threads (one pair per thread, its windows serial) and hands
+/// them back in submission order, so the output is the same as one pair at a time.
+/// The caller decodes the next frames meanwhile, and keeps at most `capacity` (workers
+/// + 2) pairs in flight (full(), pop_done(true)).
+class PairPool {
+ public:
+  PairPool(const piv::PivEngine& engine, int workers) : engine_(engine), capacity_(workers + 2) {
+    for (int i = 0; i < workers; ++i) threads_.emplace_back([this] { work(); });
+  }
+  ~PairPool() {
+    {
+      std::lock_guard lock(m_);
+      stop_ = true;
+    }
+    todo_.notify_all();
+    for (auto& t : threads_) t.join();
+  }
+  PairPool(const PairPool&) = delete;
+  PairPool& operator=(const PairPool&) = delete;
+
+  /// Whether `capacity` pairs are queued or running: pop one before submitting more.
+  bool full() {
+    std::lock_guard lock(m_);
+    return tasks_.size() >= capacity_;
+  }
+  void submit(std::shared_ptr<const Unique> a, std::shared_ptr<const Unique> b) {
+    auto t = std::make_shared<PairTask>();
+    t->a = std::move(a);
+    t->b = std::move(b);
+    std::lock_guard lock(m_);
+    tasks_.push_back(std::move(t));
+    todo_.notify_one();
+  }
+  /// The oldest pair once done (waiting for it if `wait`); nullptr if none is ready.
+  std::shared_ptr<PairTask> pop_done(bool wait) {
+    std::unique_lock lock(m_);
+    if (wait) finished_.wait(lock, [&] { return tasks_.empty() || tasks_.front()->done; });
+    if (tasks_.empty() || !tasks_.front()->done) return nullptr;
+    auto t = std::move(tasks_.front());
+    tasks_.pop_front();
+    --next_;
+    return t;
+  }
+
+ private:
+  void work() {
+    omp_set_num_threads(1);  // this thread's pairs run their windows serially
+    for (;;) {
+      std::shared_ptr<PairTask> t;
+      {
+        std::unique_lock lock(m_);
+        todo_.wait(lock, [&] { return stop_ || next_ < tasks_.size(); });
+        if (stop_) return;
+        t = tasks_[next_++];
+      }
+      try {
+        t->result = engine_.process(t->a->image, t->b->image, t->a->mask, t->b->mask);
+      } catch (...) {
+        t->error = std::current_exception();
+      }
+      {
+        std::lock_guard lock(m_);
+        t->done = true;
+      }
+      finished_.notify_all();
+    }
+  }
+
+  const piv::PivEngine& engine_;
+  const std::size_t capacity_;
+  std::mutex m_;
+  std::condition_variable todo_, finished_;
+  std::deque<std::shared_ptr<PairTask>> tasks_;  // submission order
+  std::size_t next_ = 0;                         // index in tasks_ of the next to start
+  bool stop_ = false;
+  std::vector<std::thread> threads_;
+};
+
+/// Sets this thread's OpenMP thread count for its lifetime.
+class OmpThreads {
+ public:
+  explicit OmpThreads(int n) : saved_(omp_get_max_threads()) { omp_set_num_threads(n); }
+  ~OmpThreads() { omp_set_num_threads(saved_); }
+  OmpThreads(const OmpThreads&) = delete;
+  OmpThreads& operator=(const OmpThreads&) = delete;
+
+ private:
+  int saved_;
+};
+
 }  // namespace
 
 void PivJobOptions::validate() const {
@@ -120,6 +233,7 @@ void PivJobOptions::validate() const {
   if (pair_spacing < 1 || pair_spacing > 1000)
     throw ConfigError(fmt::format("pair spacing (--spacing) {}: expected 1 to 1000", pair_spacing));
   if (stride < 1) throw ConfigError(fmt::format("stride {}: must be >= 1", stride));
+  if (threads < 0 || threads > 1024) throw ConfigError(fmt::format("threads {}: expected 0 (all cores) to 1024", threads));
   if (first_frame < 0) throw ConfigError(fmt::format("first frame {}: must be >= 0", first_frame));
   if (last_frame >= 0 && last_frame < first_frame + pair_spacing)
     throw ConfigError(fmt::format("frame range {}..{} holds no pair of spacing {}", first_frame,
@@ -247,12 +361,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   const bool csv = io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
-  struct Unique {
-    io::Frame frame;
-    cv::Mat image;  // what PIV sees: the frame, preprocessed if asked
-    cv::Mat mask;   // static + vane at this frame's time
-  };
-  std::deque<Unique> window;  // the last pair_spacing + 1 unique frames
+  std::deque<std::shared_ptr<const Unique>> window;  // the last pair_spacing + 1 unique frames
   std::size_t unique_count = 0;
   io::AtomicOutput out(o.output, o.force);
   io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
@@ -291,53 +400,19 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
 
   std::size_t pair_index = 0;
   const std::int64_t hint = source->size_hint();
-  io::Frame frame;
-  while (source->next(frame)) {
-    ++sum.frames_read;
-    if (frame.index < o.first_frame) continue;
-    if (o.last_frame >= 0 && frame.index > o.last_frame) break;
-    // A frame FFmpeg had to conceal holds invented pixels: never measured. The pair
-    // then spans the gap (its dt from the timestamps), as for repeated frames.
-    if (frame.damaged) {
-      sum.damaged.push_back(frame.index);
-      continue;
-    }
-    if (!window.empty() && frames_equal(window.back().frame.gray, frame.gray, o.duplicate_tolerance)) {
-      ++sum.duplicates;
-      continue;
-    }
-    if (!static_mask.empty() && static_mask.size() != frame.gray.size())
-      throw InputError(fmt::format("{}: mask is {}x{}; the frames are {}x{}", o.mask_image,
-                                   static_mask.cols, static_mask.rows, frame.gray.cols,
-                                   frame.gray.rows));
-    Unique u;
-    u.frame = frame;
-    u.frame.gray = frame.gray.clone();
-    u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
-    cv::Mat m = static_mask;
-    if (o.annulus_outer_px > 0)
-      m = piv::combine_masks(m, piv::annulus_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
-                                                  o.annulus_inner_px, o.annulus_outer_px));
-    if (o.vane.geometry.blades > 0)
-      m = piv::combine_masks(m, piv::vane_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
-                                               vane_angle.at(frame.t_s, frame.label),
-                                               o.vane.geometry, o.vane.margin_px));
-    u.mask = m;
-    window.push_back(std::move(u));
-    ++unique_count;
-    if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();
-    if (window.size() < static_cast<std::size_t>(o.pair_spacing) + 1) continue;
-    const std::size_t start = unique_count - 1 - static_cast<std::size_t>(o.pair_spacing);
-    if (start % static_cast<std::size_t>(o.stride) != 0) continue;
+  const std::size_t est_pairs =
+      hint > 0 ? static_cast<std::size_t>(std::max<std::int64_t>(0, (hint - 1 - o.pair_spacing) / o.stride + 1)) : 0;
+  // Threads: a stream of pairs runs one pair per thread (everything of a pair
+  // parallel, the decoding of the next frames overlapping); a single pair runs its
+  // windows in parallel.
+  sum.threads = o.threads > 0 ? o.threads : omp_get_max_threads();
+  sum.pairs_in_parallel = sum.threads > 1 && !csv && (hint <= 0 || est_pairs >= 2);
+  const OmpThreads omp_threads(sum.pairs_in_parallel ? 1 : sum.threads);
+  std::unique_ptr<PairPool> pool;
+  if (sum.pairs_in_parallel) pool = std::make_unique<PairPool>(engine, sum.threads);
 
-    // Step 3: one pair.
-    const Unique& a = window.front();
-    const Unique& b = window.back();
-    if (a.frame.gray.size() != b.frame.gray.size())
-      throw InputError(fmt::format("{}: frame size {}x{} differs from {} ({}x{})", b.frame.label,
-                                   b.frame.gray.cols, b.frame.gray.rows, a.frame.label,
-                                   a.frame.gray.cols, a.frame.gray.rows));
-    const piv::PivResult r = engine.process(a.image, b.image, a.mask, b.mask);
+  // Step 3: write a finished pair.
+  auto write_pair = [&](const Unique& a, const Unique& b, const piv::PivResult& r) {
     const core::VectorField& f = r.field;
     const double dt = b.frame.t_s - a.frame.t_s;
     sum.vectors_per_pair = f.size();
@@ -357,13 +432,72 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     }
     ++pair_index;
     ++sum.pairs;
-    if (progress) {
-      const std::size_t est = hint > 0 ? static_cast<std::size_t>(std::max<std::int64_t>(
-                                             0, (hint - 1 - o.pair_spacing) / o.stride + 1))
-                                       : 0;
-      progress(pair_index, std::max(est, pair_index));
+    if (progress) progress(pair_index, std::max(est_pairs, pair_index));
+  };
+  auto write_task = [&](const PairTask& t) {
+    if (t.error) std::rethrow_exception(t.error);
+    write_pair(*t.a, *t.b, t.result);
+  };
+  auto drain = [&](bool wait) {
+    while (auto t = pool->pop_done(wait)) write_task(*t);
+  };
+
+  io::Frame frame;
+  while (source->next(frame)) {
+    ++sum.frames_read;
+    if (frame.index < o.first_frame) continue;
+    if (o.last_frame >= 0 && frame.index > o.last_frame) break;
+    // A frame FFmpeg had to conceal holds invented pixels: never measured. The pair
+    // then spans the gap (its dt from the timestamps), as for repeated frames.
+    if (frame.damaged) {
+      sum.damaged.push_back(frame.index);
+      continue;
+    }
+    if (!window.empty() && frames_equal(window.back()->frame.gray, frame.gray, o.duplicate_tolerance)) {
+      ++sum.duplicates;
+      continue;
+    }
+    if (!static_mask.empty() && static_mask.size() != frame.gray.size())
+      throw InputError(fmt::format("{}: mask is {}x{}; the frames are {}x{}", o.mask_image,
+                                   static_mask.cols, static_mask.rows, frame.gray.cols,
+                                   frame.gray.rows));
+    auto up = std::make_shared<Unique>();
+    Unique& u = *up;
+    u.frame = frame;
+    u.frame.gray = frame.gray.clone();
+    u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
+    cv::Mat m = static_mask;
+    if (o.annulus_outer_px > 0)
+      m = piv::combine_masks(m, piv::annulus_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
+                                                  o.annulus_inner_px, o.annulus_outer_px));
+    if (o.vane.geometry.blades > 0)
+      m = piv::combine_masks(m, piv::vane_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
+                                               vane_angle.at(frame.t_s, frame.label),
+                                               o.vane.geometry, o.vane.margin_px));
+    u.mask = m;
+    window.push_back(std::move(up));
+    ++unique_count;
+    if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();
+    if (window.size() < static_cast<std::size_t>(o.pair_spacing) + 1) continue;
+    const std::size_t start = unique_count - 1 - static_cast<std::size_t>(o.pair_spacing);
+    if (start % static_cast<std::size_t>(o.stride) != 0) continue;
+
+    // One pair: on the pool (written when done, in order) or here.
+    const Unique& a = *window.front();
+    const Unique& b = *window.back();
+    if (a.frame.gray.size() != b.frame.gray.size())
+      throw InputError(fmt::format("{}: frame size {}x{} differs from {} ({}x{})", b.frame.label,
+                                   b.frame.gray.cols, b.frame.gray.rows, a.frame.label,
+                                   a.frame.gray.cols, a.frame.gray.rows));
+    if (pool) {
+      while (pool->full()) write_task(*pool->pop_done(true));
+      pool->submit(window.front(), window.back());
+      drain(false);
+    } else {
+      write_pair(a, b, engine.process(a.image, b.image, a.mask, b.mask));
     }
   }
+  if (pool) drain(true);
   if (sum.pairs == 0)
     throw InputError(fmt::format("{}: no frame pair to process ({} frames read, {} duplicates, "
                                  "pair spacing {}, frames {}..{})",

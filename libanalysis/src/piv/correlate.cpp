@@ -5,8 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <vector>
 
 #include <Eigen/Dense>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "shearzone/core/check.hpp"
 
@@ -57,24 +62,90 @@ Correlator::~Correlator() {
   fftwf_destroy_plan(static_cast<fftwf_plan>(plan_inv_));
 }
 
-bool Correlator::correlate(Workspace& ws, double min_variance) const {
-  SHEARZONE_DCHECK(ws.w_ == w_);
-  const int n = w_ * w_;
-  // Step 1: zero-mean windows and their energies.
+namespace {
+
+#if defined(__x86_64__)
+bool cpu_has_avx2_fma() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+
+/// zero_mean for n a multiple of 8, in double lanes. A constant window sums exactly in
+/// double (n copies of a 24-bit value, n <= 2^16), so it comes out exactly zero (no
+/// variance) as on the scalar path; otherwise the sums round in a different order.
+__attribute__((target("avx2,fma"))) void zero_mean_avx2(float* a, float* b, int n, double& ea_out,
+                                                         double& eb_out) {
+  alignas(32) double lanes[4];
+  auto total = [&lanes]() { return (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]); };
+  __m256d sa = _mm256_setzero_pd(), sb = _mm256_setzero_pd();
+  for (int i = 0; i < n; i += 8) {
+    const __m256 x = _mm256_loadu_ps(a + i), y = _mm256_loadu_ps(b + i);
+    sa = _mm256_add_pd(sa, _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(x)),
+                                         _mm256_cvtps_pd(_mm256_extractf128_ps(x, 1))));
+    sb = _mm256_add_pd(sb, _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(y)),
+                                         _mm256_cvtps_pd(_mm256_extractf128_ps(y, 1))));
+  }
+  _mm256_store_pd(lanes, sa);
+  const __m256 ma = _mm256_set1_ps(static_cast<float>(total() / n));
+  _mm256_store_pd(lanes, sb);
+  const __m256 mb = _mm256_set1_ps(static_cast<float>(total() / n));
+  __m256d ea = _mm256_setzero_pd(), eb = _mm256_setzero_pd();
+  for (int i = 0; i < n; i += 8) {
+    const __m256 x = _mm256_sub_ps(_mm256_loadu_ps(a + i), ma);
+    const __m256 y = _mm256_sub_ps(_mm256_loadu_ps(b + i), mb);
+    _mm256_storeu_ps(a + i, x);
+    _mm256_storeu_ps(b + i, y);
+    const __m256d x0 = _mm256_cvtps_pd(_mm256_castps256_ps128(x)), x1 = _mm256_cvtps_pd(_mm256_extractf128_ps(x, 1));
+    const __m256d y0 = _mm256_cvtps_pd(_mm256_castps256_ps128(y)), y1 = _mm256_cvtps_pd(_mm256_extractf128_ps(y, 1));
+    ea = _mm256_fmadd_pd(x0, x0, _mm256_fmadd_pd(x1, x1, ea));
+    eb = _mm256_fmadd_pd(y0, y0, _mm256_fmadd_pd(y1, y1, eb));
+  }
+  _mm256_store_pd(lanes, ea);
+  ea_out = total();
+  _mm256_store_pd(lanes, eb);
+  eb_out = total();
+}
+#endif
+
+void zero_mean_scalar(float* a, float* b, int n, double& ea_out, double& eb_out) {
   double sa = 0, sb = 0;
   for (int i = 0; i < n; ++i) {
-    sa += ws.a_[i];
-    sb += ws.b_[i];
+    sa += a[i];
+    sb += b[i];
   }
   const float ma = static_cast<float>(sa / n), mb = static_cast<float>(sb / n);
   double ea = 0, eb = 0;
   for (int i = 0; i < n; ++i) {
-    ws.a_[i] -= ma;
-    ws.b_[i] -= mb;
-    ea += static_cast<double>(ws.a_[i]) * ws.a_[i];
-    eb += static_cast<double>(ws.b_[i]) * ws.b_[i];
+    a[i] -= ma;
+    b[i] -= mb;
+    ea += static_cast<double>(a[i]) * a[i];
+    eb += static_cast<double>(b[i]) * b[i];
   }
-  if (!(ea > 0) || !(eb > 0) || ea <= min_variance * n || eb <= min_variance * n) {
+  ea_out = ea;
+  eb_out = eb;
+}
+
+/// Subtracts the means of a and b (n values each) and returns their energies; false
+/// if either variance is not above min_variance. (The AVX2 path sums in a different
+/// order: results differ from the scalar path in the last bits, never between runs or
+/// thread counts on one machine.)
+bool zero_mean(float* a, float* b, int n, double min_variance, double& ea, double& eb) {
+#if defined(__x86_64__)
+  if (n % 8 == 0 && cpu_has_avx2_fma()) zero_mean_avx2(a, b, n, ea, eb);
+  else zero_mean_scalar(a, b, n, ea, eb);
+#else
+  zero_mean_scalar(a, b, n, ea, eb);
+#endif
+  return ea > 0 && eb > 0 && ea > min_variance * n && eb > min_variance * n;
+}
+
+}  // namespace
+
+bool Correlator::correlate(Workspace& ws, double min_variance) const {
+  SHEARZONE_DCHECK(ws.w_ == w_);
+  const int n = w_ * w_;
+  double ea = 0, eb = 0;
+  if (!zero_mean(ws.a_, ws.b_, n, min_variance, ea, eb)) {
     std::fill(ws.corr_, ws.corr_ + n, 0.0f);
     return false;
   }
@@ -188,20 +259,34 @@ Peak find_peak(const float* corr, int w, int radius, Subpixel method) {
   // its 8 neighbours) in the search square. Local maxima, not just any value outside a
   // fixed box, so that the shoulder of a broad peak (large particles, beads) is not
   // mistaken for a second peak.
+  // The square with its neighbours: read in place when inside the plane, else from a
+  // copy padded by one wrapped row and column on each side (the plane is circular).
+  const float* plane = corr;
+  int stride = w, x0 = h - radius, y0 = h - radius;
+  if (radius + 1 >= h) {
+    static thread_local std::vector<float> padded;
+    const int pw = w + 2;
+    padded.resize(static_cast<std::size_t>(pw) * pw);
+    for (int y = -1; y <= w; ++y)
+      for (int x = -1; x <= w; ++x)
+        padded[static_cast<std::size_t>((y + 1) * pw + x + 1)] = corr[((y + w) & (w - 1)) * w + ((x + w) & (w - 1))];
+    plane = padded.data();
+    stride = pw;
+    x0 += 1;
+    y0 += 1;
+    bx += 1;
+    by += 1;
+  }
   float second = 0.0f;
-  for (int y = h - radius; y <= h + radius; ++y)
-    for (int x = h - radius; x <= h + radius; ++x) {
-      if (x == bx && y == by) continue;
-      const float c = corr[y * w + x];
-      if (c <= second) continue;
-      bool local_max = true;
-      for (int dy = -1; dy <= 1 && local_max; ++dy)
-        for (int dx = -1; dx <= 1; ++dx)
-          if ((dx || dy) && at(x + dx, y + dy) > c) {
-            local_max = false;
-            break;
-          }
-      if (local_max) second = c;
+  for (int y = y0; y <= y0 + 2 * radius; ++y)
+    for (int x = x0; x <= x0 + 2 * radius; ++x) {
+      const float* q = plane + y * stride + x;
+      const float c = *q;
+      if (c <= second || (x == bx && y == by)) continue;
+      if (q[-stride - 1] > c || q[-stride] > c || q[-stride + 1] > c || q[-1] > c || q[1] > c ||
+          q[stride - 1] > c || q[stride] > c || q[stride + 1] > c)
+        continue;
+      second = c;
     }
   p.ratio = second > 0 ? best / second : 1000.0f;
   p.found = true;

@@ -338,7 +338,11 @@ __attribute__((target("avx2,fma"))) inline void quintic_weights8(__m256 t, __m25
 }
 
 /// Samples the quintic spline with coefficients `c` at 8 positions; returns false
-/// (and writes nothing) if any support leaves the image.
+/// (and writes nothing) if any support, read as 8 floats per row, leaves the image.
+/// Each pixel's 6 x 6 support is read as 6 unaligned rows of 8 floats (no gathers: slow
+/// on many cores), weighted by its wy and summed down the rows, then weighted by its
+/// wx (lanes 6 and 7 weighted 0) and summed across: the 8 pixels' horizontal sums
+/// share one reduction tree.
 __attribute__((target("avx2,fma"))) inline bool sample8(const cv::Mat& c, const float* xs,
                                                          const float* ys, float* out) {
   const int W = c.cols, H = c.rows;
@@ -347,31 +351,55 @@ __attribute__((target("avx2,fma"))) inline bool sample8(const cv::Mat& c, const 
   y = _mm256_min_ps(_mm256_max_ps(y, _mm256_setzero_ps()), _mm256_set1_ps(static_cast<float>(H - 1)));
   const __m256 fx = _mm256_floor_ps(x), fy = _mm256_floor_ps(y);
   const __m256i ix = _mm256_cvttps_epi32(fx), iy = _mm256_cvttps_epi32(fy);
-  // Interior: ix - 2 >= 0, ix + 3 < W, likewise for y.
+  // Interior: ix - 2 >= 0 and ix + 5 < W (8 floats read from ix - 2), iy - 2 >= 0, iy + 3 < H.
   const __m256i lo = _mm256_set1_epi32(1);
   const __m256i inside =
-      _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(ix, lo), _mm256_cmpgt_epi32(_mm256_set1_epi32(W - 3), ix)),
+      _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(ix, lo), _mm256_cmpgt_epi32(_mm256_set1_epi32(W - 5), ix)),
                        _mm256_and_si256(_mm256_cmpgt_epi32(iy, lo), _mm256_cmpgt_epi32(_mm256_set1_epi32(H - 3), iy)));
   if (_mm256_movemask_ps(_mm256_castsi256_ps(inside)) != 0xFF) return false;
-  __m256 wx[6], wy[6];
+  __m256 wx[8], wy[6];
   quintic_weights8(_mm256_sub_ps(x, fx), wx);
   quintic_weights8(_mm256_sub_ps(y, fy), wy);
-  const int stride = static_cast<int>(c.step1());
-  const float* base = c.ptr<float>(0);
-  __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(iy, _mm256_set1_epi32(2)),
-                                                    _mm256_set1_epi32(stride)),
-                                 _mm256_sub_epi32(ix, _mm256_set1_epi32(2)));
-  __m256 acc = _mm256_setzero_ps();
-  for (int r = 0; r < 6; ++r) {
-    __m256 row = _mm256_setzero_ps();
-    for (int q = 0; q < 6; ++q) {
-      const __m256 v = _mm256_i32gather_ps(base, _mm256_add_epi32(idx, _mm256_set1_epi32(q)), 4);
-      row = _mm256_fmadd_ps(wx[q], v, row);
-    }
-    acc = _mm256_fmadd_ps(wy[r], row, acc);
-    idx = _mm256_add_epi32(idx, _mm256_set1_epi32(stride));
+  wx[6] = wx[7] = _mm256_setzero_ps();
+  // Transpose wx (tap x pixel) to pixel x tap: 8 x 8 in registers.
+  {
+    const __m256 t0 = _mm256_unpacklo_ps(wx[0], wx[1]), t1 = _mm256_unpackhi_ps(wx[0], wx[1]);
+    const __m256 t2 = _mm256_unpacklo_ps(wx[2], wx[3]), t3 = _mm256_unpackhi_ps(wx[2], wx[3]);
+    const __m256 t4 = _mm256_unpacklo_ps(wx[4], wx[5]), t5 = _mm256_unpackhi_ps(wx[4], wx[5]);
+    const __m256 t6 = _mm256_unpacklo_ps(wx[6], wx[7]), t7 = _mm256_unpackhi_ps(wx[6], wx[7]);
+    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+    const __m256 u4 = _mm256_shuffle_ps(t4, t6, 0x44), u5 = _mm256_shuffle_ps(t4, t6, 0xEE);
+    const __m256 u6 = _mm256_shuffle_ps(t5, t7, 0x44), u7 = _mm256_shuffle_ps(t5, t7, 0xEE);
+    wx[0] = _mm256_permute2f128_ps(u0, u4, 0x20);
+    wx[1] = _mm256_permute2f128_ps(u1, u5, 0x20);
+    wx[2] = _mm256_permute2f128_ps(u2, u6, 0x20);
+    wx[3] = _mm256_permute2f128_ps(u3, u7, 0x20);
+    wx[4] = _mm256_permute2f128_ps(u0, u4, 0x31);
+    wx[5] = _mm256_permute2f128_ps(u1, u5, 0x31);
+    wx[6] = _mm256_permute2f128_ps(u2, u6, 0x31);
+    wx[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
   }
-  _mm256_storeu_ps(out, acc);
+  alignas(32) float wys[6][8];
+  for (int r = 0; r < 6; ++r) _mm256_store_ps(wys[r], wy[r]);
+  alignas(32) int first[8];
+  const int stride = static_cast<int>(c.step1());
+  _mm256_store_si256(reinterpret_cast<__m256i*>(first),
+                     _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(iy, _mm256_set1_epi32(2)),
+                                                         _mm256_set1_epi32(stride)),
+                                      _mm256_sub_epi32(ix, _mm256_set1_epi32(2))));
+  const float* base = c.ptr<float>(0);
+  __m256 res[8];
+  for (int k = 0; k < 8; ++k) {
+    const float* p = base + first[k];
+    __m256 acc = _mm256_mul_ps(_mm256_set1_ps(wys[0][k]), _mm256_loadu_ps(p));
+    for (int r = 1; r < 6; ++r) acc = _mm256_fmadd_ps(_mm256_set1_ps(wys[r][k]), _mm256_loadu_ps(p + r * stride), acc);
+    res[k] = _mm256_mul_ps(acc, wx[k]);
+  }
+  // Horizontal sums of res[0..7] into one vector.
+  const __m256 h0 = _mm256_hadd_ps(_mm256_hadd_ps(res[0], res[1]), _mm256_hadd_ps(res[2], res[3]));
+  const __m256 h1 = _mm256_hadd_ps(_mm256_hadd_ps(res[4], res[5]), _mm256_hadd_ps(res[6], res[7]));
+  _mm256_storeu_ps(out, _mm256_add_ps(_mm256_permute2f128_ps(h0, h1, 0x20), _mm256_permute2f128_ps(h0, h1, 0x31)));
   return true;
 }
 
@@ -391,6 +419,16 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
   a_out.create(size, CV_32F);
   b_out.create(size, CV_32F);
   const int gw = gu.cols, gh = gu.rows;
+  // The predictor's columns around each pixel column (the same for every row).
+  std::vector<int> col0(static_cast<std::size_t>(size.width)), col1(col0.size());
+  std::vector<float> colt(col0.size());
+  for (int j = 0; j < size.width; ++j) {
+    const double gx = std::clamp((j - x0) / step, 0.0, gw - 1.0);
+    const int j0 = std::min(static_cast<int>(gx), gw - 1);
+    col0[static_cast<std::size_t>(j)] = j0;
+    col1[static_cast<std::size_t>(j)] = std::min(j0 + 1, gw - 1);
+    colt[static_cast<std::size_t>(j)] = static_cast<float>(gx - j0);
+  }
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < size.height; ++i) {
     // Bilinear predictor along this row: rows of the grid around y.
@@ -409,9 +447,8 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
         for (; j + 8 <= size.width; j += 8) {
           for (int k = 0; k < 8; ++k) {
             const int jj = j + k;
-            const double gx = std::clamp((jj - x0) / step, 0.0, gw - 1.0);
-            const int j0 = std::min(static_cast<int>(gx), gw - 1), j1 = std::min(j0 + 1, gw - 1);
-            const float tx = static_cast<float>(gx - j0);
+            const int j0 = col0[static_cast<std::size_t>(jj)], j1 = col1[static_cast<std::size_t>(jj)];
+            const float tx = colt[static_cast<std::size_t>(jj)];
             const float du = (1 - ty) * ((1 - tx) * u0[j0] + tx * u0[j1]) + ty * ((1 - tx) * u1[j0] + tx * u1[j1]);
             const float dv = (1 - ty) * ((1 - tx) * v0[j0] + tx * v0[j1]) + ty * ((1 - tx) * v1[j0] + tx * v1[j1]);
             xa[k] = static_cast<float>(jj - 0.5 * du);

@@ -76,6 +76,10 @@ struct PivJobOptions {
   /// Extra root attributes (m_per_px, f_Hz, phi0_rad, N, free --attr pairs). Values
   /// that parse as numbers are stored as float64, others as strings.
   std::vector<std::pair<std::string, std::string>> attributes;
+  /// Threads (0: OpenMP's default, all cores). A stream of pairs runs one pair per
+  /// thread while the next frames are decoded; a single pair (or one thread) runs its
+  /// windows in parallel instead. The fields are the same for any count.
+  int threads = 0;
 
   /// ConfigError on inconsistent options (checked before any work).
   void validate() const;
@@ -93,6 +97,8 @@ struct PivJobSummary {
   double phase_rms_rad = 0.0;   ///< rms residual of the phase fit (phase_auto)
   double phase_amplitude_rad = 0.0;  ///< amplitude of the fitted sinusoid (phase_auto)
   double seconds = 0.0;         ///< wall time of the job
+  int threads = 1;              ///< threads used
+  bool pairs_in_parallel = false;  ///< one pair per thread (else windows in parallel)
 };
 
 PivJobSummary run_piv_job(const PivJobOptions& options, const core::Metadata& header,
