@@ -4,9 +4,9 @@
     /usr/bin/python3 scripts/plot_bench_piv.py DIR
 
 Writes DIR/piv_speed_accuracy.png (RMS error against pairs per second, one point per
-setting: colour = window sequence, marker = deformation interpolation, filled = one repeat
-of the last pass, open = none, a black cross = 2-D Gaussian sub-pixel fit; the default
-setting is labelled) and DIR/piv_failure_map.png (RMS error, and the share of invalid
+setting: colour = window sequence, marker = deformation interpolation, filled = the last pass
+repeated, open = not, a black cross = 2-D Gaussian sub-pixel fit; the default
+setting and the `piv --preset` settings are labelled) and DIR/piv_failure_map.png (RMS error, and the share of invalid
 vectors, against displacement, particle density, noise and bead diameter). Reads only the
 CSV files; computes nothing but the plot.
 """
@@ -51,9 +51,11 @@ def speed_accuracy(d):
         ax.plot(x, y, m, color=c, ms=5, mew=1.0, markerfacecolor=c if filled else "white", zorder=3)
         if r["subpixel"] != "gauss3":
             ax.plot(x, y, "+", color="k", ms=5, mew=0.8, zorder=4)
-        if (r["windows_px"], r["interpolation"], r["subpixel"], r["repeats"]) == DEFAULT:
-            ax.annotate("default", (x, y), xytext=(0, -9), textcoords="offset points", fontsize=7,
-                        ha="center", va="top")
+        preset = r.get("preset", "") or (
+            "default" if (r["windows_px"], r["interpolation"], r["subpixel"], r["repeats"]) == DEFAULT else "")
+        if preset:
+            ax.annotate(f"--preset {preset}" if preset != "default" else "default", (x, y), xytext=(0, -9),
+                        textcoords="offset points", fontsize=7, ha="center", va="top")
     ax.set_yscale("log")
     ax.margins(y=0.2)
     ax.set_xlabel("speed (pairs per second)")
@@ -67,7 +69,7 @@ def speed_accuracy(d):
     lab += [readable(i, INTERP) for i in interps]
     h += [Line2D([], [], color="0.3", marker="o", ls="none", ms=5),
           Line2D([], [], color="0.3", marker="o", ls="none", ms=5, markerfacecolor="white")]
-    lab += ["last pass repeated once", "no repeat"]
+    lab += ["last pass repeated", "no repeat"]
     if any(r["subpixel"] != "gauss3" for r in rows):
         h.append(Line2D([], [], color="k", marker="+", ls="none", ms=5))
         lab.append("2-D Gaussian sub-pixel fit\n(others: 3-point Gaussian)")

@@ -21,6 +21,7 @@ struct PivCli {
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
   std::string grey = "luma";
+  std::string preset;
   bool no_deform = false;
   std::vector<double> centre, annulus, vane;
   std::vector<std::string> attrs;
@@ -31,6 +32,14 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   configure(c, s.config, {"output"});
   auto& j = s.job;
   j.output = s.output;
+  if (!s.preset.empty()) {
+    // The preset sets what the command line and the config file leave unset.
+    const piv::PivPreset& pr = piv::piv_preset(s.preset);
+    if (c.count("--windows") == 0) j.piv.windows_px = pr.windows_px;
+    if (c.count("--repeats") == 0) j.piv.final_pass_repeats = pr.final_pass_repeats;
+    if (c.count("--interpolation") == 0) s.interpolation = piv::interpolation_name(pr.interpolation);
+    if (c.count("--subpixel") == 0) s.subpixel = piv::subpixel_name(pr.subpixel);
+  }
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
   j.piv.deform = !s.no_deform;
@@ -105,6 +114,10 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   // Correlation
+  c->add_option("--preset", s->preset,
+                "Named setting: accurate, default or fast (windows, interpolation, peak fit and repeats; "
+                "options given explicitly win)")
+      ->check(CLI::IsMember({"accurate", "default", "fast"}));
   c->add_option("--windows", p.windows_px,
                 "Window size per pass, px, coarse to fine; range: each a power of two in "
                 "8..256, non-increasing, 1 to 8 passes")

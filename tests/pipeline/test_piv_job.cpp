@@ -207,6 +207,39 @@ TEST_CASE("pair spacing, stride and frame range select the pairs", "[pipeline][p
   CHECK(f.read<std::int64_t>("/pairs/frame_b").data == std::vector<std::int64_t>{3, 6});
 }
 
+TEST_CASE("a masked clip gives the same file on 1, 2 and 3 threads, one pair per thread", "[pipeline][piv]") {
+  // Pairs run on worker threads and are written in order; masked windows (outside the
+  // annulus, on the vane) leave their pixels undeformed. Same bytes for any count.
+  testing::TempDir tmp("pivjob");
+  vane_bead_clip(tmp / "clip", 192, 160, 8, 20, 7, "png");
+  std::vector<std::string> bytes;
+  for (int threads : {1, 2, 3}) {
+    auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / fmt::format("t{}.h5", threads));
+    o.centre_x_px = 95.5;
+    o.centre_y_px = 79.5;
+    o.annulus_inner_px = 0;
+    o.annulus_outer_px = 75;
+    o.vane.geometry = {4, 5.0, 70.0};
+    o.vane.phi0_rad = 0.3;
+    o.vane.f_Hz = 0.5;
+    o.threads = threads;
+    const auto sum = pipeline::run_piv_job(o, {});
+    CHECK(sum.pairs == 6);
+    CHECK(sum.threads == threads);
+    CHECK(sum.pairs_in_parallel == (threads > 1));
+    CHECK(sum.masked > 0);
+    CHECK(sum.valid > sum.pairs * sum.vectors_per_pair / 3);
+    bytes.push_back(testing::read_file(o.output));
+  }
+  CHECK(bytes[0] == bytes[1]);
+  CHECK(bytes[0] == bytes[2]);
+  // A single pair runs its windows in parallel instead.
+  auto one = job({(tmp / "clip" / "frame_000000.png").string(), (tmp / "clip" / "frame_000001.png").string()},
+                 tmp / "one.h5");
+  one.threads = 2;
+  CHECK_FALSE(pipeline::run_piv_job(one, {}).pairs_in_parallel);
+}
+
 TEST_CASE("the vane angle can come from a log, with an offset", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
   make_clip(tmp / "clip", 3, "png");

@@ -75,3 +75,37 @@ TEST_CASE("grid_to_pixels interpolates bilinearly and holds values beyond the gr
   CHECK(d.at<float>(0, 0) == Approx(0.0f));    // before the first node
   CHECK(d.at<float>(19, 19) == Approx(3.0f));  // after the last node
 }
+
+TEST_CASE("deforming only some spans of rows gives those pixels bit for bit", "[piv]") {
+  // PIV deforms only the pixels of unmasked windows: a pixel's value must not depend on
+  // which other pixels are asked for (the SIMD blocks are counted from the row start).
+  const cv::Size size(203, 61);  // a row of 25 whole blocks of 8 and a partial one
+  const cv::Mat a = sinusoid(size, 0, 0), b = sinusoid(size, 1.3, -0.7);
+  cv::Mat gu(5, 9, CV_32F), gv(5, 9, CV_32F);
+  for (int i = 0; i < gu.rows; ++i)
+    for (int j = 0; j < gu.cols; ++j) {
+      gu.at<float>(i, j) = static_cast<float>(1.3 + 0.21 * j - 0.1 * i);
+      gv.at<float>(i, j) = static_cast<float>(-0.7 + 0.05 * i * j);
+    }
+  for (auto m : {Interpolation::kBilinear, Interpolation::kBSpline5}) {
+    const cv::Mat ca = interpolation_coefficients(a, m), cb = interpolation_coefficients(b, m);
+    cv::Mat fa, fb;
+    deform_pair(ca, cb, gu, gv, 7.5, 7.5, 16.0, m, fa, fb);
+    RowSpans spans(static_cast<std::size_t>(size.height));
+    for (int i = 0; i < size.height; i += 2) spans[static_cast<std::size_t>(i)] = {{3, 17}, {40, 41}, {190, 203}};
+    cv::Mat sa(size, CV_32F, cv::Scalar(-1)), sb(size, CV_32F, cv::Scalar(-1));
+    deform_pair(ca, cb, gu, gv, 7.5, 7.5, 16.0, m, sa, sb, &spans);
+    for (int i = 0; i < size.height; ++i)
+      for (int j = 0; j < size.width; ++j) {
+        bool inside = false;
+        for (const auto& [from, to] : spans[static_cast<std::size_t>(i)]) inside |= j >= from && j < to;
+        if (!inside) {
+          // Untouched unless inside a block of 8 that holds a span's pixel.
+          if (i % 2) REQUIRE(sa.at<float>(i, j) == -1.0f);
+          continue;
+        }
+        REQUIRE(sa.at<float>(i, j) == fa.at<float>(i, j));
+        REQUIRE(sb.at<float>(i, j) == fb.at<float>(i, j));
+      }
+  }
+}

@@ -362,3 +362,14 @@ TEST_CASE("the vane phase is fitted from measured angles, and refused over less 
   a.resize(10);
   CHECK(std::isnan(piv::fit_vane_phase(t, a, f).phase_rad));
 }
+
+TEST_CASE("the default preset is the defaults; an unknown preset names the three", "[piv]") {
+  CHECK(piv::piv_preset("default").matches(piv::PivOptions{}));
+  CHECK_FALSE(piv::piv_preset("fast").matches(piv::PivOptions{}));
+  piv::PivOptions o;
+  piv::piv_preset("accurate").apply(o);
+  CHECK(piv::piv_preset("accurate").matches(o));
+  o.validate();
+  CHECK_THROWS_WITH(piv::piv_preset("quick"),
+                    Catch::Matchers::Contains("unknown PIV preset \"quick\"; expected one of: accurate, default, fast"));
+}

@@ -104,6 +104,15 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
           grid.push_back({l, in, sp, rep});
         }
 
+  // Every preset is a setting of the chart (the quick grid lacks some).
+  for (const auto& pr : piv::piv_presets()) {
+    bool have = false;
+    for (const auto& st : grid)
+      have |= st.windows == pr.windows_px && st.interp == pr.interpolation && st.sub == pr.subpixel &&
+              st.repeats == pr.final_pass_repeats;
+    if (!have) grid.push_back({pr.windows_px, pr.interpolation, pr.subpixel, pr.final_pass_repeats});
+  }
+
   // Step 2: failure-map studies (512 x 512, default settings).
   struct Study {
     std::string name, unit;
@@ -153,13 +162,16 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     std::sort(times.begin(), times.end());
     const double t = times[times.size() / 2];
     const Score sc = score(r.field, pair.resolved, pair.scale);
+    std::string preset;
+    for (const auto& pr : piv::piv_presets())
+      if (pr.matches(po)) preset = pr.name;
     const std::string name = fmt::format("{} {} {} r{}", fmt::join(s.windows, "-"),
                                          piv::interpolation_name(s.interp),
                                          piv::subpixel_name(s.sub), s.repeats);
     rows.push_back({name, fmt::format("{}", fmt::join(s.windows, "-")),
                     piv::interpolation_name(s.interp), piv::subpixel_name(s.sub),
                     std::to_string(s.repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),
-                    fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2)});
+                    fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2), preset});
     const piv::PivOptions def;
     if (s.windows == def.windows_px && s.interp == def.interpolation && s.sub == def.subpixel &&
         s.repeats == def.final_pass_repeats)
@@ -171,7 +183,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     io::CsvWriter w(out.add("piv_speed_accuracy.csv").stream(), meta,
                     {"setting", "windows_px", "interpolation", "subpixel", "repeats",
                      "seconds_per_pair_s", "pairs_per_s", "rms_error_px", "bias_u_px", "bias_v_px",
-                     "invalid_percent"});
+                     "invalid_percent", "preset"});
     for (const auto& r : rows) w.row(r);
   }
 

@@ -414,7 +414,7 @@ bool cpu_has_avx2_fma() {
 template <int N>
 void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, const cv::Mat& gv,
                       double x0, double y0, double step, Interpolation method, cv::Mat& a_out,
-                      cv::Mat& b_out) {
+                      cv::Mat& b_out, const RowSpans* spans) {
   const cv::Size size = ca.size();
   a_out.create(size, CV_32F);
   b_out.create(size, CV_32F);
@@ -429,8 +429,14 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
     col1[static_cast<std::size_t>(j)] = std::min(j0 + 1, gw - 1);
     colt[static_cast<std::size_t>(j)] = static_cast<float>(gx - j0);
   }
+#if defined(SHEARZONE_HAVE_X86_SIMD)
+  const bool simd = N == 6 && cpu_has_avx2_fma();
+#else
+  const bool simd = false;
+#endif
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < size.height; ++i) {
+    if (spans && (*spans)[static_cast<std::size_t>(i)].empty()) continue;
     // Bilinear predictor along this row: rows of the grid around y.
     const double gy = std::clamp((i - y0) / step, 0.0, gh - 1.0);
     const int i0 = std::min(static_cast<int>(gy), gh - 1), i1 = std::min(i0 + 1, gh - 1);
@@ -439,12 +445,31 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
     const float *v0 = gv.ptr<float>(i0), *v1 = gv.ptr<float>(i1);
     float* pa = a_out.ptr<float>(i);
     float* pb = b_out.ptr<float>(i);
-    int j = 0;
+    auto scalar = [&](int j) {
+      const double gx = std::clamp((j - x0) / step, 0.0, gw - 1.0);
+      const int j0 = std::min(static_cast<int>(gx), gw - 1), j1 = std::min(j0 + 1, gw - 1);
+      const float tx = static_cast<float>(gx - j0);
+      const float du = (1 - ty) * ((1 - tx) * u0[j0] + tx * u0[j1]) + ty * ((1 - tx) * u1[j0] + tx * u1[j1]);
+      const float dv = (1 - ty) * ((1 - tx) * v0[j0] + tx * v0[j1]) + ty * ((1 - tx) * v1[j0] + tx * v1[j1]);
+      pa[j] = sample<N>(ca, j - 0.5 * du, i - 0.5 * dv, method);
+      pb[j] = sample<N>(cb, j + 0.5 * du, i + 0.5 * dv, method);
+    };
+    auto run = [&](int from, int to) {  // pixels [from, to) of this row, at least
+      if (!simd) {
+        for (int j = from; j < to; ++j) scalar(j);
+        return;
+      }
 #if defined(SHEARZONE_HAVE_X86_SIMD)
-    if constexpr (N == 6) {
-      if (cpu_has_avx2_fma()) {
+      // Whole blocks of 8 counted from the row start, the row's last partial block
+      // scalar: every pixel takes the same path (and so has the same bits) whichever
+      // part of the row is asked for.
+      if constexpr (N == 6) {
         float xa[8], ya[8], xb[8], yb[8];
-        for (; j + 8 <= size.width; j += 8) {
+        for (int j = from / 8 * 8; j < to; j += 8) {
+          if (j + 8 > size.width) {
+            for (int jj = j; jj < size.width; ++jj) scalar(jj);
+            break;
+          }
           for (int k = 0; k < 8; ++k) {
             const int jj = j + k;
             const int j0 = col0[static_cast<std::size_t>(jj)], j1 = col1[static_cast<std::size_t>(jj)];
@@ -462,16 +487,12 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
             for (int k = 0; k < 8; ++k) pb[j + k] = sample<N>(cb, xb[k], yb[k], method);
         }
       }
-    }
 #endif
-    for (; j < size.width; ++j) {
-      const double gx = std::clamp((j - x0) / step, 0.0, gw - 1.0);
-      const int j0 = std::min(static_cast<int>(gx), gw - 1), j1 = std::min(j0 + 1, gw - 1);
-      const float tx = static_cast<float>(gx - j0);
-      const float du = (1 - ty) * ((1 - tx) * u0[j0] + tx * u0[j1]) + ty * ((1 - tx) * u1[j0] + tx * u1[j1]);
-      const float dv = (1 - ty) * ((1 - tx) * v0[j0] + tx * v0[j1]) + ty * ((1 - tx) * v1[j0] + tx * v1[j1]);
-      pa[j] = sample<N>(ca, j - 0.5 * du, i - 0.5 * dv, method);
-      pb[j] = sample<N>(cb, j + 0.5 * du, i + 0.5 * dv, method);
+    };
+    if (!spans) {
+      run(0, size.width);
+    } else {
+      for (const auto& [from, to] : (*spans)[static_cast<std::size_t>(i)]) run(from, to);
     }
   }
 }
@@ -480,22 +501,23 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
 
 void deform_pair(const cv::Mat& coef_a, const cv::Mat& coef_b, const cv::Mat& grid_u,
                  const cv::Mat& grid_v, double x0, double y0, double step, Interpolation method,
-                 cv::Mat& a_out, cv::Mat& b_out) {
+                 cv::Mat& a_out, cv::Mat& b_out, const RowSpans* spans) {
   SHEARZONE_CHECK(coef_a.type() == CV_32F && coef_b.type() == CV_32F && coef_a.size() == coef_b.size());
+  SHEARZONE_CHECK(spans == nullptr || static_cast<int>(spans->size()) == coef_a.rows);
   SHEARZONE_CHECK(grid_u.type() == CV_32F && grid_v.type() == CV_32F && grid_u.size() == grid_v.size());
   // The outputs must not share memory with the inputs (they are written while read).
   SHEARZONE_CHECK(a_out.data == nullptr || (a_out.data != coef_a.data && a_out.data != coef_b.data));
   SHEARZONE_CHECK(b_out.data == nullptr || (b_out.data != coef_a.data && b_out.data != coef_b.data));
   switch (method) {
     case Interpolation::kBilinear:
-      deform_pair_impl<2>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out);
+      deform_pair_impl<2>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out, spans);
       break;
     case Interpolation::kBicubic:
     case Interpolation::kBSpline:
-      deform_pair_impl<4>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out);
+      deform_pair_impl<4>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out, spans);
       break;
     case Interpolation::kBSpline5:
-      deform_pair_impl<6>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out);
+      deform_pair_impl<6>(coef_a, coef_b, grid_u, grid_v, x0, y0, step, method, a_out, b_out, spans);
       break;
   }
 }

@@ -105,4 +105,34 @@ core::Metadata PivOptions::to_metadata() const {
           {"piv_window_centre", "a window covering pixels [s, s+W-1] has its centre at s + (W-1)/2"}};
 }
 
+void PivPreset::apply(PivOptions& o) const {
+  o.windows_px = windows_px;
+  o.interpolation = interpolation;
+  o.subpixel = subpixel;
+  o.final_pass_repeats = final_pass_repeats;
+}
+
+bool PivPreset::matches(const PivOptions& o) const {
+  return o.windows_px == windows_px && o.interpolation == interpolation && o.subpixel == subpixel &&
+         o.final_pass_repeats == final_pass_repeats;
+}
+
+const std::vector<PivPreset>& piv_presets() {
+  static const std::vector<PivPreset> presets = {
+      {"accurate", "64-32-16 px, quintic B-spline, 2-D Gaussian peak fit, 2 repeats", {64, 32, 16},
+       Interpolation::kBSpline5, Subpixel::kGauss2D, 2},
+      {"default", "64-32-16 px, quintic B-spline, 3-point Gaussian peak fit, 1 repeat", {64, 32, 16},
+       Interpolation::kBSpline5, Subpixel::kGauss3, 1},
+      {"fast", "32-16 px (displacements below 16 px), bilinear, 3-point Gaussian, no repeat", {32, 16},
+       Interpolation::kBilinear, Subpixel::kGauss3, 0},
+  };
+  return presets;
+}
+
+const PivPreset& piv_preset(const std::string& name) {
+  for (const auto& p : piv_presets())
+    if (name == p.name) return p;
+  throw ConfigError(fmt::format("unknown PIV preset \"{}\"; expected one of: accurate, default, fast", name));
+}
+
 }  // namespace shearzone::piv

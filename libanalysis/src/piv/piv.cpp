@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
@@ -54,6 +56,33 @@ double masked_fraction(const cv::Mat& integral, int x, int y, int w) {
   const double s = integral.at<double>(y + w, x + w) - integral.at<double>(y, x + w) -
                    integral.at<double>(y + w, x) + integral.at<double>(y, x);
   return s / (static_cast<double>(w) * w);
+}
+
+/// Per image row, the merged pixel spans of the unmasked windows of grid g.
+RowSpans window_spans(const Grid& g, cv::Size size, const std::vector<std::uint8_t>& masked) {
+  RowSpans spans(static_cast<std::size_t>(size.height));
+  std::vector<std::pair<int, int>> row, merged;
+  for (int i = 0; i < g.ny; ++i) {
+    row.clear();
+    for (int j = 0; j < g.nx; ++j) {
+      if (masked[static_cast<std::size_t>(i) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(j)]) continue;
+      const int from = j * g.step, to = from + g.window;
+      if (!row.empty() && from <= row.back().second) row.back().second = to;
+      else row.emplace_back(from, to);
+    }
+    if (row.empty()) continue;
+    for (int y = i * g.step; y < i * g.step + g.window && y < size.height; ++y) {
+      auto& s = spans[static_cast<std::size_t>(y)];
+      merged.clear();
+      std::merge(s.begin(), s.end(), row.begin(), row.end(), std::back_inserter(merged));
+      s.clear();
+      for (const auto& iv : merged) {
+        if (!s.empty() && iv.first <= s.back().second) s.back().second = std::max(s.back().second, iv.second);
+        else s.push_back(iv);
+      }
+    }
+  }
+  return spans;
 }
 
 cv::Mat mask_integral(const cv::Mat& mask) {
@@ -183,10 +212,34 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     // (measured: -0.012 px after 16 + 16 px passes).
     // (Fresh outputs each pass: deform_pair must never write into its inputs, which
     // for bilinear and Keys interpolation are A and B themselves.)
+    // Masked windows (centre masked, or too much of the window masked in A or B) are
+    // never correlated. The centre of an even window lies between pixels: it is masked
+    // if any of the (up to four) pixels around it is.
+    std::vector<std::uint8_t> masked(static_cast<std::size_t>(g.nx) * static_cast<std::size_t>(g.ny), 0);
+    bool any_masked = false;
+    if (!mask_a.empty() || !mask_b.empty())
+      for (int i = 0; i < g.ny; ++i)
+        for (int j = 0; j < g.nx; ++j) {
+          const int x = j * g.step, y = i * g.step;
+          const double cx = g.x0 + j * g.step, cy = g.y0 + i * g.step;
+          bool centre_masked = false;
+          for (int ci : {static_cast<int>(std::floor(cy)), static_cast<int>(std::ceil(cy))})
+            for (int cj : {static_cast<int>(std::floor(cx)), static_cast<int>(std::ceil(cx))})
+              centre_masked |= (!mask_a.empty() && mask_a.at<std::uint8_t>(ci, cj)) ||
+                               (!mask_b.empty() && mask_b.at<std::uint8_t>(ci, cj));
+          const bool m = centre_masked || masked_fraction(ia, x, y, g.window) > opt_.mask_fraction ||
+                         masked_fraction(ib, x, y, g.window) > opt_.mask_fraction;
+          masked[static_cast<std::size_t>(i) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(j)] = m;
+          any_masked |= m;
+        }
     cv::Mat Ad, Bd;
     if (!first && opt_.deform) {
+      // Only the pixels of unmasked windows are deformed (outside the cup and on the
+      // vane nothing is read).
+      RowSpans spans;
+      if (any_masked) spans = window_spans(g, size, masked);
       deform_pair(coef_a, coef_b, pred_u, pred_v, prev.x0, prev.y0, prev.step, opt_.interpolation,
-                  deformed_a, deformed_b);
+                  deformed_a, deformed_b, any_masked ? &spans : nullptr);
       Ad = deformed_a;
       Bd = deformed_b;
     } else {
@@ -216,15 +269,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
           const std::size_t k = f.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
           const int x = j * g.step, y = i * g.step;  // window origin
           const double cx = f.x_px[static_cast<std::size_t>(j)], cy = f.y_px[static_cast<std::size_t>(i)];
-          // Masked window? The centre of an even window lies between pixels: it is
-          // masked if any of the (up to four) pixels around it is.
-          bool centre_masked = false;
-          for (int ci : {static_cast<int>(std::floor(cy)), static_cast<int>(std::ceil(cy))})
-            for (int cj : {static_cast<int>(std::floor(cx)), static_cast<int>(std::ceil(cx))})
-              centre_masked |= (!mask_a.empty() && mask_a.at<std::uint8_t>(ci, cj)) ||
-                               (!mask_b.empty() && mask_b.at<std::uint8_t>(ci, cj));
-          if (centre_masked || masked_fraction(ia, x, y, W) > opt_.mask_fraction ||
-              masked_fraction(ib, x, y, W) > opt_.mask_fraction) {
+          if (masked[static_cast<std::size_t>(i) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(j)]) {
             f.flag[k] = VectorFlag::kMasked;
             continue;
           }

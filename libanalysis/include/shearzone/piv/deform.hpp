@@ -7,6 +7,9 @@
 // and the correlation of A' and B' measures the residual displacement.
 #pragma once
 
+#include <utility>
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "shearzone/piv/options.hpp"
@@ -38,13 +41,18 @@ void interpolation_coefficients(const cv::Mat& image, Interpolation method, cv::
 cv::Mat remap_coefficients(const cv::Mat& coefficients, const cv::Mat& map_x, const cv::Mat& map_y,
                            Interpolation method);
 
+/// Per image row, the pixel spans [from, to) a pass reads (sorted, disjoint).
+using RowSpans = std::vector<std::vector<std::pair<int, int>>>;
+
 /// Symmetric deformation in one sweep: with D the bilinear interpolant of the grid
 /// field (grid_u, grid_v at x0 + j*step, y0 + i*step; constant beyond), writes
 /// a_out(x) = A(x - D(x)/2) and b_out(x) = B(x + D(x)/2), sampling the
-/// interpolation_coefficients() of A and B with `method`.
+/// interpolation_coefficients() of A and B with `method`. With `spans`, only those
+/// pixels (and up to 7 neighbours in a row) are written; the rest keep what they held.
+/// A pixel's value does not depend on the spans.
 void deform_pair(const cv::Mat& coef_a, const cv::Mat& coef_b, const cv::Mat& grid_u,
                  const cv::Mat& grid_v, double x0, double y0, double step, Interpolation method,
-                 cv::Mat& a_out, cv::Mat& b_out);
+                 cv::Mat& a_out, cv::Mat& b_out, const RowSpans* spans = nullptr);
 
 /// B-spline coefficients (degree 3 or 5) of an image: the prefilter along rows and
 /// columns with mirror boundaries. Exposed for tests.

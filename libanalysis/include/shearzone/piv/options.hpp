@@ -96,4 +96,24 @@ struct PivOptions {
   int step_px(std::size_t pass) const;
 };
 
+/// A named setting (`piv --preset`): the window sequence, deformation interpolation,
+/// sub-pixel fit and repeats of the final pass; every other option keeps its default.
+/// Measured speed and accuracy of each: docs/piv.md, "Presets".
+struct PivPreset {
+  const char* name;
+  const char* summary;
+  std::vector<int> windows_px;
+  Interpolation interpolation;
+  Subpixel subpixel;
+  int final_pass_repeats;
+  /// Sets the preset's four settings in `o`.
+  void apply(PivOptions& o) const;
+  /// Whether `o` has the preset's four settings.
+  bool matches(const PivOptions& o) const;
+};
+/// accurate, default, fast (in that order).
+const std::vector<PivPreset>& piv_presets();
+/// ConfigError naming the presets if `name` is none of them.
+const PivPreset& piv_preset(const std::string& name);
+
 }  // namespace shearzone::piv
