@@ -119,12 +119,12 @@ bool PivPreset::matches(const PivOptions& o) const {
 
 const std::vector<PivPreset>& piv_presets() {
   static const std::vector<PivPreset> presets = {
-      {"accurate", "64-32-16 px, quintic B-spline, 2-D Gaussian peak fit, 2 repeats", {64, 32, 16},
-       Interpolation::kBSpline5, Subpixel::kGauss2D, 2},
+      {"accurate", "64-32-16 px, quintic B-spline, 3-point Gaussian peak fit, 2 repeats", {64, 32, 16},
+       Interpolation::kBSpline5, Subpixel::kGauss3, 2},
       {"default", "64-32-16 px, quintic B-spline, 3-point Gaussian peak fit, 1 repeat", {64, 32, 16},
        Interpolation::kBSpline5, Subpixel::kGauss3, 1},
-      {"fast", "32-16 px (displacements below 16 px), bilinear, 3-point Gaussian, no repeat", {32, 16},
-       Interpolation::kBilinear, Subpixel::kGauss3, 0},
+      {"fast", "32-16 px (displacements below 16 px), quintic B-spline, 3-point Gaussian, no repeat",
+       {32, 16}, Interpolation::kBSpline5, Subpixel::kGauss3, 0},
   };
   return presets;
 }
