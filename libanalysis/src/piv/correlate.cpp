@@ -210,16 +210,31 @@ Peak find_peak(const float* corr, int w, int radius, Subpixel method) {
   Peak p;
   const int h = w / 2;
   radius = std::clamp(radius, 1, h - 1);
-  // Step 1: integer maximum in the search square.
+  // Step 1: integer maximum in the search square: the largest value (8 independent
+  // running maxima, not one serial chain), then its first position in row-major order.
   int bx = h, by = h;
   float best = -2.0f;
-  for (int y = h - radius; y <= h + radius; ++y)
-    for (int x = h - radius; x <= h + radius; ++x)
-      if (corr[y * w + x] > best) {
-        best = corr[y * w + x];
-        bx = x;
-        by = y;
-      }
+  {
+    float m[8] = {-2.0f, -2.0f, -2.0f, -2.0f, -2.0f, -2.0f, -2.0f, -2.0f};
+    const int n = 2 * radius + 1;
+    for (int y = h - radius; y <= h + radius; ++y) {
+      const float* row = corr + y * w + h - radius;
+      int x = 0;
+      for (; x + 8 <= n; x += 8)
+        for (int k = 0; k < 8; ++k) m[k] = row[x + k] > m[k] ? row[x + k] : m[k];
+      for (; x < n; ++x) m[0] = row[x] > m[0] ? row[x] : m[0];
+    }
+    for (int k = 0; k < 8; ++k) best = m[k] > best ? m[k] : best;
+    bool found = false;
+    for (int y = h - radius; y <= h + radius && !found; ++y)
+      for (int x = h - radius; x <= h + radius; ++x)
+        if (corr[y * w + x] == best) {
+          bx = x;
+          by = y;
+          found = true;
+          break;
+        }
+  }
   if (!(best > 0)) return p;
   auto at = [&](int x, int y) {
     return static_cast<double>(corr[((y + w) & (w - 1)) * w + ((x + w) & (w - 1))]);
