@@ -54,8 +54,11 @@ def speed_accuracy(d):
         preset = r.get("preset", "") or (
             "default" if (r["windows_px"], r["interpolation"], r["subpixel"], r["repeats"]) == DEFAULT else "")
         if preset:
-            ax.annotate(f"--preset {preset}" if preset != "default" else "default", (x, y), xytext=(0, -9),
-                        textcoords="offset points", fontsize=7, ha="center", va="top")
+            # accurate sits just left of default: label it on its left
+            left = preset == "accurate"
+            ax.annotate(f"--preset {preset}" if preset != "default" else "default", (x, y),
+                        xytext=(-6, 0) if left else (0, -9), textcoords="offset points", fontsize=7,
+                        ha="right" if left else "center", va="center" if left else "top")
     ax.set_yscale("log")
     ax.margins(y=0.2)
     ax.set_xlabel("speed (pairs per second)")
