@@ -114,10 +114,11 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   // Correlation
-  c->add_option("--preset", s->preset,
-                "Named setting: accurate, default or fast (windows, interpolation, peak fit and repeats; "
-                "options given explicitly win)")
-      ->check(CLI::IsMember({"accurate", "default", "fast"}));
+  std::string preset_help = "Named setting of windows, interpolation, peak fit and repeats (options given "
+                            "explicitly win):";
+  for (const auto& pr : piv::piv_presets()) preset_help += fmt::format(" {}: {};", pr.name, pr.summary);
+  preset_help.pop_back();
+  c->add_option("--preset", s->preset, preset_help)->check(CLI::IsMember({"accurate", "default", "fast"}));
   c->add_option("--windows", p.windows_px,
                 "Window size per pass, px, coarse to fine; range: each a power of two in "
                 "8..256, non-increasing, 1 to 8 passes")

@@ -14,6 +14,7 @@
 #endif
 
 #include "shearzone/core/check.hpp"
+#include "cpu_features.hpp"
 
 namespace shearzone::piv {
 namespace {
@@ -65,10 +66,7 @@ Correlator::~Correlator() {
 namespace {
 
 #if defined(__x86_64__)
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
+using detail::cpu_has_avx2_fma;
 
 /// zero_mean for n a multiple of 8, in double lanes. A constant window sums exactly in
 /// double (n copies of a 24-bit value, n <= 2^16), so it comes out exactly zero (no

@@ -12,6 +12,7 @@
 #endif
 
 #include "shearzone/core/check.hpp"
+#include "cpu_features.hpp"
 
 namespace shearzone::piv {
 
@@ -405,10 +406,7 @@ __attribute__((target("avx2,fma"))) inline bool sample8(const cv::Mat& c, const 
 
 }  // namespace simd
 
-bool cpu_has_avx2_fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
+using detail::cpu_has_avx2_fma;
 #endif
 
 template <int N>
