@@ -87,6 +87,14 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     piv::Interpolation interp;
     piv::Subpixel sub;
     int repeats;
+    piv::PivOptions options() const {
+      piv::PivOptions po;
+      po.windows_px = windows;
+      po.interpolation = interp;
+      po.subpixel = sub;
+      po.final_pass_repeats = repeats;
+      return po;
+    }
   };
   std::vector<Setting> grid;
   const std::vector<std::vector<int>> lists =
@@ -107,9 +115,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   // Every preset is a setting of the chart (the quick grid lacks some).
   for (const auto& pr : piv::piv_presets()) {
     bool have = false;
-    for (const auto& st : grid)
-      have |= st.windows == pr.windows_px && st.interp == pr.interpolation && st.sub == pr.subpixel &&
-              st.repeats == pr.final_pass_repeats;
+    for (const auto& st : grid) have |= pr.matches(st.options());
     if (!have) grid.push_back({pr.windows_px, pr.interpolation, pr.subpixel, pr.final_pass_repeats});
   }
 
@@ -146,11 +152,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   std::vector<std::vector<std::string>> rows;
   std::string best;
   for (const auto& s : grid) {
-    piv::PivOptions po;
-    po.windows_px = s.windows;
-    po.interpolation = s.interp;
-    po.subpixel = s.sub;
-    po.final_pass_repeats = s.repeats;
+    const piv::PivOptions po = s.options();
     const piv::PivEngine engine(po);
     std::vector<double> times;
     piv::PivResult r;
@@ -172,9 +174,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
                     piv::interpolation_name(s.interp), piv::subpixel_name(s.sub),
                     std::to_string(s.repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),
                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2), preset});
-    const piv::PivOptions def;
-    if (s.windows == def.windows_px && s.interp == def.interpolation && s.sub == def.subpixel &&
-        s.repeats == def.final_pass_repeats)
+    if (preset == "default")  // the defaults (a test holds them equal)
       best = fmt::format("default {}: {:.3f} s per pair ({:.2f} pairs/s), RMS {:.4f} px", name, t,
                          1.0 / t, sc.rms);
     if (progress) progress(++done, total);

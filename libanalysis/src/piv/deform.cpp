@@ -444,9 +444,8 @@ void deform_pair_impl(const cv::Mat& ca, const cv::Mat& cb, const cv::Mat& gu, c
     float* pa = a_out.ptr<float>(i);
     float* pb = b_out.ptr<float>(i);
     auto scalar = [&](int j) {
-      const double gx = std::clamp((j - x0) / step, 0.0, gw - 1.0);
-      const int j0 = std::min(static_cast<int>(gx), gw - 1), j1 = std::min(j0 + 1, gw - 1);
-      const float tx = static_cast<float>(gx - j0);
+      const int j0 = col0[static_cast<std::size_t>(j)], j1 = col1[static_cast<std::size_t>(j)];
+      const float tx = colt[static_cast<std::size_t>(j)];
       const float du = (1 - ty) * ((1 - tx) * u0[j0] + tx * u0[j1]) + ty * ((1 - tx) * u1[j0] + tx * u1[j1]);
       const float dv = (1 - ty) * ((1 - tx) * v0[j0] + tx * v0[j1]) + ty * ((1 - tx) * v1[j0] + tx * v1[j1]);
       pa[j] = sample<N>(ca, j - 0.5 * du, i - 0.5 * dv, method);
