@@ -37,6 +37,8 @@ cp data-samples/laos/vane_N1.csv data-samples/laos/vane_N9.csv data-samples/laos
 "$SZ" study run "$S/study.toml" -o "$S/out" --jobs "$(nproc)" > "$S/workflow.log" 2>&1 ||
   { tail -40 "$S/workflow.log"; exit 1; }
 tail -1 "$S/workflow.log"
+echo "   the lab clips against the law they were made from (phi_c = 0.30 rad, W = 0.2 N^-0.5 rad):"
+"$PY" data-samples/study/check_truth.py "$S/clips" "$S/out"
 echo "   figures of the study (made or skipped, and why):"
 sed -e '1,2d' -e 's/^/     /' "$S/out/figures/figures.csv"
 # every figure the study made is a real picture

@@ -82,3 +82,24 @@ TEST_CASE("study: the simulation grid makes one scene per point, each loadable",
   CHECK_THAT(plan, Catch::Contains("\"sim/N4_l0.0004_a120_s3/phi0_0.100/width.csv\""));
   CHECK_THAT(plan, Catch::Contains("\"sim_l0.0004_a60\": {\"widths\""));
 }
+
+TEST_CASE("study: the r_c fits are unweighted unless [fits] weights = \"intervals\"", "[study]") {
+  // The widths' intervals hold sampling noise only; weighing by them let the narrowest
+  // (small amplitudes) pin the erf curve on the demo study (docs/study.md), so the fits
+  // of r_c(phi0) and the collapse weigh each point alike unless the study file asks.
+  TempDir t("study_weights");
+  write_file(t / "N4_phi0.3.mp4", "x");
+  const std::string clips = "[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n";
+  write_file(t / "study.toml", clips);
+  pipeline::Study s = pipeline::load_study(t / "study.toml", any_option);
+  CHECK_FALSE(s.fit_weigh_intervals);
+  pipeline::write_study_plan(s, t / "out", "/bin/shearzone", "/usr/bin/python3", "/scripts");
+  CHECK_THAT(read_file(t / "out" / "study.json"), Catch::Contains("\"rc_sigma\": []"));
+  write_file(t / "study.toml", clips + "[fits]\nweights = \"intervals\"\n");
+  s = pipeline::load_study(t / "study.toml", any_option);
+  CHECK(s.fit_weigh_intervals);
+  pipeline::write_study_plan(s, t / "out", "/bin/shearzone", "/usr/bin/python3", "/scripts");
+  CHECK_THAT(read_file(t / "out" / "study.json"), Catch::Contains("\"rc_sigma\": [\"--sigma\", \"rc_se_m\"]"));
+  write_file(t / "study.toml", clips + "[fits]\nweights = \"none\"\n");
+  CHECK_FALSE(pipeline::load_study(t / "study.toml", any_option).fit_weigh_intervals);
+}

@@ -317,7 +317,8 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
       "lab.f_Hz", "lab.clip_glob.files", "lab.clip_glob.pattern", "lab.clip_glob.N", "lab.clip_glob.phi0_rad",
       "lab.clip_glob.f_Hz", "lab.log_glob.files", "lab.log_glob.pattern", "lab.log_glob.N",
       "sim.scene", "sim.N", "sim.l_max_m", "sim.max_angle_deg", "sim.seeds", "sim.beads", "sim.phi0_rad",
-      "sim.f_Hz", "sim.cycles", "sim.threads", "slurm.partition", "slurm.time_min", "slurm.mem_mb"};
+      "sim.f_Hz", "sim.cycles", "sim.threads", "fits.weights", "slurm.partition", "slurm.time_min",
+      "slurm.mem_mb"};
   const std::vector<std::pair<std::string, std::string>> stage_tables{
       {"lab.piv", "piv"},       {"lab.profile", "profile"}, {"lab.width", "width"},   {"lab.laos", "laos"},
       {"sim.render", "render"}, {"sim.piv", "piv"},         {"sim.profile", "profile"}, {"sim.width", "width"},
@@ -526,6 +527,12 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
   s.fit_erf = r.stage_args("fits.erf", "erf");
   s.fit_power = r.stage_args("fits.power", "power");
   s.collapse_erf = r.stage_args("fits.collapse", "collapse");
+  if (c.has("fits.weights")) {
+    const std::string w = r.str("fits.weights");
+    if (w != "none" && w != "intervals")
+      r.fail("fits.weights", fmt::format("\"{}\" (expected \"none\" or \"intervals\")", w));
+    s.fit_weigh_intervals = w == "intervals";
+  }
 
   // ---- slurm ----
   if (c.has("slurm.partition")) s.slurm.partition = r.str("slurm.partition");
@@ -624,11 +631,12 @@ void write_study_plan(const Study& s, const fs::path& out, const fs::path& shear
   }
   j << (datasets.empty() ? "},\n" : "\n  },\n");
   j << "  \"args\": {";
+  const StageArgs rc_sigma = s.fit_weigh_intervals ? StageArgs{"--sigma", "rc_se_m"} : StageArgs{};
   const std::vector<std::pair<std::string, const StageArgs*>> args{
       {"lab_width", &s.lab_width},     {"lab_laos", &s.lab_laos},
       {"sim_render", &s.sim_render},   {"sim_piv", &s.sim_piv},         {"sim_profile", &s.sim_profile},
       {"sim_width", &s.sim_width},     {"sim_laos", &s.sim_laos},       {"fit_erf", &s.fit_erf},
-      {"fit_power", &s.fit_power},     {"collapse_erf", &s.collapse_erf}};
+      {"fit_power", &s.fit_power},     {"collapse_erf", &s.collapse_erf}, {"rc_sigma", &rc_sigma}};
   for (std::size_t k = 0; k < args.size(); ++k)
     j << (k ? ",\n" : "\n") << "    " << json_string(args[k].first) << ": " << json_list(*args[k].second);
   j << "\n  },\n";

@@ -75,6 +75,10 @@ struct Study {
   StageArgs sim_render, sim_piv, sim_profile, sim_width, sim_laos;
   // fits
   StageArgs fit_erf, fit_power, collapse_erf;
+  /// `[fits] weights = "intervals"`: the r_c(phi0) fits and the collapse weigh each r_c by
+  /// its interval (`--sigma rc_se_m`); the default "none" fits them unweighted (the
+  /// intervals hold sampling noise only, not the PIV's bias: docs/study.md).
+  bool fit_weigh_intervals = false;
   StudySlurm slurm;
 };
 

@@ -1,0 +1,74 @@
+#!/usr/bin/python3
+"""The demo study against the law its clips were made from: check_truth.py CLIPS OUT [--check]
+
+CLIPS holds make_clips.py's truth.csv, OUT is the study's output folder. Prints, for the
+lab dataset, each clip's measured r_c against the true one (the error, and whether the
+width's 95 % interval holds it), then each N's fitted phi_c and W against the law
+(phi_c = 0.30 rad, W = 0.2 N^-0.5 rad) and the power law W ~ N^k against k = -0.5.
+
+With --check it exits 1 unless: the clips' RMS r_c error is below 0.2 mm (0.09 bead
+diameters; 0.09 mm measured with the study's PIV options), and every N's 95 % interval of
+phi_c and of W, and the interval of k, hold the law's value.
+"""
+import csv
+import math
+import sys
+
+PHI_C, W1, K = 0.30, 0.2, -0.5          # make_clips.py's law
+MAX_RMS_M = 0.2e-3
+
+
+def table(path):
+    with open(path, encoding="utf-8") as f:
+        return list(csv.DictReader(line for line in f if not line.startswith("#")))
+
+
+def main():
+    args = [a for a in sys.argv[1:] if a != "--check"]
+    check = "--check" in sys.argv[1:]
+    if len(args) != 2:
+        sys.exit(__doc__.splitlines()[0])
+    clips, out = args
+    truth = {r["clip"]: float(r["rc_true_m"]) for r in table(f"{clips}/truth.csv")}
+    failures = []
+
+    errors, inside = [], 0
+    for r in table(f"{out}/results/lab/rc_phi0.csv"):
+        name = r["item"].rsplit("/", 1)[-1]
+        if r["rc_status"] != "ok":
+            failures.append(f"{name}: no r_c ({r['rc_status']})")
+            continue
+        true = truth[name]
+        errors.append(float(r["rc_m"]) - true)
+        inside += float(r["rc_ci_low_m"]) <= true <= float(r["rc_ci_high_m"])
+    rms = math.sqrt(sum(e * e for e in errors) / len(errors))
+    print(f"   r_c of {len(errors)} clips against the truth: RMS error {rms * 1e3:.3f} mm, "
+          f"largest {max(abs(e) for e in errors) * 1e3:.3f} mm; {inside} of {len(errors)} 95 % intervals "
+          f"hold it (they hold sampling noise only)")
+    if rms > MAX_RMS_M:
+        failures.append(f"RMS r_c error {rms * 1e3:.3f} mm > {MAX_RMS_M * 1e3:g} mm")
+
+    def holds(what, row, true):
+        lo, hi = float(row["ci_low"]), float(row["ci_high"])
+        ok = lo <= true <= hi
+        print(f"   {what} = {float(row['value']):.4f} [{lo:.4f}, {hi:.4f}] against {true:.4f} "
+              f"{'(holds it)' if ok else '(MISSES it)'}")
+        if not ok:
+            failures.append(f"{what}: 95 % interval [{lo:.4g}, {hi:.4g}] misses {true:.4g}")
+
+    fits = table(f"{out}/results/lab/erf.csv")
+    for N in sorted({int(float(r["group"])) for r in fits}):
+        rows = {r["parameter"]: r for r in fits if int(float(r["group"])) == N}
+        holds(f"N = {N}: phi_c (rad)", rows["phi_c"], PHI_C)
+        holds(f"N = {N}: W (rad)    ", rows["W"], W1 * N ** -0.5)
+    power = {r["parameter"]: r for r in table(f"{out}/results/lab/W_power.csv")}
+    holds("W ~ N^k: k         ", power["k"], K)
+
+    if check and failures:
+        for f in failures:
+            print(f"check_truth.py: FAIL: {f}", file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
