@@ -19,8 +19,11 @@ MAX_RMS_M = 0.2e-3
 
 
 def table(path):
-    with open(path, encoding="utf-8") as f:
-        return list(csv.DictReader(line for line in f if not line.startswith("#")))
+    try:
+        with open(path, encoding="utf-8") as f:
+            return list(csv.DictReader(line for line in f if not line.startswith("#")))
+    except OSError as e:
+        sys.exit(f"check_truth.py: {path}: {e.strerror} (has the study finished?)")
 
 
 def main():
