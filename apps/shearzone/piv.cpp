@@ -39,6 +39,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
     if (c.count("--repeats") == 0) j.piv.final_pass_repeats = pr.final_pass_repeats;
     if (c.count("--interpolation") == 0) s.interpolation = piv::interpolation_name(pr.interpolation);
     if (c.count("--subpixel") == 0) s.subpixel = piv::subpixel_name(pr.subpixel);
+    if (c.count("--smoothing") == 0) j.piv.predictor_smoothing = pr.predictor_smoothing;
   }
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
@@ -114,11 +115,15 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
   // Correlation
-  std::string preset_help = "Named setting of windows, interpolation, peak fit and repeats (options given "
-                            "explicitly win):";
-  for (const auto& pr : piv::piv_presets()) preset_help += fmt::format(" {}: {};", pr.name, pr.summary);
+  std::string preset_help = "Named setting of windows, interpolation, peak fit, repeats and predictor "
+                            "smoothing (options given explicitly win):";
+  std::vector<std::string> preset_names;
+  for (const auto& pr : piv::piv_presets()) {
+    preset_help += fmt::format(" {}: {};", pr.name, pr.summary);
+    preset_names.push_back(fmt::format("{}", pr.name));
+  }
   preset_help.pop_back();
-  c->add_option("--preset", s->preset, preset_help)->check(CLI::IsMember({"accurate", "default", "fast"}));
+  c->add_option("--preset", s->preset, preset_help)->check(CLI::IsMember(preset_names));
   c->add_option("--windows", p.windows_px,
                 "Window size per pass, px, coarse to fine; range: each a power of two in "
                 "8..256, non-increasing, 1 to 8 passes")

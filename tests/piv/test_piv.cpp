@@ -363,13 +363,25 @@ TEST_CASE("the vane phase is fitted from measured angles, and refused over less 
   CHECK(std::isnan(piv::fit_vane_phase(t, a, f).phase_rad));
 }
 
-TEST_CASE("the default preset is the defaults; an unknown preset names the three", "[piv]") {
+TEST_CASE("the default preset is the defaults; an unknown preset names the four", "[piv]") {
   CHECK(piv::piv_preset("default").matches(piv::PivOptions{}));
   CHECK_FALSE(piv::piv_preset("fast").matches(piv::PivOptions{}));
   piv::PivOptions o;
   piv::piv_preset("accurate").apply(o);
   CHECK(piv::piv_preset("accurate").matches(o));
   o.validate();
+  // profile: 3 repeats and no predictor smoothing, the rest the defaults
+  piv::PivOptions p;
+  piv::piv_preset("profile").apply(p);
+  CHECK(p.final_pass_repeats == 3);
+  CHECK(p.predictor_smoothing == 0.0);
+  CHECK(p.windows_px == piv::PivOptions{}.windows_px);
+  CHECK(piv::piv_preset("profile").matches(p));
+  CHECK_FALSE(piv::piv_preset("default").matches(p));
+  p.predictor_smoothing = 1.0;  // smoothing is one of the preset's settings
+  CHECK_FALSE(piv::piv_preset("profile").matches(p));
+  p.validate();
   CHECK_THROWS_WITH(piv::piv_preset("quick"),
-                    Catch::Matchers::Contains("unknown PIV preset \"quick\"; expected one of: accurate, default, fast"));
+                    Catch::Matchers::Contains(
+                        "unknown PIV preset \"quick\"; expected one of: accurate, default, fast, profile"));
 }

@@ -87,12 +87,14 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     piv::Interpolation interp;
     piv::Subpixel sub;
     int repeats;
+    double smoothing = piv::PivOptions{}.predictor_smoothing;
     piv::PivOptions options() const {
       piv::PivOptions po;
       po.windows_px = windows;
       po.interpolation = interp;
       po.subpixel = sub;
       po.final_pass_repeats = repeats;
+      po.predictor_smoothing = smoothing;
       return po;
     }
   };
@@ -116,7 +118,8 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   for (const auto& pr : piv::piv_presets()) {
     bool have = false;
     for (const auto& st : grid) have |= pr.matches(st.options());
-    if (!have) grid.push_back({pr.windows_px, pr.interpolation, pr.subpixel, pr.final_pass_repeats});
+    if (!have)
+      grid.push_back({pr.windows_px, pr.interpolation, pr.subpixel, pr.final_pass_repeats, pr.predictor_smoothing});
   }
 
   // Step 2: failure-map studies (512 x 512, default settings).
@@ -167,9 +170,9 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     std::string preset;
     for (const auto& pr : piv::piv_presets())
       if (pr.matches(po)) preset = pr.name;
-    const std::string name = fmt::format("{} {} {} r{}", fmt::join(s.windows, "-"),
-                                         piv::interpolation_name(s.interp),
-                                         piv::subpixel_name(s.sub), s.repeats);
+    std::string name = fmt::format("{} {} {} r{}", fmt::join(s.windows, "-"), piv::interpolation_name(s.interp),
+                                   piv::subpixel_name(s.sub), s.repeats);
+    if (s.smoothing != piv::PivOptions{}.predictor_smoothing) name += " s" + format_number(s.smoothing);
     rows.push_back({name, fmt::format("{}", fmt::join(s.windows, "-")),
                     piv::interpolation_name(s.interp), piv::subpixel_name(s.sub),
                     std::to_string(s.repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),

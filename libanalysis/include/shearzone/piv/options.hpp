@@ -97,8 +97,8 @@ struct PivOptions {
 };
 
 /// A named setting (`piv --preset`): the window sequence, deformation interpolation,
-/// sub-pixel fit and repeats of the final pass; every other option keeps its default.
-/// Measured speed and accuracy of each: docs/piv.md, "Presets".
+/// sub-pixel fit, repeats of the final pass and predictor smoothing; every other option
+/// keeps its default. Measured speed and accuracy of each: docs/piv.md, "Presets".
 struct PivPreset {
   const char* name;
   const char* summary;
@@ -106,12 +106,13 @@ struct PivPreset {
   Interpolation interpolation;
   Subpixel subpixel;
   int final_pass_repeats;
-  /// Sets the preset's four settings in `o`.
+  double predictor_smoothing;
+  /// Sets the preset's five settings in `o`.
   void apply(PivOptions& o) const;
-  /// Whether `o` has the preset's four settings.
+  /// Whether `o` has the preset's five settings.
   bool matches(const PivOptions& o) const;
 };
-/// accurate, default, fast (in that order).
+/// accurate, default, fast, profile (in that order).
 const std::vector<PivPreset>& piv_presets();
 /// ConfigError naming the presets if `name` is none of them.
 const PivPreset& piv_preset(const std::string& name);
