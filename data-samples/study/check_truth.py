@@ -10,9 +10,12 @@ With --check it exits 1 unless: the clips' RMS r_c error is below 0.2 mm (0.09 b
 diameters; 0.09 mm measured with the study's PIV options), and every N's 95 % interval of
 phi_c and of W, and the interval of k, hold the law's value.
 """
-import csv
 import math
+import os
 import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
+from szcsv import read_csv  # noqa: E402
 
 PHI_C, W1, K = 0.30, 0.2, -0.5          # make_clips.py's law
 MAX_RMS_M = 0.2e-3
@@ -20,8 +23,7 @@ MAX_RMS_M = 0.2e-3
 
 def table(path):
     try:
-        with open(path, encoding="utf-8") as f:
-            return list(csv.DictReader(line for line in f if not line.startswith("#")))
+        return read_csv(path)
     except OSError as e:
         sys.exit(f"check_truth.py: {path}: {e.strerror} (has the study finished?)")
 

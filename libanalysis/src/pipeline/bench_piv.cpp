@@ -82,23 +82,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   out.check("piv_failure_map.csv");
 
   // Step 1: the settings grid.
-  struct Setting {
-    std::vector<int> windows;
-    piv::Interpolation interp;
-    piv::Subpixel sub;
-    int repeats;
-    double smoothing = piv::PivOptions{}.predictor_smoothing;
-    piv::PivOptions options() const {
-      piv::PivOptions po;
-      po.windows_px = windows;
-      po.interpolation = interp;
-      po.subpixel = sub;
-      po.final_pass_repeats = repeats;
-      po.predictor_smoothing = smoothing;
-      return po;
-    }
-  };
-  std::vector<Setting> grid;
+  std::vector<piv::PivOptions> grid;  // every other option at its default
   const std::vector<std::vector<int>> lists =
       o.quick ? std::vector<std::vector<int>>{{64, 32, 16}}
               : std::vector<std::vector<int>>{{64, 32, 16}, {32, 16}, {64, 32, 16, 8}};
@@ -111,15 +95,19 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
       for (auto sp : {piv::Subpixel::kGauss3, piv::Subpixel::kGauss2D})
         for (int rep : {0, 1}) {
           if (sp == piv::Subpixel::kGauss2D && (in != piv::Interpolation::kBSpline5 || rep != 1)) continue;
-          grid.push_back({l, in, sp, rep});
+          piv::PivOptions po;
+          po.windows_px = l;
+          po.interpolation = in;
+          po.subpixel = sp;
+          po.final_pass_repeats = rep;
+          grid.push_back(po);
         }
 
   // Every preset is a setting of the chart (the quick grid lacks some).
   for (const auto& pr : piv::piv_presets()) {
     bool have = false;
-    for (const auto& st : grid) have |= pr.matches(st.options());
-    if (!have)
-      grid.push_back({pr.windows_px, pr.interpolation, pr.subpixel, pr.final_pass_repeats, pr.predictor_smoothing});
+    for (const auto& po : grid) have |= pr.matches(po);
+    if (!have) pr.apply(grid.emplace_back());
   }
 
   // Step 2: failure-map studies (512 x 512, default settings).
@@ -154,8 +142,7 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
                                          o.timing_repeats));
   std::vector<std::vector<std::string>> rows;
   std::string best;
-  for (const auto& s : grid) {
-    const piv::PivOptions po = s.options();
+  for (const piv::PivOptions& po : grid) {
     const piv::PivEngine engine(po);
     std::vector<double> times;
     piv::PivResult r;
@@ -170,12 +157,13 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
     std::string preset;
     for (const auto& pr : piv::piv_presets())
       if (pr.matches(po)) preset = pr.name;
-    std::string name = fmt::format("{} {} {} r{}", fmt::join(s.windows, "-"), piv::interpolation_name(s.interp),
-                                   piv::subpixel_name(s.sub), s.repeats);
-    if (s.smoothing != piv::PivOptions{}.predictor_smoothing) name += " s" + format_number(s.smoothing);
-    rows.push_back({name, fmt::format("{}", fmt::join(s.windows, "-")),
-                    piv::interpolation_name(s.interp), piv::subpixel_name(s.sub),
-                    std::to_string(s.repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),
+    const std::string windows = fmt::format("{}", fmt::join(po.windows_px, "-"));
+    std::string name = fmt::format("{} {} {} r{}", windows, piv::interpolation_name(po.interpolation),
+                                   piv::subpixel_name(po.subpixel), po.final_pass_repeats);
+    if (po.predictor_smoothing != piv::PivOptions{}.predictor_smoothing)
+      name += " s" + format_number(po.predictor_smoothing);
+    rows.push_back({name, windows, piv::interpolation_name(po.interpolation), piv::subpixel_name(po.subpixel),
+                    std::to_string(po.final_pass_repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),
                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2), preset});
     if (preset == "default")  // the defaults (a test holds them equal)
       best = fmt::format("default {}: {:.3f} s per pair ({:.2f} pairs/s), RMS {:.4f} px", name, t,
