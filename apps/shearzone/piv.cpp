@@ -20,6 +20,7 @@ struct PivCli {
   std::string config;
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
+  std::string residual = "gradient";
   std::string grey = "luma";
   std::string preset;
   bool no_deform = false;
@@ -43,6 +44,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   }
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
+  j.piv.residual = piv::residual_from_name(s.residual);
+  j.size_windows_to_texture = c.count("--windows") == 0;
   j.piv.deform = !s.no_deform;
   j.grey = io::grey_mode_from_name(s.grey);
   if (!s.centre.empty()) {
@@ -139,6 +142,11 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   c->add_flag("--no-deform", s->no_deform, "Shift windows by whole pixels instead of deforming");
   c->add_option("--subpixel", s->subpixel, "Peak fit: gauss3 or gauss2d")->capture_default_str();
+  c->add_option("--residual", s->residual,
+                 "Residual estimator after the first pass: gradient (a Gauss-Newton step on the "
+                 "deformed windows) or peak (the correlation peak; reads broad bead textures low)")
+      ->check(CLI::IsMember({"gradient", "peak"}))
+      ->capture_default_str();
   c->add_option("--search", p.restricted_search,
                 "Peak search radius after the first pass, fraction of the window; range: 0.05..0.5")
       ->capture_default_str();

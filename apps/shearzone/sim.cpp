@@ -180,6 +180,8 @@ int run_check(CheckCli& s, const Context& ctx) {
       grids.push_back(std::move(g));
     }
   }
+  // Windows given (--windows, --final-windows) are used as given; else sized to the texture.
+  j.piv.size_windows_to_texture = grids.empty() && s.windows.empty();
   if (grids.empty()) grids.push_back(j.piv.piv.windows_px);
   std::vector<std::string> interps = s.interpolations;
   if (interps.empty()) interps.push_back("");

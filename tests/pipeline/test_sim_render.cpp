@@ -286,6 +286,7 @@ TEST_CASE("sim check: a filmed run through the closed loop writes one row per br
   pipeline::SimCheckOptions o = check_options(dir, 2e-3);
   o.width.bootstrap = 200;
   o.settings = {{{32, 16, 8}, 1, ""}, {{32, 16, 8}, 2, ""}};
+  o.piv.size_windows_to_texture = false;  // the windows as given (`sim check --windows`)
   const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
   REQUIRE(rows.size() == 2);
   CHECK(rows[0].branch == "run");

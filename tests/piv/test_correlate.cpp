@@ -117,3 +117,45 @@ TEST_CASE("the shoulder of a broad peak is not a second peak", "[piv]") {
   const Peak p = find_peak(plane.data(), w, 15, Subpixel::kGauss3);
   CHECK(p.ratio > 4.0f);
 }
+
+// A smooth blob (a bead-sized Gaussian) shifted by a sub-pixel amount: the correlation
+// peak of two 32 px windows returns part of the shift (the window's edge pulls it towards
+// zero), the gradient step the whole of it.
+TEST_CASE("the gradient step returns a bead's sub-pixel shift that the peak reads low", "[piv]") {
+  constexpr int kW = 32;
+  constexpr double kShiftX = 0.4, kShiftY = -0.3;
+  constexpr double kSigma = 6.0;  // a bead of about 28 px
+  auto blob = [&](float* dst, double sx, double sy) {
+    for (int y = 0; y < kW; ++y)
+      for (int x = 0; x < kW; ++x) {
+        double v = 0;
+        for (const auto& c : {std::pair{1.0, 11.0}, std::pair{30.0, 20.0}, std::pair{14.0, 1.0}, std::pair{17.0, 30.0}})
+          v += std::exp(-(std::pow(x - c.first - sx, 2) + std::pow(y - c.second - sy, 2)) / (2 * kSigma * kSigma));
+        dst[y * kW + x] = static_cast<float>(v);
+      }
+  };
+  Correlator c(kW);
+  Workspace ws(kW);
+  blob(ws.a(), -0.5 * kShiftX, -0.5 * kShiftY);
+  blob(ws.b(), 0.5 * kShiftX, 0.5 * kShiftY);
+  REQUIRE(c.correlate(ws));
+  const Peak p = find_peak(ws.corr(), kW, 8, Subpixel::kGauss3);
+  const GradientStep g = gradient_step(ws.a(), ws.b(), kW);
+  REQUIRE(g.ok);
+  INFO("peak (" << p.dx << ", " << p.dy << "), sigma " << p.sigma_px << "; gradient (" << g.dx << ", " << g.dy
+                << "), conditioning " << g.conditioning);
+  CHECK(p.sigma_px > 2.0f);
+  CHECK(std::abs(p.dx) < 0.8 * kShiftX);  // the peak's pull towards zero (edges cut the blobs)
+  CHECK(std::abs(p.dy) < 0.8 * std::abs(kShiftY));
+  // Gradient step: the symmetric difference leaves O(d^3 / sigma^2); 2 % of the shift.
+  constexpr double kGradientRelTol = 0.02;
+  CHECK(g.dx == Approx(kShiftX).epsilon(kGradientRelTol));
+  CHECK(g.dy == Approx(kShiftY).epsilon(kGradientRelTol));
+}
+
+TEST_CASE("the gradient step refuses a window without texture", "[piv]") {
+  Workspace ws(16);
+  std::fill(ws.a(), ws.a() + 256, 0.0f);
+  std::fill(ws.b(), ws.b() + 256, 0.0f);
+  CHECK_FALSE(gradient_step(ws.a(), ws.b(), 16).ok);
+}

@@ -30,6 +30,7 @@
 #include "shearzone/io/image.hpp"
 #include "shearzone/io/video.hpp"
 #include "shearzone/piv/mask.hpp"
+#include "shearzone/piv/texture.hpp"
 #include "shearzone/piv/piv.hpp"
 #include "shearzone/piv/vane_angle.hpp"
 
@@ -357,7 +358,36 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     }
     background = piv::temporal_median(sample);
   }
-  const piv::PivEngine engine(o.piv);
+  // The mask of a frame: static, annulus, vane at the frame's time.
+  auto frame_mask = [&](const io::Frame& fr) {
+    cv::Mat m = static_mask;
+    if (o.annulus_outer_px > 0)
+      m = piv::combine_masks(m, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
+                                                  o.annulus_inner_px, o.annulus_outer_px));
+    if (o.vane.geometry.blades > 0)
+      m = piv::combine_masks(m, piv::vane_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
+                                               vane_angle.at(fr.t_s, fr.label), o.vane.geometry,
+                                               o.vane.margin_px));
+    return m;
+  };
+  // Windows sized to the texture: measured on the first frame used, as PIV sees it
+  // (preprocessed, masked).
+  piv::PivOptions piv_options = o.piv;
+  if (o.size_windows_to_texture) {
+    auto pre = io::open_frames(o.inputs, o.fps, o.grey);
+    io::Frame fr;
+    while (pre->next(fr)) {
+      if (fr.index < o.first_frame || fr.damaged) continue;
+      if (o.last_frame >= 0 && fr.index > o.last_frame) break;
+      if (!static_mask.empty() && static_mask.size() != fr.gray.size()) break;  // refused below
+      const cv::Mat img = o.preprocess.any() ? piv::preprocess(fr.gray, o.preprocess, background) : fr.gray;
+      sum.texture_half_width_px = piv::texture_half_width_px(img, frame_mask(fr));
+      piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
+      break;
+    }
+  }
+  sum.windows_px = piv_options.windows_px;
+  const piv::PivEngine engine(piv_options);
   const bool csv = io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
@@ -368,7 +398,20 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   core::Metadata meta = header;
   meta.emplace_back("source", source->description());
   meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
-  for (auto& kv : o.piv.to_metadata()) meta.push_back(std::move(kv));
+  for (auto& kv : piv_options.to_metadata()) meta.push_back(std::move(kv));
+  if (o.size_windows_to_texture)
+    meta.emplace_back(
+        "piv_windows_rule",
+        std::isfinite(sum.texture_half_width_px)
+            ? fmt::format("sized to the texture: autocorrelation half-width {:.3g} px (shaded beads: about {:.3g} px "
+                          "across) in the first frame; the windows {} scaled by a power of two so that the final "
+                          "window is at least {} half-widths",
+                          sum.texture_half_width_px, sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth,
+                          fmt::join(o.piv.windows_px, ","), format_number(piv::kFinalWindowPerHalfWidth))
+            : fmt::format("the windows {} as given: the texture size could not be measured in the first frame",
+                          fmt::join(o.piv.windows_px, ",")));
+  else
+    meta.emplace_back("piv_windows_rule", "as given");
   for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",
                                          o.pair_spacing, o.stride, o.first_frame,
@@ -466,15 +509,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     u.frame = frame;
     u.frame.gray = frame.gray.clone();
     u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
-    cv::Mat m = static_mask;
-    if (o.annulus_outer_px > 0)
-      m = piv::combine_masks(m, piv::annulus_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
-                                                  o.annulus_inner_px, o.annulus_outer_px));
-    if (o.vane.geometry.blades > 0)
-      m = piv::combine_masks(m, piv::vane_mask(frame.gray.size(), o.centre_x_px, o.centre_y_px,
-                                               vane_angle.at(frame.t_s, frame.label),
-                                               o.vane.geometry, o.vane.margin_px));
-    u.mask = m;
+    u.mask = frame_mask(frame);
     window.push_back(std::move(up));
     ++unique_count;
     if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();

@@ -289,6 +289,11 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       }
       row.piv_s = since(t);
       row.pairs = ps.pairs;
+      if (ps.windows_px != st.windows_px) {  // sized to the texture: say which were used
+        SimCheckSetting used = st;
+        used.windows_px = ps.windows_px;
+        row.setting = used.label();
+      }
       const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
       row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
       say(fmt::format("{}: profile {}", name, st.label()));

@@ -174,6 +174,52 @@ bool Correlator::correlate(Workspace& ws, double min_variance) const {
   return true;
 }
 
+GradientStep gradient_step(const float* a, const float* b, int w) {
+  GradientStep g;
+  if (w < 8) return g;
+  double ea = 0, eb = 0;
+  for (int k = 0; k < w * w; ++k) {
+    ea += static_cast<double>(a[k]) * a[k];
+    eb += static_cast<double>(b[k]) * b[k];
+  }
+  if (!(ea > 0 && eb > 0)) return g;
+  const float s = static_cast<float>(std::sqrt(ea / eb));  // b to a's energy (brightness changes)
+  double hxx = 0, hxy = 0, hyy = 0, ex = 0, ey = 0;
+  constexpr float k12 = 1.0f / 12.0f;
+  for (int y = 2; y < w - 2; ++y) {
+    const float* pa = a + y * w;
+    const float* pb = b + y * w;
+    float sxx = 0, sxy = 0, syy = 0, sex = 0, sey = 0;  // per row in float, summed in double
+    for (int x = 2; x < w - 2; ++x) {
+      const float ax = (pa[x - 2] - 8 * pa[x - 1] + 8 * pa[x + 1] - pa[x + 2]) * k12;
+      const float bx = (pb[x - 2] - 8 * pb[x - 1] + 8 * pb[x + 1] - pb[x + 2]) * k12;
+      const float ay = (pa[x - 2 * w] - 8 * pa[x - w] + 8 * pa[x + w] - pa[x + 2 * w]) * k12;
+      const float by = (pb[x - 2 * w] - 8 * pb[x - w] + 8 * pb[x + w] - pb[x + 2 * w]) * k12;
+      const float gx = 0.5f * (ax + s * bx), gy = 0.5f * (ay + s * by);
+      const float e = pa[x] - s * pb[x];
+      sxx += gx * gx;
+      sxy += gx * gy;
+      syy += gy * gy;
+      sex += gx * e;
+      sey += gy * e;
+    }
+    hxx += sxx;
+    hxy += sxy;
+    hyy += syy;
+    ex += sex;
+    ey += sey;
+  }
+  const double det = hxx * hyy - hxy * hxy, tr = hxx + hyy;
+  if (!(det > 0 && tr > 0)) return g;
+  const double disc = std::sqrt(std::max(0.0, 0.25 * (hxx - hyy) * (hxx - hyy) + hxy * hxy));
+  const double lmax = 0.5 * tr + disc, lmin = 0.5 * tr - disc;
+  g.conditioning = lmin / lmax;
+  g.dx = (hyy * ex - hxy * ey) / det;
+  g.dy = (hxx * ey - hxy * ex) / det;
+  g.ok = std::isfinite(g.dx) && std::isfinite(g.dy);
+  return g;
+}
+
 double gauss3(double lo, double c, double hi) {
   double d;
   if (lo > 0 && c > 0 && hi > 0) {
@@ -240,6 +286,16 @@ Peak find_peak(const float* corr, int w, int radius, Subpixel method) {
   // Step 2: sub-pixel refinement.
   double ox = gauss3(at(bx - 1, by), best, at(bx + 1, by));
   double oy = gauss3(at(bx, by - 1), best, at(bx, by + 1));
+  {
+    // Width: ln c = -x^2 / (2 sigma^2) + ... has second difference -1 / sigma^2.
+    auto var = [best](double lo, double hi) {
+      if (!(lo > 0 && hi > 0)) return 0.0;
+      const double d2 = std::log(lo) - 2.0 * std::log(static_cast<double>(best)) + std::log(hi);
+      return d2 < 0 ? -1.0 / d2 : 0.0;
+    };
+    p.sigma_px = static_cast<float>(std::pow(var(at(bx - 1, by), at(bx + 1, by)) *
+                                             var(at(bx, by - 1), at(bx, by + 1)), 0.25));
+  }
   if (method == Subpixel::kGauss2D) {
     Eigen::Matrix<double, 9, 1> lnc;
     bool positive = true;

@@ -39,6 +39,15 @@ Subpixel subpixel_from_name(const std::string& name) {
       fmt::format("unknown sub-pixel method \"{}\"; expected one of: gauss3, gauss2d", name));
 }
 
+const char* residual_name(Residual r) { return r == Residual::kPeak ? "peak" : "gradient"; }
+
+Residual residual_from_name(const std::string& name) {
+  if (name == "peak") return Residual::kPeak;
+  if (name == "gradient") return Residual::kGradient;
+  throw ConfigError(
+      fmt::format("unknown residual estimator \"{}\"; expected one of: peak, gradient", name));
+}
+
 int PivOptions::step_px(std::size_t pass) const {
   const int w = windows_px.at(pass);
   return std::max(1, static_cast<int>(std::lround(w * (1.0 - overlap))));
@@ -90,6 +99,7 @@ core::Metadata PivOptions::to_metadata() const {
           {"piv_deformation", deform ? std::string("symmetric, ") + interpolation_name(interpolation)
                                      : std::string("off")},
           {"piv_subpixel", subpixel_name(subpixel)},
+          {"piv_residual", deform ? residual_name(residual) : "peak"},
           {"piv_restricted_search", format_number(restricted_search)},
           {"piv_predictor_smoothing_steps", format_number(predictor_smoothing)},
           {"piv_median_test",

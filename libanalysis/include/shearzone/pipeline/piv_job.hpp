@@ -80,6 +80,10 @@ struct PivJobOptions {
   /// thread while the next frames are decoded; a single pair (or one thread) runs its
   /// windows in parallel instead. The fields are the same for any count.
   int threads = 0;
+  /// Scale the windows by a power of two so that the final window spans 2/3 of a bead
+  /// (the texture size measured in the first frame; piv/texture.hpp). Off: the windows
+  /// as given.
+  bool size_windows_to_texture = true;
 
   /// ConfigError on inconsistent options (checked before any work).
   void validate() const;
@@ -93,6 +97,8 @@ struct PivJobSummary {
   std::size_t vectors_per_pair = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
   double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
+  double texture_half_width_px = std::numeric_limits<double>::quiet_NaN();  ///< measured (size_windows_to_texture)
+  std::vector<int> windows_px;  ///< the windows used
   double phase_rad = 0.0;       ///< the vane phase used (found, with phase_auto)
   double phase_rms_rad = 0.0;   ///< rms residual of the phase fit (phase_auto)
   double phase_amplitude_rad = 0.0;  ///< amplitude of the fitted sinusoid (phase_auto)

@@ -48,6 +48,9 @@ struct Peak {
   double dy = 0.0;
   float height = 0.0f;    ///< normalised correlation at the integer peak
   float ratio = 0.0f;     ///< height over the highest other local maximum (1000 if none)
+  /// Width of the peak: the standard deviation, px, of the Gaussian through the 3 points
+  /// at the integer maximum (geometric mean of x and y; 0 where they are not log-concave).
+  float sigma_px = 0.0f;
   bool found = false;     ///< false: no positive peak in the search region
 };
 
@@ -74,6 +77,23 @@ class Correlator {
 /// of zero displacement, refines it to sub-pixel with `method` and computes the
 /// peak ratio against the highest other local maximum in the square. Neighbours wrap around (the plane is circular).
 Peak find_peak(const float* corr, int w, int radius, Subpixel method);
+
+/// Residual displacement from a to b by one Gauss-Newton (Lucas-Kanade) step on the
+/// windows themselves: with b scaled to a's energy and G = (grad a + grad b) / 2 (5-point
+/// differences over the (W - 4)^2 interior pixels), d = (sum G G^T)^-1 sum G (a - b).
+/// For b(x) = a(x - d) the step is exact to O(d^3) (the symmetric difference), and no
+/// pair of pixels leaves the window, so it has no loss-of-pairs bias: the correlation
+/// peak of a broad texture (beads larger than a few px) is pulled towards zero
+/// displacement by the window's edge and returns only part of the residual per pass.
+/// Windows must be zero-mean (as correlate() leaves them).
+struct GradientStep {
+  double dx = 0.0, dy = 0.0;  ///< displacement from a to b, px
+  /// Smaller over larger eigenvalue of sum G G^T: near 0 where the texture has no
+  /// gradient across one direction (a window inside one smooth bead: the aperture problem).
+  double conditioning = 0.0;
+  bool ok = false;            ///< false: no texture (sum G G^T singular)
+};
+GradientStep gradient_step(const float* a, const float* b, int w);
 
 /// 3-point Gaussian fit through (-1, lo), (0, c), (1, hi): the offset of the
 /// maximum from 0. Falls back to a parabola if a value is not positive.

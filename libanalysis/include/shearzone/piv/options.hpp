@@ -34,6 +34,21 @@ enum class Subpixel {
 const char* subpixel_name(Subpixel s);
 Subpixel subpixel_from_name(const std::string& name);
 
+/// How the passes after the first measure what is left of the displacement once the
+/// images are deformed by the predictor (docs/piv.md, "Bead size and bias").
+enum class Residual {
+  /// The correlation peak's sub-pixel position. Pulled towards zero on broad peaks: a
+  /// window's edge loses pairs in proportion to the shift, so a bead texture's peak
+  /// (about a bead wide) returns only part of the residual each pass.
+  kPeak,
+  /// One Gauss-Newton (Lucas-Kanade) step on the deformed windows, where the peak lies
+  /// within a pixel of it and the window's texture has gradients across both directions;
+  /// the peak elsewhere. No pairs leave the window, so each pass returns the whole residual.
+  kGradient,
+};
+const char* residual_name(Residual r);
+Residual residual_from_name(const std::string& name);
+
 struct PivOptions {
   /// Interrogation window side per pass, px, coarse to fine; each a power of two
   /// from 8 to 256 and not larger than the previous one.
@@ -54,6 +69,8 @@ struct PivOptions {
   bool deform = true;
   /// Sub-pixel estimator.
   Subpixel subpixel = Subpixel::kGauss3;
+  /// Residual estimator of the passes after the first (with deformation).
+  Residual residual = Residual::kGradient;
   /// Peak search radius in passes after the first, as a fraction of the window
   /// (the residual displacement is small once the images are deformed).
   double restricted_search = 0.25;

@@ -1,0 +1,38 @@
+// shearzone/piv/texture.hpp: the image's texture size, and interrogation windows sized to it.
+//
+// A bead's correlation peak is about a bead wide. A final window much smaller than a bead
+// sees part of one smooth bead (no texture across one direction: the aperture problem),
+// so its vectors fail or fall back to the peak, which reads low (docs/piv.md, "Bead size
+// and bias"). The texture size is measured from the image itself: the radius at which
+// the image's normalised autocorrelation (masked pixels left out) falls to 0.5. On
+// shaded beads (`synth beads`, 8-64 px) that half-width is 0.225 bead diameters
+// (8 px beads: 1.7 px, 64 px: 14.6 px); on seeded particles of 3 px it is about 1 px.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace shearzone::piv {
+
+/// Ratio of a shaded bead's diameter to its image's autocorrelation half-width
+/// (measured on `synth beads` of 8-64 px: 0.21-0.23).
+constexpr double kBeadDiameterPerHalfWidth = 1.0 / 0.225;
+/// A final window at least this many autocorrelation half-widths wide (2/3 of a bead):
+/// 24 px beads keep 16 px windows, 36 and 48 px beads get 32 px, 64 px beads 64 px.
+constexpr double kFinalWindowPerHalfWidth = 2.5;
+
+/// Radius, px, at which the normalised autocorrelation of `image` (any depth, one
+/// channel), radially averaged, first falls to 0.5; pixels where `mask` (8-bit,
+/// optional) is non-zero take no part. Linear, not circular, correlation (zero padding).
+/// Returns NaN where it cannot be measured (no variance, or it never falls to 0.5
+/// within a quarter of the image).
+double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask = {});
+
+/// `windows` (coarse to fine) scaled by the smallest power of two that makes the final
+/// window at least kFinalWindowPerHalfWidth x `half_width_px`, as far as the largest window
+/// stays <= 256 px and <= the image's shorter side. A NaN half-width leaves them as they are.
+std::vector<int> windows_for_texture(const std::vector<int>& windows, double half_width_px,
+                                     cv::Size image);
+
+}  // namespace shearzone::piv
