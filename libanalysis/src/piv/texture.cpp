@@ -16,12 +16,30 @@ double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask) {
   const cv::Mat f = to_unit_float(image);
   cv::Mat m(f.size(), CV_32F, cv::Scalar(1.0f));  // 1 where the pixel counts
   if (!mask.empty()) m.setTo(0.0f, mask != 0);
-  const double n = cv::sum(m)[0];
-  if (!(n > 16)) return kNaN;
-  const double mean = cv::sum(f.mul(m))[0] / n;
-  cv::Mat z = (f - mean).mul(m);
-  // Linear correlation: pad to at least twice the size.
-  const int h = cv::getOptimalDFTSize(2 * f.rows), w = cv::getOptimalDFTSize(2 * f.cols);
+  // Tiles of kTile px (the whole image if smaller), each correlated with zero padding
+  // (linear, not circular); their products and pair counts are summed. Up to 6 tiles
+  // with at least 3/4 of their pixels unmasked, spread over the image: a 1080p frame
+  // costs a few ms instead of a 3840 x 2160 transform.
+  constexpr int kTile = 256;
+  constexpr std::size_t kMaxTiles = 6;
+  std::vector<cv::Rect> tiles;
+  if (f.rows < kTile || f.cols < kTile) {
+    tiles.emplace_back(0, 0, f.cols, f.rows);
+  } else {
+    const int ny = f.rows / kTile, nx = f.cols / kTile;
+    std::vector<cv::Rect> all;
+    for (int i = 0; i < ny; ++i)
+      for (int j = 0; j < nx; ++j) {
+        // Centred grid of tiles.
+        const cv::Rect r((f.cols - nx * kTile) / 2 + j * kTile, (f.rows - ny * kTile) / 2 + i * kTile, kTile, kTile);
+        if (cv::sum(m(r))[0] >= 0.75 * kTile * kTile) all.push_back(r);
+      }
+    const std::size_t take = std::min<std::size_t>(kMaxTiles, all.size());
+    for (std::size_t k = 0; k < take; ++k) tiles.push_back(all[k * all.size() / take]);
+  }
+  if (tiles.empty()) return kNaN;
+  const int th = tiles.front().height, tw = tiles.front().width;
+  const int h = cv::getOptimalDFTSize(2 * th), w = cv::getOptimalDFTSize(2 * tw);
   auto autocorr = [&](const cv::Mat& x) {
     cv::Mat p = cv::Mat::zeros(h, w, CV_32F), spec, out;
     x.copyTo(p(cv::Rect(0, 0, x.cols, x.rows)));
@@ -30,15 +48,31 @@ double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask) {
     cv::idft(spec, out, cv::DFT_REAL_OUTPUT | cv::DFT_SCALE);
     return out;
   };
-  const cv::Mat az = autocorr(z), am = autocorr(m);
+  cv::Mat az = cv::Mat::zeros(h, w, CV_32F), am = cv::Mat::zeros(h, w, CV_32F);
+  double n = 0;
+  cv::Mat full_pairs;  // pair counts of a tile without masked pixels (the same for each)
+  for (const cv::Rect& r : tiles) {
+    const cv::Mat ft = f(r), mt = m(r);
+    const double nt = cv::sum(mt)[0];
+    if (!(nt > 16)) continue;
+    const double mean = cv::sum(ft.mul(mt))[0] / nt;  // each tile's own mean (slow shading drifts)
+    az += autocorr((ft - mean).mul(mt));
+    if (nt < static_cast<double>(r.area())) {
+      am += autocorr(mt);
+    } else {
+      if (full_pairs.empty()) full_pairs = autocorr(mt);
+      am += full_pairs;
+    }
+    n += nt;
+  }
+  if (!(n > 16)) return kNaN;
   // Normalised per lag by the number of pixel pairs, radially averaged up to a quarter
-  // of the image's shorter side.
-  const int rmax = std::min(f.rows, f.cols) / 4;
+  // of the tile's shorter side.
+  const int rmax = std::min(th, tw) / 4;
   std::vector<double> sum(static_cast<std::size_t>(rmax) + 2, 0.0), cnt(sum.size(), 0.0);
   for (int dy = -rmax; dy <= rmax; ++dy)
     for (int dx = -rmax; dx <= rmax; ++dx) {
-      const double r = std::hypot(dx, dy);
-      const auto bin = static_cast<std::size_t>(std::lround(r));
+      const auto bin = static_cast<std::size_t>(std::lround(std::hypot(dx, dy)));
       if (bin > static_cast<std::size_t>(rmax)) continue;
       const int yy = (dy + h) % h, xx = (dx + w) % w;
       const double pairs = am.at<float>(yy, xx);

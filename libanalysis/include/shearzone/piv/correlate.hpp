@@ -79,8 +79,8 @@ class Correlator {
 Peak find_peak(const float* corr, int w, int radius, Subpixel method);
 
 /// Residual displacement from a to b by one Gauss-Newton (Lucas-Kanade) step on the
-/// windows themselves: with b scaled to a's energy and G = (grad a + grad b) / 2 (5-point
-/// differences over the (W - 4)^2 interior pixels), d = (sum G G^T)^-1 sum G (a - b).
+/// windows themselves: with b scaled to a's energy and G = (grad a + grad b) / 2 (central
+/// differences over the (W - 2)^2 interior pixels), d = (sum G G^T)^-1 sum G (a - b).
 /// For b(x) = a(x - d) the step is exact to O(d^3) (the symmetric difference), and no
 /// pair of pixels leaves the window, so it has no loss-of-pairs bias: the correlation
 /// peak of a broad texture (beads larger than a few px) is pulled towards zero
