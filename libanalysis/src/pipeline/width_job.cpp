@@ -166,8 +166,9 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   meta.emplace_back("estimator", "per row: mean_abs (the paper's mean |v| per bin) or lockin (the mean |v_theta| "
                                  "implied by the phase-locked waveform of v_theta; auto takes it where mean_abs is "
                                  "noise_limited)");
-  meta.emplace_back("rc_m", "first radius (outwards from the vane) where the estimator's velocity < v_c, linear "
-                            "interpolation between bin centres; never_below: R (a lower bound); "
+  meta.emplace_back("rc_m", "first radius (outwards from the vane) where the estimator's velocity < v_c, ln v "
+                            "interpolated between the bracketing bin centres less the bin mean's bias (exact for an "
+                            "exponential decay; linear where a bin is <= 0); never_below: R (a lower bound); "
                             "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
   meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
                              "rc_ci_method; empty when there is no replicate (one pair)");

@@ -17,8 +17,7 @@ double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask) {
   cv::Mat m(f.size(), CV_32F, cv::Scalar(1.0f));  // 1 where the pixel counts
   if (!mask.empty()) m.setTo(0.0f, mask != 0);
   // Tiles of kTile px (the whole image if smaller), each correlated with zero padding
-  // (linear, not circular); their products and pair counts are summed. Up to 6 tiles
-  // with at least 3/4 of their pixels unmasked, spread over the image: a 1080p frame
+  // (linear, not circular); their products and pair counts are summed: a 1080p frame
   // costs a few ms instead of a 3840 x 2160 transform.
   constexpr int kTile = 256;
   constexpr std::size_t kMaxTiles = 6;
@@ -26,16 +25,23 @@ double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask) {
   if (f.rows < kTile || f.cols < kTile) {
     tiles.emplace_back(0, 0, f.cols, f.rows);
   } else {
-    const int ny = f.rows / kTile, nx = f.cols / kTile;
-    std::vector<cv::Rect> all;
-    for (int i = 0; i < ny; ++i)
-      for (int j = 0; j < nx; ++j) {
-        // Centred grid of tiles.
-        const cv::Rect r((f.cols - nx * kTile) / 2 + j * kTile, (f.rows - ny * kTile) / 2 + i * kTile, kTile, kTile);
-        if (cv::sum(m(r))[0] >= 0.75 * kTile * kTile) all.push_back(r);
+    // Tiles at half-tile steps; the kMaxTiles with the most unmasked pixels (at least a
+    // quarter of the tile: a cup's annulus between vane and wall), overlapping by at most
+    // half a tile, in scan order among equals.
+    std::vector<std::pair<double, cv::Rect>> all;
+    for (int y = 0; y + kTile <= f.rows; y += kTile / 2)
+      for (int x = 0; x + kTile <= f.cols; x += kTile / 2) {
+        const cv::Rect r(x, y, kTile, kTile);
+        const double un = cv::sum(m(r))[0];
+        if (un >= 0.25 * kTile * kTile) all.emplace_back(un, r);
       }
-    const std::size_t take = std::min<std::size_t>(kMaxTiles, all.size());
-    for (std::size_t k = 0; k < take; ++k) tiles.push_back(all[k * all.size() / take]);
+    std::stable_sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (const auto& [un, r] : all) {
+      if (tiles.size() == kMaxTiles) break;
+      bool overlaps = false;
+      for (const cv::Rect& t : tiles) overlaps |= (t & r).area() > kTile * kTile / 2;
+      if (!overlaps) tiles.push_back(r);
+    }
   }
   if (tiles.empty()) return kNaN;
   const int th = tiles.front().height, tw = tiles.front().width;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -80,6 +81,10 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
 
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
                const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status) {
+  // The bin width: the smallest step between neighbouring bins with data.
+  double bin = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 1; k < r.size(); ++k)
+    if (n[k] && n[k - 1]) bin = std::min(bin, r[k] - r[k - 1]);
   bool have_prev = false;
   double r_prev = 0, v_prev = 0;
   for (std::size_t k = 0; k < r.size(); ++k) {
@@ -90,8 +95,23 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
         return r[k];
       }
       status = WidthStatus::kOk;
-      // Linear interpolation between (r_prev, v_prev >= v_c) and (r_k, v_k < v_c).
-      return r_prev + (v_prev - v_c) / (v_prev - v[k]) * (r[k] - r_prev);
+      if (!(v[k] > 0 && v_c > 0 && v_prev > v[k])) {
+        // Linear interpolation between (r_prev, v_prev >= v_c) and (r_k, v_k < v_c).
+        return r_prev + (v_prev - v_c) / (v_prev - v[k]) * (r[k] - r_prev);
+      }
+      // |v| decays about exponentially across a shear zone's edge: interpolate ln v,
+      // exact for v = A exp(-r / lambda) where the linear interpolation of v reads up
+      // to dr^2 / (8 lambda) high (0.09 mm for 1.2 mm bins, lambda = 2 mm).
+      const double lambda = (r[k] - r_prev) / std::log(v_prev / v[k]);
+      double rc = r_prev + lambda * std::log(v_prev / v_c);
+      // A bin holds the mean of the exponential over its width D, exp(-r_centre / lambda)
+      // times sinh(x) / x with x = D / (2 lambda): every bin reads that factor high, r_c
+      // lambda ln(sinh(x) / x) further out (about D^2 / (24 lambda)).
+      if (std::isfinite(bin) && bin > 0) {
+        const double x = 0.5 * bin / lambda;
+        if (x > 1e-6 && x < 20) rc -= lambda * std::log(std::sinh(x) / x);
+      }
+      return std::clamp(rc, r_prev, r[k]);
     }
     have_prev = true;
     r_prev = r[k];

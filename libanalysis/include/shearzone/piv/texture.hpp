@@ -25,7 +25,8 @@ constexpr double kFinalWindowPerHalfWidth = 2.5;
 /// Radius, px, at which the normalised autocorrelation of `image` (any depth, one
 /// channel), radially averaged, first falls to 0.5; pixels where `mask` (8-bit,
 /// optional) is non-zero take no part. Linear, not circular, correlation (zero padding)
-/// over up to 6 tiles of 256 px at least 3/4 unmasked (the whole image if smaller).
+/// over up to 6 tiles of 256 px, those with the most unmasked pixels (at least a quarter;
+/// the whole image if smaller than a tile).
 /// Returns NaN where it cannot be measured (no variance, or it never falls to 0.5
 /// within a quarter of a tile: 64 px, beads of about 280 px).
 double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask = {});
