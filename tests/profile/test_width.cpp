@@ -14,31 +14,35 @@ std::vector<std::size_t> ones(std::size_t n) { return std::vector<std::size_t>(n
 
 }  // namespace
 
-TEST_CASE("r_c interpolates ln v between the bracketing bins, exact for bin means of an exponential",
-          "[profile][width]") {
+TEST_CASE("r_c interpolates ln v between the bracketing bins; the bin means' bias is bounded", "[profile][width]") {
   // Bins of width 1 centred at 0.5, 1.5, ...: each holds the mean of exp(-r / 2) over it.
   constexpr double kLambda = 2.0, kTrueRc = 4.3;
-  std::vector<double> rb, vb;
+  const double x = 0.5 / kLambda, bin_bias = kLambda * std::log(std::sinh(x) / x);
+  std::vector<double> rb, vb, exact;
   for (int k = 0; k < 10; ++k) {
-    const double c = k + 0.5, x = 0.5 / kLambda;
+    const double c = k + 0.5;
     rb.push_back(c);
     vb.push_back(std::exp(-c / kLambda) * std::sinh(x) / x);
+    exact.push_back(std::exp(-c / kLambda));
   }
   WidthStatus st;
-  // The former linear interpolation of v read this 0.040 high (dr^2 / (8 lambda) at most
-  // 0.0625, plus the bin mean's D^2 / (24 lambda) = 0.021).
-  CHECK(scan_rc(rb, vb, ones(10), std::exp(-kTrueRc / kLambda), 20.0, st) == Approx(kTrueRc).margin(1e-9));
+  double bound = -1;
+  const double vc = std::exp(-kTrueRc / kLambda);
+  // Values at the bin centres: exact (the former linear interpolation of v read 0.019 high).
+  CHECK(scan_rc(rb, exact, ones(10), vc, 20.0, st) == Approx(kTrueRc).margin(1e-9));
   CHECK(st == WidthStatus::kOk);
+  // Bin means: out by lambda ln(sinh(x) / x), which is the bound reported.
+  const double rc = scan_rc(rb, vb, ones(10), vc, 20.0, st, &bound);
+  CHECK(rc == Approx(kTrueRc + bin_bias).margin(1e-9));
+  CHECK(bound == Approx(bin_bias).margin(1e-12));
+  CHECK(rc - bound <= kTrueRc + 1e-9);
 }
 
 TEST_CASE("r_c: statuses, empty bins and the linear fallback", "[profile][width]") {
   const std::vector<double> r = {1, 2, 3, 4}, v = {10, 8, 4, 1};
   WidthStatus st;
-  // ln-interpolated between (2, 8) and (3, 4) (lambda = 1 / ln 2), less the bin mean's
-  // lambda ln(sinh(x) / x) with x = 1 / (2 lambda).
-  const double lambda = 1.0 / std::log(2.0), x = 0.5 / lambda;
-  CHECK(scan_rc(r, v, ones(4), 6.0, 5.0, st) ==
-        Approx(2 + lambda * std::log(8.0 / 6.0) - lambda * std::log(std::sinh(x) / x)));
+  // ln-interpolated between (2, 8) and (3, 4).
+  CHECK(scan_rc(r, v, ones(4), 6.0, 5.0, st) == Approx(2 + std::log(8.0 / 6.0) / std::log(2.0)));
   CHECK(st == WidthStatus::kOk);
   // A bin at or below zero (a lock-in amplitude can be): linear between the bins.
   CHECK(scan_rc(r, {10, 8, -2, 1}, ones(4), 6.0, 5.0, st) == Approx(2.2));
@@ -48,10 +52,10 @@ TEST_CASE("r_c: statuses, empty bins and the linear fallback", "[profile][width]
   CHECK(st == WidthStatus::kBelowAtVane);
   // Empty bins are skipped: bin 2 (r = 3) has no data.
   {
-    // Bins 1 and 3 bracket (lambda = 2 / ln 8); the bin width is still 1 (bins 0, 1).
-    const double l = 2.0 / std::log(8.0), y = 0.5 / l;
-    CHECK(scan_rc(r, v, {1, 1, 0, 1}, 6.0, 5.0, st) ==
-          Approx(2 + l * std::log(8.0 / 6.0) - l * std::log(std::sinh(y) / y)));
+    // Bins 1 and 3 bracket (lambda = 2 / ln 8); not neighbours: no bin bound.
+    double bound = -1;
+    CHECK(scan_rc(r, v, {1, 1, 0, 1}, 6.0, 5.0, st, &bound) == Approx(2 + 2.0 * std::log(8.0 / 6.0) / std::log(8.0)));
+    CHECK(bound == 0.0);
   }
   CHECK(std::string(width_status_name(WidthStatus::kNoiseLimited)) == "noise_limited");
 }

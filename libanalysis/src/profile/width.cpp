@@ -80,12 +80,11 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
 }
 
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
-               const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status) {
-  // The bin width: the smallest step between neighbouring bins with data.
-  double bin = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 1; k < r.size(); ++k)
-    if (n[k] && n[k - 1]) bin = std::min(bin, r[k] - r[k - 1]);
+               const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status,
+               double* bin_bound_m) {
+  if (bin_bound_m) *bin_bound_m = 0.0;
   bool have_prev = false;
+  std::size_t k_prev = 0;
   double r_prev = 0, v_prev = 0;
   for (std::size_t k = 0; k < r.size(); ++k) {
     if (n[k] == 0) continue;
@@ -103,17 +102,19 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
       // exact for v = A exp(-r / lambda) where the linear interpolation of v reads up
       // to dr^2 / (8 lambda) high (0.09 mm for 1.2 mm bins, lambda = 2 mm).
       const double lambda = (r[k] - r_prev) / std::log(v_prev / v[k]);
-      double rc = r_prev + lambda * std::log(v_prev / v_c);
-      // A bin holds the mean of the exponential over its width D, exp(-r_centre / lambda)
-      // times sinh(x) / x with x = D / (2 lambda): every bin reads that factor high, r_c
-      // lambda ln(sinh(x) / x) further out (about D^2 / (24 lambda)).
-      if (std::isfinite(bin) && bin > 0) {
-        const double x = 0.5 * bin / lambda;
-        if (x > 1e-6 && x < 20) rc -= lambda * std::log(std::sinh(x) / x);
+      if (bin_bound_m) {
+        // A bin holds the mean over the radii of its vectors, not the value at its
+        // centre: for radii spread evenly over a bin of width D, exp(-r / lambda) reads
+        // sinh(x) / x high (x = D / (2 lambda)), r_c lambda ln(sinh(x) / x) out; a coarse
+        // grid's radii sit unevenly in a bin and move it either way by as much.
+        const double D = k == k_prev + 1 ? r[k] - r_prev : std::numeric_limits<double>::quiet_NaN();
+        const double x = 0.5 * D / lambda;
+        if (x > 1e-6 && x < 20) *bin_bound_m = lambda * std::log(std::sinh(x) / x);
       }
-      return std::clamp(rc, r_prev, r[k]);
+      return r_prev + lambda * std::log(v_prev / v_c);
     }
     have_prev = true;
+    k_prev = k;
     r_prev = r[k];
     v_prev = v[k];
   }
@@ -135,7 +136,8 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   // Bins without a lock-in value are skipped like empty bins.
   std::vector<std::size_t> n(nb, 0);
   for (std::size_t k = 0; k < nb; ++k) n[k] = std::isfinite(in.v_abs_lockin[k]) ? 1 : 0;
-  res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status);
+  double bin_bound = 0;
+  res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound);
   // The floor where the decision was made.
   std::vector<std::size_t> idx;
   for (std::size_t k = 0; k < nb; ++k)
@@ -176,8 +178,10 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   const double a = 0.5 * (1.0 - opt.confidence);
   const double f = small_sample_factor(a, static_cast<double>(res.bootstrap_units));
   for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
-  res.ci_low_m = core::percentile(rcs, a);
-  res.ci_high_m = core::percentile(rcs, 1.0 - a);
+  // The binning's own bias (scan_rc) is not sampling noise: both ends move out by its bound.
+  if (!opt.widen_by_binning) bin_bound = 0;
+  res.ci_low_m = core::percentile(rcs, a) - bin_bound;
+  res.ci_high_m = core::percentile(rcs, 1.0 - a) + bin_bound;
   return res;
 }
 
@@ -209,7 +213,8 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
   if (nb == 0 || in.v_abs.size() != nb || in.n_vectors.size() != nb)
     throw InputError("width: the profile has no bins");
   WidthResult res;
-  res.rc_m = scan_rc(in.r_m, in.v_abs, in.n_vectors, opt.v_c_m_per_s, in.R_m, res.status);
+  double bin_bound = 0;
+  res.rc_m = scan_rc(in.r_m, in.v_abs, in.n_vectors, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound);
   std::vector<double> noise;
   for (std::size_t k = 0; k < nb; ++k)
     if (in.n_vectors[k] > 0 && k < in.v_noise.size()) noise.push_back(in.v_noise[k]);
@@ -243,8 +248,10 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
     const double f = std::sqrt(G / (G - 1.0)) * small_sample_factor(a, G);
     for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
   }
-  res.ci_low_m = core::percentile(rcs, a);
-  res.ci_high_m = core::percentile(rcs, 1.0 - a);
+  // The binning's own bias (scan_rc) is not sampling noise: both ends move out by its bound.
+  if (!opt.widen_by_binning) bin_bound = 0;
+  res.ci_low_m = core::percentile(rcs, a) - bin_bound;
+  res.ci_high_m = core::percentile(rcs, 1.0 - a) + bin_bound;
   return res;
 }
 

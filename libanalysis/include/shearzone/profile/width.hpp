@@ -52,6 +52,10 @@ struct WidthOptions {
   double confidence = 0.95;    ///< two-sided level of the interval
   std::uint64_t seed = 1;      ///< bootstrap seed
   Estimator estimator = Estimator::kAuto;
+  /// Widen the interval on both sides by the binning's bias bound at the crossing
+  /// (scan_rc's bin_bound_m). Off: the interval holds the sampling noise alone (against
+  /// a truth scanned from the same bins).
+  bool widen_by_binning = true;
   void validate() const;
 };
 
@@ -81,9 +85,13 @@ struct WidthResult {
   double rho = 0;                       ///< AR(1) lag-1 correlation (pairs groupings)
 };
 
-/// The scan alone: r_c of bin means `v` at radii `r` (bins with n = 0 skipped).
+/// The scan alone: r_c of bin means `v` at radii `r` (bins with n = 0 skipped), ln v
+/// interpolated between the bracketing bins (linear where one is <= 0). `bin_bound_m`
+/// (optional) receives the bound of the binning's bias at the crossing, lambda ln(sinh(x)/x)
+/// with x = D / (2 lambda) for neighbouring bins D apart (0 where it does not apply).
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
-               const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status);
+               const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status,
+               double* bin_bound_m = nullptr);
 
 /// r_c, its bootstrap interval and its status.
 WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& options);
