@@ -9,9 +9,10 @@ branch, setting, bead_diameter_m, rc_video_m, rc_video_status, rc_centres_m,
 rc_centres_status, rc_error_centres_over_d, piv_rms_error_px, piv_s), gathered from
 `shearzone sim check RUN -o DIR --size W,H --codec C --vc V` at several image sizes.
 Plots (a) (r_c(video) - r_c(camera truth)) / d against px per bead, one line per cup,
-codec and branch with a zone (rows where both statuses are ok), the +-0.25 d band
-drawn; a row whose video status differs from the truth's is marked with a cross at the
-edge of the plot; (b) the PIV's RMS error per vector against the camera's truth.
+codec and branch whose camera truth has a zone edge (status ok), colour by cup and
+branch, solid and filled for mp4v, dashed and open for avc1, the +-0.25 d band drawn; a
+row whose video status differs from the truth's is a cross at the top; (b) the PIV's RMS
+error per vector against the camera's truth.
 """
 import math
 import sys
@@ -30,40 +31,45 @@ def main():
         sys.exit(f"{sys.argv[1]}: no rows")
     szplot.setup()
     fig, (a1, a2) = plt.subplots(1, 2, figsize=szplot.WIDE)
-    keys = list(dict.fromkeys((r["cup"], r["codec"], r["estimator"], r["branch"]) for r in rows))
+    names = {"cup": "data-samples cup", "cup_chains": "4-bead chains", "cup_3mm": "3 mm beads"}
+    zones = list(dict.fromkeys((r["cup"], r["branch"]) for r in rows))
     i = 0
-    for key in keys:
-        sel = sorted((r for r in rows if (r["cup"], r["codec"], r["estimator"], r["branch"]) == key),
-                     key=lambda r: num(r["px_per_bead"]))
-        if not any(r["rc_centres_status"] == "ok" for r in sel):
+    for cup, branch in zones:
+        here = [r for r in rows if (r["cup"], r["branch"]) == (cup, branch)]
+        if not any(r["rc_centres_status"] == "ok" for r in here):
             continue  # no zone edge to compare (below_at_vane, never_below): the status alone counts
-        st = szplot.series(i, line=True, open_marker=key[1] == "avc1")
+        base = szplot.series(i)
         i += 1
-        label = f"{key[0]}, {key[3]}, {key[1]}"
-        xs, ys = [], []
-        for r in sel:
-            p = num(r["px_per_bead"])
-            if r["rc_video_status"] != r["rc_centres_status"]:
-                a1.plot([p], [0.95], linestyle="none", marker="x", color=st["color"])
-                continue
-            e = num(r["rc_error_centres_over_d"])
-            if not math.isnan(e):
-                xs.append(p)
-                ys.append(e)
-        a1.plot(xs, ys, label=label, **st)
-        pr = [(num(r["px_per_bead"]), num(r["piv_rms_error_px"])) for r in sel]
-        a2.plot([p for p, _ in pr], [e for _, e in pr], **st)
+        for codec in dict.fromkeys(r["codec"] for r in here):
+            sel = sorted((r for r in here if r["codec"] == codec), key=lambda r: num(r["px_per_bead"]))
+            st = dict(color=base["color"], marker=base["marker"],
+                      linestyle="-" if codec == "mp4v" else "--",
+                      markerfacecolor=base["color"] if codec == "mp4v" else "white")
+            label = f"{names.get(cup, cup)}, {branch.replace('phi0_', 'phi0 ')} rad, {codec}"
+            xs, ys = [], []
+            for r in sel:
+                p = num(r["px_per_bead"])
+                if r["rc_video_status"] != r["rc_centres_status"]:
+                    a1.plot([p], [0.9], linestyle="none", marker="x", color=base["color"])
+                    continue
+                e = num(r["rc_error_centres_over_d"])
+                if r["rc_centres_status"] == "ok" and not math.isnan(e):
+                    xs.append(p)
+                    ys.append(e)
+            a1.plot(xs, ys, **st)
+            pr = [(num(r["px_per_bead"]), num(r["piv_rms_error_px"])) for r in sel]
+            a2.plot([p for p, _ in pr], [e for _, e in pr], label=label, **st)
     for y in (-0.25, 0.25):
         a1.axhline(y, color="0.6", linewidth=0.6, linestyle="--")
     a1.axhline(0.0, color="0.3", linewidth=0.6)
     a1.set_ylim(-1.2, 1.0)
     a1.set_xlabel("bead diameter in the image (px)")
     a1.set_ylabel(r"$(r_c^{video} - r_c^{camera})\,/\,d$")
-    a1.set_title("(a) width error (x: status differs)")
+    a1.set_title("(a) width error where the camera sees a zone edge\n(x: the video's status differs)")
     a2.set_xlabel("bead diameter in the image (px)")
     a2.set_ylabel("PIV RMS error (px per pair)")
     a2.set_title("(b) PIV error against the camera's truth")
-    a1.legend(fontsize=5, loc="lower right")
+    szplot.legend_outside(a2, fontsize=6)
     szplot.tight(fig)
     szplot.save(fig, sys.argv[2])
 

@@ -72,6 +72,8 @@ L="$OUT/laos"
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png" \
     --image "$OUT/beads_vane/video.mp4" --every 2
 "$PY" scripts/plot_closed_loop.py "$OUT/sim_cup/check"
+# The closed loop against bead size (docs/sim.md): from its committed table
+"$PY" scripts/plot_bead_size.py docs/img/closed_loop_bead_size.csv "$OUT/closed_loop_bead_size.png"
 "$PY" scripts/plot_bench_piv.py "$OUT/bench_piv"
 "$PY" scripts/plot_bench_sim.py "$OUT/bench_sim"
 "$PY" scripts/plot_bench_sim.py "$OUT/bench_cup"
@@ -91,5 +93,6 @@ PY
 # Every figure of the demo (check_figures.py's list) and the benchmark plots
 "$PY" scripts/check_figures.py "$OUT"
 "$PY" scripts/check_figures.py "$OUT" bench_piv/piv_speed_accuracy.png bench_piv/piv_failure_map.png \
-    bench_sim/sim_speed.png bench_sim/sim_accuracy.png bench_cup/sim_cup_accuracy.png fig2f_phi_c.png
+    bench_sim/sim_speed.png bench_sim/sim_accuracy.png bench_cup/sim_cup_accuracy.png fig2f_phi_c.png \
+    closed_loop_bead_size.png
 echo "test_figures: all figures rendered and valid in $OUT"

@@ -112,15 +112,16 @@ struct RenderCli {
   std::vector<int> size;
 };
 
-/// Beads much larger than the PIV's final window read low (docs/sim.md, "Where the
-/// pipeline loses it": a 2 px shift of 54 px beads reads 1.72 px with the default windows).
-constexpr double kLargeBeadPx = 30.0;
+/// Small beads in a small image: the closed loop reads r_c low (docs/sim.md, "Bead size,
+/// codec and the closed loop": 0.4-1.1 d low at 8 px per bead on the data-samples cups,
+/// within 0.25 d from 15 px). Large beads need no note: `piv` sizes its windows to them.
+constexpr double kSmallBeadPx = 12.0;
 void warn_bead_size(double bead_px) {
-  if (bead_px > kLargeBeadPx)
+  if (bead_px < kSmallBeadPx)
     std::fprintf(stderr,
-                 "sim render: note: beads are %.0f px across; PIV with final windows under a bead reads such "
-                 "beads low (docs/sim.md, \"Where the pipeline loses it\"): film at 10-15 px per bead (--size "
-                 "or --m-per-px) or use final windows of at least a bead\n",
+                 "sim render: note: beads are %.0f px across; at 8 px per bead the closed loop read r_c 0.4-1.1 "
+                 "bead diameters low (docs/sim.md, \"Bead size, codec and the closed loop\"): film at 15 px per "
+                 "bead or more (--size or --m-per-px)\n",
                  bead_px);
 }
 

@@ -14,7 +14,8 @@ std::vector<std::size_t> ones(std::size_t n) { return std::vector<std::size_t>(n
 
 }  // namespace
 
-TEST_CASE("r_c interpolates ln v between the bracketing bins; the bin means' bias is bounded", "[profile][width]") {
+TEST_CASE("r_c interpolates ln v between the bracketing bins, exact for bin means of an exponential",
+          "[profile][width]") {
   // Bins of width 1 centred at 0.5, 1.5, ...: each holds the mean of exp(-r / 2) over it.
   constexpr double kLambda = 2.0, kTrueRc = 4.3;
   const double x = 0.5 / kLambda, bin_bias = kLambda * std::log(std::sinh(x) / x);
@@ -28,21 +29,28 @@ TEST_CASE("r_c interpolates ln v between the bracketing bins; the bin means' bia
   WidthStatus st;
   double bound = -1;
   const double vc = std::exp(-kTrueRc / kLambda);
-  // Values at the bin centres: exact (the former linear interpolation of v read 0.019 high).
-  CHECK(scan_rc(rb, exact, ones(10), vc, 20.0, st) == Approx(kTrueRc).margin(1e-9));
+  // Values at the bin centres (not bin means) come out the bin mean's bias low, within
+  // the bound (the former linear interpolation of v read them 0.019 high).
+  double centre_bound = -1;
+  const double rc_centres = scan_rc(rb, exact, ones(10), vc, 20.0, st, &centre_bound);
+  CHECK(rc_centres == Approx(kTrueRc - bin_bias).margin(1e-9));
+  CHECK(std::abs(rc_centres - kTrueRc) <= centre_bound + 1e-12);
   CHECK(st == WidthStatus::kOk);
-  // Bin means: out by lambda ln(sinh(x) / x), which is the bound reported.
+  // Bin means (radii spread evenly over each bin): exact too, the bin mean's
+  // lambda ln(sinh(x) / x) taken off; it is the bound reported for uneven spreads.
   const double rc = scan_rc(rb, vb, ones(10), vc, 20.0, st, &bound);
-  CHECK(rc == Approx(kTrueRc + bin_bias).margin(1e-9));
+  CHECK(rc == Approx(kTrueRc).margin(1e-9));
   CHECK(bound == Approx(bin_bias).margin(1e-12));
-  CHECK(rc - bound <= kTrueRc + 1e-9);
 }
 
 TEST_CASE("r_c: statuses, empty bins and the linear fallback", "[profile][width]") {
   const std::vector<double> r = {1, 2, 3, 4}, v = {10, 8, 4, 1};
   WidthStatus st;
-  // ln-interpolated between (2, 8) and (3, 4).
-  CHECK(scan_rc(r, v, ones(4), 6.0, 5.0, st) == Approx(2 + std::log(8.0 / 6.0) / std::log(2.0)));
+  // ln-interpolated between (2, 8) and (3, 4) (lambda = 1 / ln 2), less the bin mean's
+  // lambda ln(sinh(x) / x), x = 1 / (2 lambda).
+  const double lambda = 1.0 / std::log(2.0), x = 0.5 / lambda;
+  CHECK(scan_rc(r, v, ones(4), 6.0, 5.0, st) ==
+        Approx(2 + lambda * std::log(8.0 / 6.0) - lambda * std::log(std::sinh(x) / x)));
   CHECK(st == WidthStatus::kOk);
   // A bin at or below zero (a lock-in amplitude can be): linear between the bins.
   CHECK(scan_rc(r, {10, 8, -2, 1}, ones(4), 6.0, 5.0, st) == Approx(2.2));

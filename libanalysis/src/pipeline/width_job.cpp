@@ -167,12 +167,13 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
                                  "implied by the phase-locked waveform of v_theta; auto takes it where mean_abs is "
                                  "noise_limited)");
   meta.emplace_back("rc_m", "first radius (outwards from the vane) where the estimator's velocity < v_c, ln v "
-                            "interpolated between the bracketing bin centres (exact for an exponential decay; linear "
-                            "where a bin is <= 0); never_below: R (a lower bound); "
+                            "interpolated between the bracketing bin centres less the bin mean's lambda ln(sinh(x)/x), x = "
+                            "bin / (2 lambda) (exact for an exponential decay over evenly spread radii; linear where a "
+                            "bin is <= 0); never_below: R (a lower bound); "
                             "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
   meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
-                             "rc_ci_method, widened on both sides by the binning's bias bound lambda ln(sinh(x)/x), "
-                             "x = bin / (2 lambda), lambda from the two bins around r_c; empty when there is no "
+                             "rc_ci_method, widened on both sides by lambda ln(sinh(x)/x) (radii spread unevenly over "
+                             "a bin move r_c by about as much), lambda from the two bins around r_c; empty when there is no "
                              "replicate (one pair)");
   meta.emplace_back("rc_ci_method",
                     "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "

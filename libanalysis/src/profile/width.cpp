@@ -102,16 +102,16 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
       // exact for v = A exp(-r / lambda) where the linear interpolation of v reads up
       // to dr^2 / (8 lambda) high (0.09 mm for 1.2 mm bins, lambda = 2 mm).
       const double lambda = (r[k] - r_prev) / std::log(v_prev / v[k]);
-      if (bin_bound_m) {
-        // A bin holds the mean over the radii of its vectors, not the value at its
-        // centre: for radii spread evenly over a bin of width D, exp(-r / lambda) reads
-        // sinh(x) / x high (x = D / (2 lambda)), r_c lambda ln(sinh(x) / x) out; a coarse
-        // grid's radii sit unevenly in a bin and move it either way by as much.
-        const double D = k == k_prev + 1 ? r[k] - r_prev : std::numeric_limits<double>::quiet_NaN();
-        const double x = 0.5 * D / lambda;
-        if (x > 1e-6 && x < 20) *bin_bound_m = lambda * std::log(std::sinh(x) / x);
-      }
-      return r_prev + lambda * std::log(v_prev / v_c);
+      // A bin holds the mean over the radii of its vectors, not the value at its centre:
+      // for radii spread evenly over a bin of width D, exp(-r / lambda) reads sinh(x) / x
+      // high (x = D / (2 lambda)), r_c lambda ln(sinh(x) / x) out, which is taken off; radii
+      // spread unevenly (a coarse grid) move it either way by about as much: the bound.
+      double bin_bias = 0;
+      const double D = k == k_prev + 1 ? r[k] - r_prev : 0.0;
+      const double x = 0.5 * D / lambda;
+      if (x > 1e-6 && x < 20) bin_bias = lambda * std::log(std::sinh(x) / x);
+      if (bin_bound_m) *bin_bound_m = bin_bias;
+      return std::max(r_prev, r_prev + lambda * std::log(v_prev / v_c) - bin_bias);
     }
     have_prev = true;
     k_prev = k;
