@@ -24,6 +24,7 @@ struct PivCli {
   std::string grey = "luma";
   std::string preset;
   bool no_deform = false;
+  bool no_coarse = false;
   std::vector<double> centre, annulus, vane;
   std::vector<std::string> attrs;
   double m_per_px = core::kUnset, n_chain = core::kUnset;
@@ -47,6 +48,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.residual = piv::residual_from_name(s.residual);
   j.size_windows_to_texture = c.count("--windows") == 0;
   j.piv.deform = !s.no_deform;
+  j.piv.coarse_estimate = !s.no_coarse;
   j.grey = io::grey_mode_from_name(s.grey);
   if (!s.centre.empty()) {
     j.centre_x_px = s.centre[0];
@@ -95,6 +97,18 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
                 sum.vectors_per_pair, 100.0 * sum.valid / n, 100.0 * sum.replaced / n,
                 100.0 * sum.masked / n, 100.0 * sum.invalid / n, sum.seconds,
                 sum.pairs / std::max(sum.seconds, 1e-9));
+    const int w0 = sum.windows_px.empty() ? 0 : sum.windows_px.front();
+    if (sum.coarse_predictor_pairs > 0)
+      std::printf("piv: %zu pair%s moved more than a quarter of the first window (%d px; coarse estimate up "
+                  "to %.0f px): the coarse field was their first pass's predictor\n",
+                  sum.coarse_predictor_pairs, sum.coarse_predictor_pairs == 1 ? "" : "s", w0,
+                  sum.coarse_max_displacement_px);
+    if (sum.refused_pairs > 0)
+      std::fprintf(stderr,
+                   "shearzone: warning: %zu of %zu pairs refused (every vector invalid): under a quarter "
+                   "of the coarse templates matched within +-%d px (displacements beyond one first "
+                   "window: give larger --windows; or unrelated frames)\n",
+                   sum.refused_pairs, sum.pairs, w0);
     if (j.vane.log_offset_auto)
       std::printf("piv: angle log offset found from the video: %.3f s\n", sum.log_offset_s);
     if (j.vane.phase_auto)
@@ -150,6 +164,10 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--search", p.restricted_search,
                 "Peak search radius after the first pass, fraction of the window; range: 0.05..0.5")
       ->capture_default_str();
+  c->add_flag("--no-coarse", s->no_coarse,
+              "No coarse estimate before the first pass (by default, templates of the first "
+              "window matched at half resolution within +-1 window give the first pass its "
+              "predictor where they find displacements above a quarter window)");
   c->add_option("--smoothing", p.predictor_smoothing,
                 "Predictor smoothing between passes, grid steps (0: off); range: 0..5")
       ->capture_default_str();

@@ -463,6 +463,10 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     sum.replaced += f.count(core::VectorFlag::kReplaced);
     sum.masked += f.count(core::VectorFlag::kMasked);
     sum.invalid += f.count(core::VectorFlag::kInvalid);
+    sum.coarse_predictor_pairs += r.coarse_predictor;
+    sum.refused_pairs += r.coarse_refused;
+    if (std::isfinite(r.coarse_max_displacement_px))
+      sum.coarse_max_displacement_px = std::max(sum.coarse_max_displacement_px, r.coarse_max_displacement_px);
     if (csv) {
       core::Metadata m2 = meta;
       m2.emplace_back("frame_a", a.frame.label);

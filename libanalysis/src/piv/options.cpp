@@ -102,6 +102,15 @@ core::Metadata PivOptions::to_metadata() const {
           {"piv_residual", deform ? residual_name(residual) : "peak"},
           {"piv_restricted_search", format_number(restricted_search)},
           {"piv_predictor_smoothing_steps", format_number(predictor_smoothing)},
+          {"piv_coarse_estimate",
+           coarse_estimate
+               ? fmt::format("on: templates of {} px matched at half resolution within +-{} px; the "
+                             "coarse field is the first pass's predictor where its largest valid "
+                             "displacement exceeds {} px",
+                             windows_px.empty() ? 0 : windows_px.front(),
+                             windows_px.empty() ? 0 : windows_px.front(),
+                             windows_px.empty() ? 0 : windows_px.front() / 4)
+               : std::string("off")},
           {"piv_median_test",
            fmt::format("radius {}, epsilon {} px, threshold {}", median_radius,
                        format_number(median_epsilon_px), format_number(median_threshold))},

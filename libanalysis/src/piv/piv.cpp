@@ -29,6 +29,12 @@ constexpr double kMinGradientConditioning = 0.05;
 /// Seeded particles of 2-4 px correlate to sigma 0.7-1.4 px; shaded beads of 8 px to about 1.6 px.
 constexpr double kMinGradientPeakSigmaPx = 1.5;
 
+/// Smallest fraction of a final window's samples inside the frame, in A and in B, for
+/// a vector to count (below it, more than a quarter of the window is clamped border).
+/// At 16 px windows this starts at displacements of 8 px at the frame's edge; on
+/// synthetic beads shifted 40 px, the vectors it removes were 1.6-3.7 px off.
+constexpr double kMinInsideFraction = 0.75;
+
 struct Grid {
   int window = 0, step = 0, nx = 0, ny = 0;
   double x0 = 0, y0 = 0;  // centre of the first window
@@ -129,6 +135,123 @@ void unit_float_into(const cv::Mat& image, cv::Mat& out) {
 }
 }  // namespace
 
+namespace {
+/// Coarse displacement field for the first pass's range check: the pair at half
+/// resolution (pyrDown: coarse pixel (i, j) is centred on full pixel (2i, 2j)),
+/// templates of t = w0/2 coarse px of A (w0 px of the image, the first window's
+/// footprint) side by side, each found in B within +-t coarse px (+-w0 px of the
+/// image) by zero-mean normalised cross-correlation (cv::matchTemplate): unlike the
+/// first pass's FFT correlation of two w0 windows (which loses most pairs beyond
+/// w0/4 and aliases beyond w0/2), no pairs leave the template, so a displacement of
+/// a whole first window still peaks at full height. Integer
+/// coarse pixels (2 px of the image); the first pass refines. A template is masked
+/// when its centre is, or more than half its pixels are, masked in A or B; masked
+/// pixels take the template's (or the search region's) unmasked mean. A peak below
+/// kMinCoarsePeak or on the search border is unmatched (kInvalid). Returns full-image px.
+constexpr double kMinCoarsePeak = 0.5;
+/// A pair whose coarse estimate matches fewer than this fraction of its textured
+/// templates (and at least kMinCoarseTemplates are textured) is refused: every
+/// vector invalid. Measured matched fractions: 0 % for uniform shifts beyond the
+/// search (synthetic beads, 64-120 px with 64 px first windows: every first-pass
+/// vector there was a wrong match at about zero, half of them flagged valid); 62 % or
+/// more on every real recording tried (PIVlab sand 0->3 with its decorrelated
+/// avalanche, the OpenPIV tutorial pair, Oseen, the PIVlab jet).
+constexpr double kMinCoarseMatched = 0.25;
+constexpr std::size_t kMinCoarseTemplates = 4;
+struct CoarseField {
+  VectorField field;
+  std::size_t textured = 0;  ///< templates neither masked nor blank
+  std::size_t matched = 0;   ///< of those, peaks >= kMinCoarsePeak inside the search
+};
+CoarseField coarse_field(const cv::Mat& a_in, const cv::Mat& b_in, const cv::Mat& mask_a,
+                         const cv::Mat& mask_b, int w0) {
+  const cv::Size half((a_in.cols + 1) / 2, (a_in.rows + 1) / 2);
+  const int t = w0 / 2, step = t, r = t;
+  CoarseField out;
+  VectorField& f = out.field;
+  if (half.width < t + 2 || half.height < t + 2) return out;
+  cv::Mat a, b, ma, mb;
+  auto down = [&](const cv::Mat& in, cv::Mat& dst) {
+    cv::Mat u;
+    unit_float_into(in, u);
+    cv::pyrDown(u, dst, half);
+  };
+  down(a_in, a);
+  down(b_in, b);
+  // A coarse pixel is masked when any full pixel of its 3x3 neighbourhood is.
+  cv::Mat mask;
+  for (const cv::Mat* m : {&mask_a, &mask_b})
+    if (!m->empty()) {
+      cv::Mat grown, h;
+      cv::dilate(*m, grown, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+      cv::resize(grown, h, half, 0, 0, cv::INTER_NEAREST);
+      if (mask.empty()) mask = h;
+      else cv::bitwise_or(mask, h, mask);
+    }
+  const int nx = (half.width - t) / step + 1, ny = (half.height - t) / step + 1;
+  f.x_px.resize(static_cast<std::size_t>(nx));
+  f.y_px.resize(static_cast<std::size_t>(ny));
+  for (int j = 0; j < nx; ++j) f.x_px[static_cast<std::size_t>(j)] = 2.0 * (j * step + 0.5 * (t - 1));
+  for (int i = 0; i < ny; ++i) f.y_px[static_cast<std::size_t>(i)] = 2.0 * (i * step + 0.5 * (t - 1));
+  f.resize_to_grid();
+  // Masked pixels of a patch take the mean of its unmasked ones.
+  auto fill_masked = [&](cv::Mat& patch, const cv::Rect& roi) {
+    if (mask.empty()) return true;
+    const cv::Mat m = mask(roi);
+    const int n_masked = cv::countNonZero(m);
+    if (2 * n_masked > m.rows * m.cols) return false;
+    if (n_masked > 0) patch.setTo(cv::mean(patch, m == 0), m);
+    return true;
+  };
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < ny; ++i) {
+    cv::Mat tpl, reg, res;
+    for (int j = 0; j < nx; ++j) {
+      const std::size_t k = f.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
+      const int x = j * step, y = i * step;
+      const cv::Rect troi(x, y, t, t);
+      if (!mask.empty() && mask.at<std::uint8_t>(y + t / 2, x + t / 2)) {
+        f.flag[k] = VectorFlag::kMasked;
+        continue;
+      }
+      const int x0 = std::max(0, x - r), y0 = std::max(0, y - r);
+      const int x1 = std::min(half.width, x + t + r), y1 = std::min(half.height, y + t + r);
+      const cv::Rect sroi(x0, y0, x1 - x0, y1 - y0);
+      a(troi).copyTo(tpl);
+      b(sroi).copyTo(reg);
+      if (!fill_masked(tpl, troi) || !fill_masked(reg, sroi)) {
+        f.flag[k] = VectorFlag::kMasked;
+        continue;
+      }
+      cv::Scalar mean, sd;
+      cv::meanStdDev(tpl, mean, sd);
+      if (sd[0] < 1e-4) {
+        f.flag[k] = VectorFlag::kInvalid;
+        continue;
+      }
+      cv::matchTemplate(reg, tpl, res, cv::TM_CCOEFF_NORMED);
+      double best = 0;
+      cv::Point at;
+      cv::minMaxLoc(res, nullptr, &best, nullptr, &at);
+      f.peak[k] = static_cast<float>(best);
+      // A peak on the search border may lie beyond it.
+      const bool border = (at.x == 0 && x0 > 0) || (at.y == 0 && y0 > 0) ||
+                          (at.x == res.cols - 1 && x1 < half.width) || (at.y == res.rows - 1 && y1 < half.height);
+      f.flag[k] = best >= kMinCoarsePeak && !border ? VectorFlag::kValid : VectorFlag::kInvalid;
+      f.peak_ratio[k] = 2.0f;  // marks a textured template (counted below)
+      f.u_px[k] = static_cast<float>(2 * (x0 + at.x - x));
+      f.v_px[k] = static_cast<float>(2 * (y0 + at.y - y));
+    }
+  }
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    out.textured += f.peak_ratio[k] > 1.5f;
+    out.matched += f.flag[k] == VectorFlag::kValid;
+  }
+  return out;
+}
+
+}  // namespace
+
 cv::Mat to_unit_float(const cv::Mat& image) {
   cv::Mat f;
   unit_float_into(image, f);
@@ -178,6 +301,44 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     throw InputError(fmt::format("PIV: images of {}x{} px are smaller than the first window "
                                  "({} px)",
                                  size.width, size.height, w0));
+  // Step 0: the coarse estimate.
+  PivResult result;
+  cv::Mat pred_u, pred_v;  // predictor on the previous grid (CV_32F)
+  Grid prev;
+  bool have_predictor = false;
+  if (opt_.coarse_estimate && w0 >= 16) {
+    CoarseField coarse = coarse_field(a_in, b_in, mask_a, mask_b, w0);
+    VectorField& cf = coarse.field;
+    if (coarse.textured >= kMinCoarseTemplates)
+      result.coarse_matched_fraction = static_cast<double>(coarse.matched) / static_cast<double>(coarse.textured);
+    if (cf.size() > 0) {
+      flag_outliers(cf, opt_);
+      double dmax = 0.0;
+      for (std::size_t k = 0; k < cf.size(); ++k)
+        if (cf.flag[k] == VectorFlag::kValid)
+          dmax = std::max(dmax, std::hypot(static_cast<double>(cf.u_px[k]), static_cast<double>(cf.v_px[k])));
+      result.coarse_max_displacement_px = dmax;
+      if (dmax > 0.25 * w0) {
+        // The coarse field, gap-filled (masked windows too), is the first pass's predictor.
+        fill_holes(cf, {VectorFlag::kReplaced, VectorFlag::kInvalid, VectorFlag::kMasked});
+        const int nx = static_cast<int>(cf.nx()), ny = static_cast<int>(cf.ny());
+        pred_u = cv::Mat(ny, nx, CV_32F, cf.u_px.data()).clone();
+        pred_v = cv::Mat(ny, nx, CV_32F, cf.v_px.data()).clone();
+        if (opt_.predictor_smoothing > 0) {
+          cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+          cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+        }
+        prev.window = w0;
+        prev.nx = nx;
+        prev.ny = ny;
+        prev.step = static_cast<int>(std::lround(cf.x_px.size() > 1 ? cf.x_px[1] - cf.x_px[0] : w0 / 2));
+        prev.x0 = cf.x_px.front();
+        prev.y0 = cf.y_px.front();
+        have_predictor = true;
+        result.coarse_predictor = true;
+      }
+    }
+  }
   // Large buffers are kept per thread and reused from pair to pair (fewer page faults).
   PairScratch& sc = pair_scratch();
   unit_float_into(a_in, sc.A);
@@ -188,7 +349,8 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
   cv::Mat& coef_b = sc.coef_b;
   cv::Mat& deformed_a = sc.deformed_a;  // reused by every pass (never aliases A, B or coef_*)
   cv::Mat& deformed_b = sc.deformed_b;
-  if (opt_.deform && opt_.windows_px.size() + static_cast<std::size_t>(opt_.final_pass_repeats) > 1) {
+  if (opt_.deform &&
+      (have_predictor || opt_.windows_px.size() + static_cast<std::size_t>(opt_.final_pass_repeats) > 1)) {
     interpolation_coefficients(A, opt_.interpolation, coef_a, sc.transposed);
     interpolation_coefficients(B, opt_.interpolation, coef_b, sc.transposed);
   }
@@ -204,13 +366,12 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
   for (std::size_t p = 0; p < opt_.windows_px.size(); ++p) schedule.push_back(p);
   for (int r = 0; r < opt_.final_pass_repeats; ++r) schedule.push_back(opt_.windows_px.size() - 1);
 
-  PivResult result;
-  cv::Mat pred_u, pred_v;  // predictor on the previous grid (CV_32F)
-  Grid prev;
   VectorField f;
   for (std::size_t s = 0; s < schedule.size(); ++s) {
     const std::size_t pass = schedule[s];
-    const bool first = s == 0;
+    // Without a coarse predictor the first pass searches the whole correlation plane
+    // and skips the peak tests; with one it is deformed like the later passes.
+    const bool first = s == 0 && !have_predictor;
     const Grid g = make_grid(size, opt_.windows_px[pass], opt_.step_px(pass));
 
     // Step 2: the deformed images (symmetric, by half the predictor each).
@@ -376,7 +537,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
       }
     }
 
-    if (first && f.count(VectorFlag::kMasked) == f.size())
+    if (s == 0 && f.count(VectorFlag::kMasked) == f.size())
       throw InputError("PIV: the mask covers every interrogation window; nothing to measure");
 
     // Peak-height test relative to the recording: min(min_peak, relative x the median
@@ -433,6 +594,33 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
 
   // Replacements count only where they are interpolations between measurements.
   demote_unsupported_replacements(f);
+  // A window whose samples lie mostly outside the frame (the displacement carries
+  // its pattern out of the image: clamped border pixels correlate with nothing) is
+  // not a measurement: A is read at x - d/2 and B at x + d/2 over the final window.
+  {
+    const double W = opt_.windows_px.back();
+    auto inside = [&](double c, double shift, int extent) {
+      const double lo = c - 0.5 * (W - 1) + shift, hi = c + 0.5 * (W - 1) + shift;
+      return std::clamp((std::min(hi, extent - 1.0) - std::max(lo, 0.0) + 1.0) / W, 0.0, 1.0);
+    };
+    for (std::size_t i = 0; i < f.ny(); ++i)
+      for (std::size_t j = 0; j < f.nx(); ++j) {
+        const std::size_t k = f.index(i, j);
+        if (f.flag[k] != VectorFlag::kValid && f.flag[k] != VectorFlag::kReplaced) continue;
+        const double hu = 0.5 * f.u_px[k], hv = 0.5 * f.v_px[k];
+        const double in_a = inside(f.x_px[j], -hu, size.width) * inside(f.y_px[i], -hv, size.height);
+        const double in_b = inside(f.x_px[j], hu, size.width) * inside(f.y_px[i], hv, size.height);
+        if (std::min(in_a, in_b) < kMinInsideFraction) f.flag[k] = VectorFlag::kInvalid;
+      }
+  }
+  // A pair whose coarse estimate matched almost nothing within +-1 first window is
+  // refused: its displacement exceeds what the passes can see (or the frames are
+  // unrelated), and what the first pass found there is a chance or static match.
+  if (result.coarse_matched_fraction < kMinCoarseMatched) {
+    result.coarse_refused = true;
+    for (std::size_t k = 0; k < f.size(); ++k)
+      if (f.flag[k] != VectorFlag::kMasked) f.flag[k] = VectorFlag::kInvalid;
+  }
   // Masked vectors are not measurements: zero them.
   for (std::size_t k = 0; k < f.size(); ++k)
     if (f.flag[k] == VectorFlag::kMasked) f.u_px[k] = f.v_px[k] = 0.0f;

@@ -99,6 +99,9 @@ struct PivJobSummary {
   double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
   double texture_half_width_px = std::numeric_limits<double>::quiet_NaN();  ///< measured (size_windows_to_texture)
   std::vector<int> windows_px;  ///< the windows used
+  std::size_t coarse_predictor_pairs = 0;  ///< pairs whose first pass took the coarse field
+  std::size_t refused_pairs = 0;           ///< pairs refused by the coarse estimate (all invalid)
+  double coarse_max_displacement_px = 0.0; ///< largest coarse displacement over the pairs
   double phase_rad = 0.0;       ///< the vane phase used (found, with phase_auto)
   double phase_rms_rad = 0.0;   ///< rms residual of the phase fit (phase_auto)
   double phase_amplitude_rad = 0.0;  ///< amplitude of the fitted sinusoid (phase_auto)

@@ -76,6 +76,15 @@ struct PivOptions {
   double restricted_search = 0.25;
   /// Gaussian smoothing of the predictor between passes, in grid steps (0: off).
   double predictor_smoothing = 1.0;
+  /// Coarse estimate before the first pass: templates of the first window's footprint
+  /// (W px) matched at half resolution within +-W px by normalised cross-correlation
+  /// (no pairs leave a template, unlike the first pass's FFT correlation, which loses
+  /// most beyond W/4 and where a static background's zero-displacement peak can win),
+  /// validated by a peak of 0.5 and the median test. Where its largest valid
+  /// displacement exceeds W/4 the coarse field is the first pass's predictor: the
+  /// first pass is then deformed, with the restricted search and the peak tests of the
+  /// later passes. Off, or below W/4, the passes are as without it.
+  bool coarse_estimate = true;
 
   /// Normalised median test: neighbourhood radius in vectors (1: 3x3), noise level
   /// epsilon in px and threshold. threshold <= 0 switches the test off.

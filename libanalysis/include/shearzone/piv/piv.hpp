@@ -9,6 +9,11 @@
 //   4. Correlate every unmasked window (FFT, normalised), find the peak (full plane
 //      in the first pass, within restricted_search * W after) and fit it to
 //      sub-pixel; displacement = predictor + residual.
+//   0. (coarse_estimate) Templates of the first window's footprint matched at half
+//      resolution within +-1 first window; where the largest valid coarse
+//      displacement exceeds a quarter of the first window, the coarse field is the
+//      first pass's predictor (the first pass then deforms, like the later ones).
+//      A pair whose coarse templates are mostly unmatched is refused (all invalid).
 //   5. Validate: no texture or a peak below min_peak -> invalid; normalised median
 //      test, std filter and displacement limit -> replaced; fill both by
 //      interpolation from valid neighbours.
@@ -22,6 +27,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -45,6 +51,18 @@ struct PassReport {
 struct PivResult {
   core::VectorField field;          ///< the final pass
   std::vector<PassReport> passes;   ///< one per pass run (repeats included)
+  /// Largest valid displacement of the coarse estimate, px of the full image (NaN:
+  /// no estimate: off, a first window below 16 px, or images too small).
+  double coarse_max_displacement_px = std::numeric_limits<double>::quiet_NaN();
+  /// Whether the coarse field was the first pass's predictor.
+  bool coarse_predictor = false;
+  /// Fraction of the coarse estimate's textured templates matched within +-1 first
+  /// window (NaN: no estimate, or fewer than 4 textured templates).
+  double coarse_matched_fraction = std::numeric_limits<double>::quiet_NaN();
+  /// The pair was refused (every unmasked vector invalid): the coarse estimate
+  /// matched under a quarter of its templates (displacements beyond one first
+  /// window, or unrelated frames).
+  bool coarse_refused = false;
 };
 
 class PivEngine {
