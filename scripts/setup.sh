@@ -45,11 +45,27 @@ echo "setup: installing $(( ${#missing[@]} + ${#missing_wf[@]} )) missing packag
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
+# Another apt or dpkg (unattended upgrades on a fresh machine) may hold the locks:
+# wait for it up to APT_LOCK_TIMEOUT seconds (default 600) instead of failing at once.
+APT_LOCK_TIMEOUT="${APT_LOCK_TIMEOUT:-600}"
+APT=($SUDO apt-get -o "DPkg::Lock::Timeout=$APT_LOCK_TIMEOUT")
+if command -v fuser >/dev/null 2>&1 &&
+   fuser /var/lib/dpkg/lock-frontend /var/lib/apt/lists/lock >/dev/null 2>&1; then
+  echo "setup: another apt/dpkg process holds the lock; waiting up to ${APT_LOCK_TIMEOUT} s for it"
+fi
+# apt-get update takes the lists lock, which DPkg::Lock::Timeout does not cover: retry.
+for attempt in $(seq 1 $(( APT_LOCK_TIMEOUT / 10 + 1 ))); do
+  if "${APT[@]}" update -qq; then break; fi
+  if [ "$attempt" -gt $(( APT_LOCK_TIMEOUT / 10 )) ]; then
+    echo "setup: apt-get update failed (lock held for ${APT_LOCK_TIMEOUT} s, or no network)" >&2
+    exit 1
+  fi
+  sleep 10
+done
 if [ ${#missing[@]} -gt 0 ]; then
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  "${APT[@]}" install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 if [ ${#missing_wf[@]} -gt 0 ]; then
-  $SUDO apt-get install -y -qq "${missing_wf[@]}" >/dev/null
+  "${APT[@]}" install -y -qq "${missing_wf[@]}" >/dev/null
 fi
 echo "setup: done"

@@ -1,7 +1,9 @@
 #include "run_app.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <new>
 
@@ -19,9 +21,28 @@ void print_error(const std::string& message) {
   std::fprintf(stderr, "shearzone: error: %s\n", m.c_str());
 }
 
+/// NaN is never a value a user means (it read as "not given" in places): every option
+/// of every subcommand refuses a value that reads as NaN, on the command line and in
+/// --config alike (a TOML value runs the same validators).
+void refuse_nan_everywhere(CLI::App& app) {
+  static const CLI::Validator not_nan(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const double v = std::strtod(text.c_str(), &end);
+        if (!text.empty() && end == text.c_str() + text.size() && std::isnan(v))
+          return "NaN is not a value: give a number";
+        return {};
+      },
+      "", "not NaN");
+  for (CLI::Option* opt : app.get_options())
+    if (opt->get_expected_max() > 0) opt->check(not_nan);
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) refuse_nan_everywhere(*sub);
+}
+
 }  // namespace
 
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch) {
+  refuse_nan_everywhere(app);
   try {
     try {
       app.parse(argc, argv);

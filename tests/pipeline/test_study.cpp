@@ -49,6 +49,66 @@ TEST_CASE("study: a tag that is not a chain length is refused with its line", "[
                     Catch::Contains("study.toml:3: key \"lab.clip_glob.pattern\"") && Catch::Contains("N = 2.5"));
 }
 
+// Issue 34: a tag out of the range of numbers was an internal error (exit 4).
+TEST_CASE("study: a tag beyond the range of numbers is refused with its file", "[study]") {
+  for (const char* f : {"N1_phi1e999.mp4", "N1_phi1e-999.mp4", "N1e999_phi0.3.mp4"}) {
+    TempDir t("study_tag_range");
+    write_file(t / f, "x");
+    write_file(t / "study.toml", "[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n");
+    INFO(f);
+    CHECK_THROWS_WITH(pipeline::load_study(t / "study.toml", any_option),
+                      Catch::Contains("study.toml:3: key \"lab.clip_glob.pattern\"") &&
+                          Catch::Contains("is out of the range of numbers"));
+  }
+}
+
+// Issue 34: several wildcards on a long stem took 17 s to over 60 s (a backtracking
+// regex). The matcher is polynomial: this pattern and stem take milliseconds.
+TEST_CASE("study: patterns with several wildcards match long stems, numbers longest first", "[study]") {
+  TempDir t("study_wildcards");
+  const std::string stem = "run_" + std::string(50, 'a') + "_N12_x_phi0.25_" + std::string(20, 'b');
+  write_file(t / (stem + ".mp4"), "x");
+  write_file(t / "N7_phi2.5e-1_take3.mp4", "x");
+  write_file(t / "study.toml",
+             "[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"*N{N}*phi{phi0_rad}*\"\n");
+  const pipeline::Study s = pipeline::load_study(t / "study.toml", any_option);
+  REQUIRE(s.clips.size() == 2);
+  CHECK(s.clips[0].N == 7);
+  CHECK(s.clips[0].phi0_rad == 0.25);
+  CHECK(s.clips[1].N == 12);
+  CHECK(s.clips[1].phi0_rad == 0.25);
+  // A stem that does not match, many wildcards: refused, not stuck.
+  TempDir u("study_wildcards_miss");
+  write_file(u / (std::string(240, 'a') + ".mp4"), "x");
+  write_file(u / "study.toml",
+             "[lab.clip_glob]\nfiles = \"*.mp4\"\npattern = \"*a*a*a*a*a*a*N{N}*b\"\n");
+  CHECK_THROWS_WITH(pipeline::load_study(u / "study.toml", any_option), Catch::Contains("does not match the file name"));
+}
+
+// Issue 34: duplicates weighed a branch 2-4x in the fits; a huge grid wrote 58 000 scenes.
+TEST_CASE("study: a grid value given twice, or a grid beyond 1000 points, is refused", "[study]") {
+  const std::string cup = read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "vane_cup.toml");
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"N = [1, 1]", "sim.N\": 1 appears twice"},
+      {"seeds = [3, 3]", "sim.seeds\": 3 appears twice"},
+      {"l_max_m = [0.0004, 4e-4]", "sim.l_max_m\": 4e-04 appears twice"},
+      {"max_angle_deg = [60, 60.0]", "sim.max_angle_deg\": 60 appears twice"},
+      {"seeds = [" + [] {
+         std::string v;
+         for (int i = 0; i < 1001; ++i) v += (i ? ", " : "") + std::to_string(i);
+         return v;
+       }() + "]",
+       "a grid of 1001 points"}};
+  for (const auto& [line, message] : cases) {
+    TempDir t("study_grid_dup");
+    write_file(t / "cup.toml", cup);
+    write_file(t / "study.toml", "[sim]\nscene = \"cup.toml\"\n" + line + "\n");
+    INFO(line);
+    CHECK_THROWS_WITH(pipeline::load_study(t / "study.toml", any_option), Catch::Contains(message));
+    CHECK_FALSE(std::filesystem::exists(t / "out"));
+  }
+}
+
 TEST_CASE("study: the simulation grid makes one scene per point, each loadable", "[study]") {
   TempDir t("study_grid");
   const std::string cup = read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "vane_cup.toml");

@@ -188,6 +188,12 @@ void check_output_allowed(const fs::path& path, bool force) {
   if (!dir.empty() && fs::exists(dir, ec) && !fs::is_directory(dir, ec))
     throw InputError(fmt::format("{}: cannot write output: '{}' is not a folder", path.string(),
                                  dir.string()));
+  // A symbolic link there (even one pointing nowhere) is an existing output: replacing
+  // it would silently drop the link, following it would write elsewhere.
+  if (fs::is_symlink(fs::symlink_status(path, ec)) && !fs::exists(path, ec))
+    throw InputError(fmt::format("{}: output is a symbolic link to a missing '{}'; expected a file path "
+                                 "(remove the link, or give its target)",
+                                 path.string(), fs::read_symlink(path, ec).string()));
   if (fs::exists(path, ec)) {
     if (fs::is_directory(path, ec))
       throw ConfigError(fmt::format("{}: output exists and is a folder; expected a file path",

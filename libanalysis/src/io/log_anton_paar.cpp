@@ -195,7 +195,8 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
       if (key.empty()) {
         key = std::string(c);
       } else {
-        value += (value.empty() ? "" : " ") + std::string(c);
+        if (!value.empty()) value += ' ';
+        value += c;
         values.push_back(c);
       }
     }

@@ -23,7 +23,10 @@ double trios_constant(const std::vector<std::string_view>& cells, bool stress,
                       const std::string& src, std::size_t line) {
   std::string value;
   for (std::size_t k = 1; k < cells.size(); ++k)
-    if (!cells[k].empty()) value += (value.empty() ? "" : " ") + std::string(cells[k]);
+    if (!cells[k].empty()) {
+      if (!value.empty()) value += ' ';
+      value += cells[k];
+    }
   std::string name(cells[0]);
   auto [bare_name, name_unit] = split_bracketed_unit(name);
   std::string_view v = trim(value);
@@ -131,7 +134,10 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
           if (f == "strain constant") constant(false, "strain_constant_per_rad");
           std::string value;
           for (std::size_t k = 1; k < cells.size(); ++k)
-            if (!cells[k].empty()) value += (value.empty() ? "" : " ") + std::string(cells[k]);
+            if (!cells[k].empty()) {
+      if (!value.empty()) value += ' ';
+      value += cells[k];
+    }
           log.parameters.emplace_back(std::string(cells[0]), value);
         }
       }

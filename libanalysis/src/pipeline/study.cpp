@@ -4,11 +4,14 @@
 #include <glob.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <functional>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <set>
 #include <sstream>
 
@@ -26,10 +29,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Tags a clip or log carries, and the pattern's regex for a number.
+/// The largest simulation grid a study runs (each point is a simulation of minutes to
+/// hours; 1000 scene files are written before anything runs).
+constexpr std::size_t kMaxGridPoints = 1000;
+
+// Tags a clip or log carries.
 const std::vector<std::string> kClipTags{"N", "phi0_rad", "f_Hz"};
 const std::vector<std::string> kLogTags{"N"};
-const char* const kNumberRe = "([-+]?(?:[0-9]+\\.?[0-9]*|\\.[0-9]+)(?:[eE][-+]?[0-9]+)?)";
 
 // Options the workflow sets itself, per stage: a study file may not set them.
 const std::map<std::string, std::set<std::string>> kReserved{
@@ -139,16 +145,106 @@ class Reader {
   KnownOption known_;
 };
 
-/// A tag pattern ("N{N}_phi{phi0_rad}") -> a regex over the file stem and its tags.
+/// A tag pattern ("N{N}_phi{phi0_rad}"): literal text, '*' (any text) and {tag} (a
+/// number: [-+]?(digits[.digits] | .digits)([eE][-+]?digits)?). Matched by a memoised
+/// search over (token, position), O(tokens x stem^2) for any number of wildcards (a
+/// backtracking regex took 17 s to over 60 s on several wildcards and long stems);
+/// numbers and wildcards take the longest text that lets the rest match.
 struct TagPattern {
-  std::regex re;
+  struct Token {
+    enum Kind { kLiteral, kStar, kNumber } kind;
+    std::string text;  ///< the literal, or the tag's name
+  };
+  std::vector<Token> tokens;
   std::vector<std::string> tags;
 };
+
+/// The ends e > pos for which s[pos, e) is a whole number of the tag grammar.
+std::vector<std::size_t> number_ends(const std::string& s, std::size_t pos) {
+  std::vector<std::size_t> ends;
+  std::size_t i = pos;
+  if (i < s.size() && (s[i] == '+' || s[i] == '-')) ++i;
+  const std::size_t int_start = i;
+  while (i < s.size() && std::isdigit(static_cast<unsigned char>(s[i]))) ++i;
+  const bool int_digits = i > int_start;
+  std::vector<std::size_t> mantissa_ends;  // where a mantissa may end
+  for (std::size_t k = int_start + 1; k <= i && int_digits; ++k) mantissa_ends.push_back(k);
+  if (i < s.size() && s[i] == '.') {
+    std::size_t j = i + 1;
+    if (int_digits) mantissa_ends.push_back(j);  // "45."
+    while (j < s.size() && std::isdigit(static_cast<unsigned char>(s[j]))) mantissa_ends.push_back(++j);
+  }
+  for (std::size_t m : mantissa_ends) {
+    ends.push_back(m);
+    if (m < s.size() && (s[m] == 'e' || s[m] == 'E')) {
+      std::size_t j = m + 1;
+      if (j < s.size() && (s[j] == '+' || s[j] == '-')) ++j;
+      while (j < s.size() && std::isdigit(static_cast<unsigned char>(s[j]))) ends.push_back(++j);
+    }
+  }
+  std::sort(ends.begin(), ends.end());
+  ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+  return ends;
+}
+
+/// Matches `stem` against the pattern; on success `values` holds each tag's text.
+bool match_pattern(const TagPattern& tp, const std::string& stem, std::vector<std::string>& values) {
+  const std::size_t T = tp.tokens.size(), L = stem.size();
+  // can[t][p]: tokens t.. match stem[p..]; 0 unknown, 1 yes, 2 no.
+  std::vector<std::uint8_t> can((T + 1) * (L + 1), 0);
+  std::function<bool(std::size_t, std::size_t)> rest = [&](std::size_t t, std::size_t p) -> bool {
+    std::uint8_t& c = can[t * (L + 1) + p];
+    if (c) return c == 1;
+    bool ok = false;
+    if (t == T) {
+      ok = p == L;
+    } else {
+      const TagPattern::Token& tok = tp.tokens[t];
+      if (tok.kind == TagPattern::Token::kLiteral) {
+        ok = stem.compare(p, tok.text.size(), tok.text) == 0 && rest(t + 1, p + tok.text.size());
+      } else if (tok.kind == TagPattern::Token::kStar) {
+        for (std::size_t e = L + 1; e-- > p && !ok;) ok = rest(t + 1, e);
+      } else {
+        const std::vector<std::size_t> ends = number_ends(stem, p);
+        for (auto e = ends.rbegin(); e != ends.rend() && !ok; ++e) ok = rest(t + 1, *e);
+      }
+    }
+    c = ok ? 1 : 2;
+    return ok;
+  };
+  if (!rest(0, 0)) return false;
+  // Walk the match again, taking at each token the longest text the rest accepts.
+  values.clear();
+  std::size_t p = 0;
+  for (std::size_t t = 0; t < T; ++t) {
+    const TagPattern::Token& tok = tp.tokens[t];
+    if (tok.kind == TagPattern::Token::kLiteral) {
+      p += tok.text.size();
+    } else if (tok.kind == TagPattern::Token::kStar) {
+      std::size_t e = L;
+      while (!rest(t + 1, e)) --e;
+      p = e;
+    } else {
+      const std::vector<std::size_t> ends = number_ends(stem, p);
+      for (auto e = ends.rbegin(); e != ends.rend(); ++e)
+        if (rest(t + 1, *e)) {
+          values.push_back(stem.substr(p, *e - p));
+          p = *e;
+          break;
+        }
+    }
+  }
+  return true;
+}
 
 TagPattern compile_pattern(const Reader& r, const std::string& key, const std::vector<std::string>& allowed) {
   const std::string p = r.str(key);
   TagPattern out;
-  std::string re;
+  auto literal = [&](char c) {
+    if (out.tokens.empty() || out.tokens.back().kind != TagPattern::Token::kLiteral)
+      out.tokens.push_back({TagPattern::Token::kLiteral, ""});
+    out.tokens.back().text += c;
+  };
   for (std::size_t i = 0; i < p.size(); ++i) {
     const char c = p[i];
     if (c == '{') {
@@ -163,19 +259,18 @@ TagPattern compile_pattern(const Reader& r, const std::string& key, const std::v
       if (std::find(out.tags.begin(), out.tags.end(), tag) != out.tags.end())
         r.fail(key, fmt::format("\"{}\": tag {{{}}} appears twice", p, tag));
       out.tags.push_back(tag);
-      re += kNumberRe;
+      out.tokens.push_back({TagPattern::Token::kNumber, tag});
       i = e;
     } else if (c == '}') {
       r.fail(key, fmt::format("\"{}\": a '}}' without its '{{'", p));
     } else if (c == '*') {
-      re += ".*";
+      if (out.tokens.empty() || out.tokens.back().kind != TagPattern::Token::kStar)  // '**' is '*'
+        out.tokens.push_back({TagPattern::Token::kStar, ""});
     } else {
-      if (std::string("\\^$.|?+()[]").find(c) != std::string::npos) re += '\\';
-      re += c;
+      literal(c);
     }
   }
   if (out.tags.empty()) r.fail(key, fmt::format("\"{}\": no tag (expected e.g. \"N{{N}}_phi{{phi0_rad}}\")", p));
-  out.re = std::regex(re);
   return out;
 }
 
@@ -201,12 +296,20 @@ std::vector<fs::path> glob_files(const Reader& r, const std::string& key) {
 std::map<std::string, double> file_tags(const Reader& r, const std::string& table, const TagPattern& tp,
                                         const fs::path& file, const std::vector<std::string>& allowed) {
   std::map<std::string, double> tags;
-  std::smatch m;
+  std::vector<std::string> values;
   const std::string stem = file.stem().string();
-  if (!std::regex_match(stem, m, tp.re))
+  if (!match_pattern(tp, stem, values))
     r.fail(table + ".pattern", fmt::format("\"{}\" does not match the file name {} (its stem \"{}\")",
                                            r.str(table + ".pattern"), file.string(), stem));
-  for (std::size_t i = 0; i < tp.tags.size(); ++i) tags[tp.tags[i]] = std::stod(m[i + 1].str());
+  for (std::size_t i = 0; i < tp.tags.size(); ++i) {
+    // Overflow (1e999) and underflow (1e-999) are out of range, never infinity or 0.
+    errno = 0;
+    const double v = std::strtod(values[i].c_str(), nullptr);
+    if (errno == ERANGE || !std::isfinite(v))
+      r.fail(table + ".pattern", fmt::format("file {}: tag {{{}}} = {} is out of the range of numbers",
+                                             file.string(), tp.tags[i], values[i]));
+    tags[tp.tags[i]] = v;
+  }
   for (const std::string& t : allowed)
     if (r.has(table + "." + t)) {
       if (tags.count(t)) r.fail(table + "." + t, fmt::format("also a tag of the pattern: give it once"));
@@ -373,7 +476,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
   }
   for (const std::string& name : clip_tables) {
     const std::string t = "lab.clips." + name;
-    if (!valid_name(name)) r.fail(t + ".video", fmt::format("clip name \"{}\" (expected letters, digits, _ - . +)", name));
+    if (!valid_name(name)) r.fail(t + ".video", fmt::format("clip name \"{}\" (expected up to 100 letters, digits, _ - . +)", name));
     for (const std::string& key : c.keys())
       if (key.rfind(t + ".", 0) == 0) {
         const std::string k = key.substr(t.size() + 1);
@@ -406,7 +509,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     check_clip_tags(r, "lab.clip_glob.pattern", f.string(), N, clip.phi0_rad, clip.f_Hz);
     clip.N = static_cast<int>(N);
     if (!valid_name(clip.name))
-      r.fail("lab.clip_glob.files", fmt::format("{}: its name \"{}\" (expected letters, digits, _ - . +)",
+      r.fail("lab.clip_glob.files", fmt::format("{}: its name \"{}\" (expected up to 100 letters, digits, _ - . +)",
                                                 f.string(), clip.name));
     s.clips.push_back(std::move(clip));
   }
@@ -418,7 +521,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
   // ---- lab: torque logs ----
   for (const std::string& name : log_tables) {
     const std::string t = "lab.logs." + name;
-    if (!valid_name(name)) r.fail(t + ".file", fmt::format("log name \"{}\" (expected letters, digits, _ - . +)", name));
+    if (!valid_name(name)) r.fail(t + ".file", fmt::format("log name \"{}\" (expected up to 100 letters, digits, _ - . +)", name));
     for (const std::string& key : c.keys())
       if (key.rfind(t + ".", 0) == 0 && key != t + ".file" && key != t + ".N")
         r.fail(key, "unknown key (expected file and N)");
@@ -496,6 +599,21 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
       if (!(l >= 0)) r.fail("sim.l_max_m", fmt::format("{} (expected >= 0 m)", io::format_number(l)));
     for (const double a : angle)
       if (!(a > 0 && a <= 180)) r.fail("sim.max_angle_deg", fmt::format("{} (expected 0 < angle <= 180 deg)", io::format_number(a)));
+    // A value given twice would weigh its branch twice in every fit.
+    const auto once = [&](const char* key, std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      const auto d = std::adjacent_find(v.begin(), v.end());
+      if (d != v.end()) r.fail(key, fmt::format("{} appears twice (a grid lists each value once)", io::format_number(*d)));
+    };
+    once("sim.N", std::vector<double>(Ns.begin(), Ns.end()));
+    once("sim.seeds", std::vector<double>(seeds.begin(), seeds.end()));
+    once("sim.l_max_m", lmax);
+    once("sim.max_angle_deg", angle);
+    const std::size_t points = lmax.size() * angle.size() * Ns.size() * seeds.size();
+    if (points > kMaxGridPoints)
+      r.fail(c.has("sim.N") ? "sim.N" : "sim.scene",
+             fmt::format("a grid of {} points (N x l_max_m x max_angle_deg x seeds = {} x {} x {} x {}); at most {}",
+                         points, Ns.size(), lmax.size(), angle.size(), seeds.size(), kMaxGridPoints));
     for (const auto N : Ns)
       if (beads > 0 && beads / N < 1)
         r.fail("sim.beads", fmt::format("{} beads make no chain of N = {}", beads, N));

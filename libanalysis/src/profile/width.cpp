@@ -129,6 +129,22 @@ double small_sample_factor(double a, double G) {
   return gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
 }
 
+/// The interval's ends from the sampling replicates and the binning's bias bound b
+/// (scan_rc). The bound is a systematic error known only to lie within +-b: it is
+/// combined with the sampling as a rectangular distribution (standard deviation
+/// b/sqrt(3)), the sampling half-width h of each side as z standard deviations
+/// (GUM, JCGM 100:2008, 4.3.7 and 5.1.2): h' = sqrt(h^2 + z^2 b^2 / 3), z the normal
+/// quantile of the level (1.96 at 95 %). Measured through the whole chain (200 seeds,
+/// docs/profile-width.md): adding b to each end instead held the truth in 100 % (mean
+/// |v|) and 97.5 % (lock-in) of the 95 % intervals.
+void set_interval(WidthResult& res, const std::vector<double>& rcs, double a, double b) {
+  const double z = gsl_cdf_ugaussian_Qinv(a);
+  const double lo = res.rc_m - core::percentile(rcs, a), hi = core::percentile(rcs, 1.0 - a) - res.rc_m;
+  const double extra = z * z * b * b / 3.0;
+  res.ci_low_m = res.rc_m - std::sqrt(std::max(lo, 0.0) * std::max(lo, 0.0) + extra);
+  res.ci_high_m = res.rc_m + std::sqrt(std::max(hi, 0.0) * std::max(hi, 0.0) + extra);
+}
+
 WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   const std::size_t nb = in.r_m.size();
   WidthResult res;
@@ -178,10 +194,9 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   const double a = 0.5 * (1.0 - opt.confidence);
   const double f = small_sample_factor(a, static_cast<double>(res.bootstrap_units));
   for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
-  // The binning's own bias (scan_rc) is not sampling noise: both ends move out by its bound.
+  // The binning's own bias (scan_rc) is not sampling noise: combined with it (set_interval).
   if (!opt.widen_by_binning) bin_bound = 0;
-  res.ci_low_m = core::percentile(rcs, a) - bin_bound;
-  res.ci_high_m = core::percentile(rcs, 1.0 - a) + bin_bound;
+  set_interval(res, rcs, a, bin_bound);
   return res;
 }
 
@@ -248,10 +263,9 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
     const double f = std::sqrt(G / (G - 1.0)) * small_sample_factor(a, G);
     for (double& x : rcs) x = res.rc_m + f * (x - res.rc_m);
   }
-  // The binning's own bias (scan_rc) is not sampling noise: both ends move out by its bound.
+  // The binning's own bias (scan_rc) is not sampling noise: combined with it (set_interval).
   if (!opt.widen_by_binning) bin_bound = 0;
-  res.ci_low_m = core::percentile(rcs, a) - bin_bound;
-  res.ci_high_m = core::percentile(rcs, 1.0 - a) + bin_bound;
+  set_interval(res, rcs, a, bin_bound);
   return res;
 }
 

@@ -52,9 +52,10 @@ struct WidthOptions {
   double confidence = 0.95;    ///< two-sided level of the interval
   std::uint64_t seed = 1;      ///< bootstrap seed
   Estimator estimator = Estimator::kAuto;
-  /// Widen the interval on both sides by the binning's bias bound at the crossing
-  /// (scan_rc's bin_bound_m). Off: the interval holds the sampling noise alone (against
-  /// a truth scanned from the same bins).
+  /// Widen the interval by the binning's bias bound b at the crossing (scan_rc's
+  /// bin_bound_m), combined with the sampling half-width h of each side as a
+  /// rectangular error: sqrt(h^2 + z^2 b^2 / 3). Off: the interval holds the sampling
+  /// noise alone (against a truth scanned from the same bins).
   bool widen_by_binning = true;
   void validate() const;
 };
