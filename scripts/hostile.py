@@ -13,6 +13,7 @@ tests/data/regressions holds the files that cannot be made on the fly.
 """
 import argparse
 import csv
+import re
 import os
 import shutil
 import subprocess
@@ -157,9 +158,39 @@ def cases(work):
          0, None, "damaged"),
         ("piv_annulus_negative", ["piv", *pair, "--centre", "64,48", "--annulus", "-100,-10", "-o", "v.csv"],
          2, ["v.csv"], "annulus"),
+        # NaN is refused by name (a bad flag value: exit 1; in --config: exit 2).
         ("profile_centre_nan", ["profile", "fields.h5", "--centre", "nan,nan", "--radii-px", "0,40", "--m-per-px", "1e-4", "--noise-region-m", "0.0005,0.002",
-         "-o", "p.csv"], 2, ["p.csv"], "centre|nan"),
+         "-o", "p.csv"], 1, ["p.csv"], "--centre: NaN is not a value"),
         ("laos_amplitude_1e-300", ["laos", "tiny.csv", "-o", "lo"], 2, ["lo"], "amplitude"),
+    ]
+    # --- Second probe (issue 34): NaN as "not given", damaged vendor cells, instrument
+    # values out of range, study tags and grids, outputs that are links to nothing.
+    c += [
+        ("piv_f_hz_nan", ["piv", *pair, "--f-hz", "nan", "-o", "v.csv"], 1, ["v.csv"], "--f-hz: NaN is not a value"),
+        ("profile_cycles_nan", ["profile", "fields.h5", "--cycles", "NAN", "-o", "p.csv"], 1, ["p.csv"],
+         "--cycles: NaN is not a value"),
+        ("laos_f_hz_minus_nan", ["laos", "laos.csv", "--f-hz", "-nan", "-o", "lo"], 1, ["lo"], "--f-hz: NaN"),
+        ("synth_config_phi0_nan", ["synth", "beads", "--config", "phi0_nan.toml", "-o", "o"], 2, ["o"],
+         r"phi0_nan.toml:1: key \"phi0\": --phi0: NaN is not a value"),
+    ]
+    for bad_name, bad in (("text", "abc"), ("empty", ""), ("1E+400", "1E+400"), ("thousands", "1.234,5")):
+        c.append((f"laos_ap_cell_{bad_name}", ["laos", f"ap_{bad_name}.txt", "-o", "lo"], 2, ["lo"],
+                  re.escape(f"ap_{bad_name}.txt:10: column")))
+        c.append((f"laos_trios_cell_{bad_name}", ["laos", f"trios_{bad_name}.txt", "-o", "lo"], 2, ["lo"],
+                  re.escape(f"trios_{bad_name}.txt:16: column")))
+    c += [
+        ("laos_malvern_bom_row", ["laos", "malvern_bom.csv", "-o", "lo"], 2, ["lo"], "malvern_bom.csv:20: a byte-order mark"),
+        ("laos_ap_frequency_negative", ["laos", "ap_f_negative.txt", "-o", "lo"], 2, ["lo"],
+         r"ap_f_negative.txt:9: the instrument's frequency: -0,1; expected > 0"),
+        ("laos_ap_frequency_zero", ["laos", "ap_f_zero.txt", "-o", "lo"], 2, ["lo"], "frequency: 0; expected > 0"),
+        ("study_tag_1e999", ["study", "run", "study_tag.toml", "-o", "so"], 2, ["so"], "out of the range of numbers"),
+        ("study_pattern_wildcards", ["study", "run", "study_wild.toml", "-o", "so"], 2, ["so"], "does not match"),
+        ("study_grid_duplicate", ["study", "run", "study_dup.toml", "-o", "so"], 2, ["so"], "appears twice"),
+        ("study_grid_1e5", ["study", "run", "study_big.toml", "--dry-run", "-o", "so"], 2, ["so"], "a line of [0-9]+ characters"),
+        ("study_grid_2000", ["study", "run", "study_2000.toml", "--dry-run", "-o", "so"], 2, ["so"],
+         r"sim.seeds\": a grid of 2000 points"),
+        ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
+         "output is a symbolic link to a missing"),
     ]
     return c
 
@@ -203,6 +234,40 @@ def make_inputs(bin_, work):
       "[fill]\ncount = 1000000000\nmin_m = [-0.01, -0.01, 0.01]\nmax_m = [0.01, 0.01, 0.05]\n")
     w("chain_1e8.toml", "[sim]\nduration_s = 0.01\n" + SIM_BOX + "[beads]\ndiameter_m = 0.001\n"
       "[chains]\nbeads_per_chain = 100000000\ncount = 1\n")
+    w("phi0_nan.toml", "phi0 = nan\n")
+    logs = os.path.join(ROOT, "tests", "data", "logs")
+
+    def corrupt(src, dst, lineno, col, bad, sep):
+        raw = open(os.path.join(logs, src), "rb").read()
+        enc = "utf-16" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig" if raw[:3] == b"\xef\xbb\xbf" else "utf-8"
+        lines = raw.decode(enc).split("\n")
+        cells = lines[lineno - 1].split(sep)
+        if col < 0:
+            cells[0] = bad + cells[0]
+        else:
+            cells[col] = bad
+        lines[lineno - 1] = sep.join(cells)
+        with open(os.path.join(work, dst), "wb") as f:
+            f.write("\n".join(lines).encode("utf-8"))
+
+    for bad_name, bad in (("text", "abc"), ("empty", ""), ("1E+400", "1E+400"), ("thousands", "1.234,5")):
+        corrupt("anton_paar_fr.txt", f"ap_{bad_name}.txt", 10, 3, bad, "\t")
+        corrupt("trios.txt", f"trios_{bad_name}.txt", 16, 1, bad.replace("1.234,5", "1,234.5"), "\t")
+    corrupt("malvern_rspace.csv", "malvern_bom.csv", 20, -1, "\ufeff", ";")
+    corrupt("anton_paar_de_points.txt", "ap_f_negative.txt", 9, 3, "-0,1", "\t")
+    corrupt("anton_paar_de_points.txt", "ap_f_zero.txt", 9, 3, "0", "\t")
+    os.makedirs(os.path.join(work, "tags"), exist_ok=True)
+    w("tags/N1_phi1e999.mp4", "x")
+    w("study_tag.toml", "[lab.clip_glob]\nfiles = \"tags/*.mp4\"\npattern = \"N{N}_phi{phi0_rad}\"\n")
+    os.makedirs(os.path.join(work, "wild"), exist_ok=True)
+    w("wild/" + "a" * 240 + ".mp4", "x")
+    w("study_wild.toml", "[lab.clip_glob]\nfiles = \"wild/*.mp4\"\npattern = \"*a*a*a*a*a*a*a*N{N}*b\"\n")
+    cup = open(os.path.join(ROOT, "data-samples", "sim", "vane_cup.toml")).read()
+    w("cup.toml", cup)
+    w("study_dup.toml", "[sim]\nscene = \"cup.toml\"\nl_max_m = [0.0004, 4e-4]\n")
+    w("study_2000.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(2000)) + "]\n")
+    w("study_big.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(100000)) + "]\n")
+    os.symlink(os.path.join(work, "missing", "w.csv"), os.path.join(work, "dangling.csv"))
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
     w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
     w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))
@@ -243,7 +308,7 @@ def main():
                 problems.append(f"{secs:.1f} s > {a.max_seconds:g} s")
             if mb > a.max_mb:
                 problems.append(f"{mb:.0f} MB > {a.max_mb:g} MB")
-            for p in ("o", "run", "lo", "co", "f.h5", "v.csv", "p.csv", "fits.csv", "w.csv", "ff.csv"):
+            for p in ("o", "run", "lo", "co", "so", "f.h5", "v.csv", "p.csv", "fits.csv", "w.csv", "ff.csv"):
                 path = os.path.join(work, p)
                 if os.path.isdir(path):
                     shutil.rmtree(path)

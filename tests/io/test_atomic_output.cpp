@@ -180,3 +180,17 @@ TEST_CASE("a temporary file that a killed process left is removed by the next wr
   CHECK(testing::list_dir(dir.path()) ==
         std::vector<std::string>{"other.partial-1-0.csv", "out.csv", alive, "run"});
 }
+
+// Issue 34: a dangling link at the output path was replaced silently by one command and
+// an internal error in another; any link to nothing is refused, with or without --force.
+TEST_CASE("an output path that is a link to nothing is refused", "[io][atomic]") {
+  testing::TempDir dir("atomic_link");
+  const fs::path link = dir / "out.csv";
+  fs::create_symlink(dir / "missing" / "target.csv", link);
+  for (bool force : {false, true}) {
+    CHECK_THROWS_AS(io::check_output_allowed(link, force), InputError);
+    CHECK_THROWS_WITH(io::check_output_allowed(link, force),
+                      Contains("out.csv: output is a symbolic link to a missing"));
+  }
+  CHECK(fs::is_symlink(fs::symlink_status(link)));  // left as it was
+}

@@ -279,12 +279,15 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
     if (!points_layout) {
       LogSegment seg;
       seg.label = label;
+      // A waveform table (drive and response found) with a cell that does not read as
+      // a number (text, empty, overflowing, a thousands separator, a stray byte-order
+      // mark) is damaged: refused with its line, never dropped; --inspect lists it.
       try {
         for (const auto& r : t.rows)
           append_sample(seg, r.cells, vc->time, vc->drive, vc->response, true, src, r.line);
       } catch (const InputError& e) {
-        // A table with gaps in its columns is no record of samples.
-        skip(std::string("no raw waveform: ") + e.what(), e.what());
+        if (!o.inspect) throw;
+        skip(std::string("unreadable samples: ") + e.what(), e.what());
         continue;
       }
       if (!vc->time) note_no_time(log);
@@ -321,21 +324,34 @@ void read_anton_paar(std::string_view text, const LogReadOptions& o, Oscillation
       seg.label = fmt::format("{} / point {}", label,
                               has_cell(head, t.point_column) ? std::string(head.cells[t.point_column])
                                                              : std::to_string(r + 1));
-      seg.instrument_frequency_Hz = cell_or_unset(head.cells, fcol, fscale);
+      // Range-checked: a frequency of 0 or below gave infinite or negative viscosities.
+      seg.instrument_frequency_Hz = instrument_value(head.cells, fcol, fscale, true, "frequency", src, head.line);
       if (std::isnan(seg.instrument_frequency_Hz))
-        seg.instrument_frequency_Hz = cell_or_unset(head.cells, wcol, wscale);
-      seg.instrument_G_prime_Pa = cell_or_unset(head.cells, gpcol, gpscale);
-      seg.instrument_G_dprime_Pa = cell_or_unset(head.cells, gppcol, gppscale);
-      seg.instrument_torque_N_m = cell_or_unset(head.cells, tqcol, tqscale);
+        seg.instrument_frequency_Hz =
+            instrument_value(head.cells, wcol, wscale, true, "angular frequency", src, head.line);
+      seg.instrument_G_prime_Pa = instrument_value(head.cells, gpcol, gpscale, false, "storage modulus", src, head.line);
+      seg.instrument_G_dprime_Pa = instrument_value(head.cells, gppcol, gppscale, false, "loss modulus", src, head.line);
+      seg.instrument_torque_N_m = instrument_value(head.cells, tqcol, tqscale, false, "torque", src, head.line);
       bool has_time = vc->time.has_value();
-      bool complete = true;
+      std::size_t filled = 0, first_gap = 0;
       for (std::size_t k = r; k < end; ++k) {
         const Row& row = t.rows[k];
         if (!has_cell(row, vc->drive.index) || !has_cell(row, vc->response.index)) {
-          complete = false;
-          break;
+          if (!first_gap) first_gap = k + 1;
+          continue;
         }
+        ++filled;
         if (has_time && !has_cell(row, vc->time->index)) has_time = false;
+      }
+      const bool complete = filled == end - r;
+      // Some rows of a point with their waveform and others without: a damaged point,
+      // refused with the line of its first gap (a point without any is no waveform).
+      if (!complete && filled > 0 && !o.inspect) {
+        const Row& gap = t.rows[first_gap - 1];
+        const Column& col = has_cell(gap, vc->drive.index) ? vc->response : vc->drive;
+        throw InputError(fmt::format("{}:{}: column \"{}\": missing value (empty cell) in the waveform of {}; "
+                                     "expected a number",
+                                     src, gap.line, col.name, seg.label));
       }
       r = end;
       if (!complete) {

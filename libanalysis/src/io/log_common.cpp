@@ -438,6 +438,19 @@ double cell_or_unset(const std::vector<std::string_view>& cells, std::optional<s
   return v * scale;
 }
 
+double instrument_value(const std::vector<std::string_view>& cells, std::optional<std::size_t> col, double scale,
+                        bool positive, const char* what, const std::string& source, std::size_t line) {
+  if (!col || *col >= cells.size() || trim(cells[*col]).empty()) return core::kUnset;
+  const std::string_view cell = trim(cells[*col]);
+  double v = 0;
+  if (!parse_number(cell, true, v) || !std::isfinite(v))
+    throw InputError(fmt::format("{}:{}: the instrument's {}: \"{}\" is not a finite number", source, line, what,
+                                 cell));
+  if (positive && !(v > 0))
+    throw InputError(fmt::format("{}:{}: the instrument's {}: {}; expected > 0", source, line, what, cell));
+  return v * scale;
+}
+
 double unit_scale_or_unset(const std::string& unit, UnitKind kind) {
   return find_unit_scale(unit, kind).value_or(core::kUnset);
 }

@@ -132,6 +132,11 @@ VendorColumns resolve_vendor_columns(const std::vector<std::vector<std::string>>
 /// A value the instrument reports beside the samples (frequency, G', torque): the
 /// finite number (decimal comma allowed) of `col` times `scale`, or kUnset when the
 /// column is absent, the cell empty or not a number, or the scale unset.
+/// A value the instrument reported for a point (frequency, G', G'', torque): unset
+/// when its column or cell is absent or empty; InputError naming the line when the
+/// cell is not a finite number, or (positive) not > 0.
+double instrument_value(const std::vector<std::string_view>& cells, std::optional<std::size_t> col, double scale,
+                        bool positive, const char* what, const std::string& source, std::size_t line);
 double cell_or_unset(const std::vector<std::string_view>& cells, std::optional<std::size_t> col,
                      double scale);
 /// Factor of `unit` to SI for `kind`, kUnset when the unit is not known.

@@ -232,6 +232,10 @@ void read_trios(std::string_view text, const LogReadOptions& o, OscillationLog& 
       try {
         append_sample(seg, row, vc->time, vc->drive, vc->response, decimal_comma, src, lines[i].number);
       } catch (const InputError& e) {
+        // A damaged cell in a waveform step (text, empty, overflowing, a thousands
+        // separator, a stray byte-order mark) is refused with its line, never dropped;
+        // --inspect lists it instead.
+        if (!o.inspect) throw;
         skip(std::string("unreadable samples: ") + e.what(), e.what());
         bad = true;
         break;

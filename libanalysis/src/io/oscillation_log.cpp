@@ -167,6 +167,13 @@ OscillationLog read_oscillation_log(const std::filesystem::path& path,
   log.source = path.string();
   log.quantity = options.quantity;
   const std::string text = decode_text(bytes, log.source);
+  // A byte-order mark after the start (U+FEFF, once decoded) is damage: files pasted
+  // together, or a cell edited in another program. It split a Malvern action in two
+  // and made a number cell unreadable; refused with its line.
+  if (const std::size_t bom = text.find("\xEF\xBB\xBF"); bom != std::string::npos)
+    throw InputError(fmt::format("{}:{}: a byte-order mark (U+FEFF) inside the file; expected one at its start "
+                                 "only (files pasted together, or a cell edited elsewhere)",
+                                 log.source, 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(bom), '\n')));
 
   LogFormat format = options.format;
   if (format == LogFormat::kAuto) {

@@ -611,7 +611,7 @@ Study load_study(const fs::path& file, const KnownOption& known_option) {
     once("sim.max_angle_deg", angle);
     const std::size_t points = lmax.size() * angle.size() * Ns.size() * seeds.size();
     if (points > kMaxGridPoints)
-      r.fail(c.has("sim.N") ? "sim.N" : "sim.scene",
+      r.fail(seeds.size() > 1 ? "sim.seeds" : c.has("sim.N") ? "sim.N" : c.has("sim.l_max_m") ? "sim.l_max_m" : "sim.scene",
              fmt::format("a grid of {} points (N x l_max_m x max_angle_deg x seeds = {} x {} x {} x {}); at most {}",
                          points, Ns.size(), lmax.size(), angle.size(), seeds.size(), kMaxGridPoints));
     for (const auto N : Ns)
