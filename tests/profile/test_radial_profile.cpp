@@ -1,6 +1,8 @@
 // Radial profiles of analytic fields sampled on a grid (docs/profile-width.md, "Profile").
 #include <cmath>
 #include <random>
+#include <tuple>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -236,4 +238,28 @@ TEST_CASE("bad profile options are ConfigError naming the option", "[profile]") 
   o = options(10);
   ProfileAccumulator acc(o);
   CHECK_THROWS_AS(acc.add(azimuthal_field(8, [](double) { return 0.0; }), 0.0, 0), InputError);
+}
+
+// Issue 34: 16 bins were announced from 0.01591 to 0.034 m and a 17th row written at
+// 0.0345 m, outside the cup. A last partial bin counts only when it holds its centre.
+TEST_CASE("every bin centre lies inside the annulus", "[profile]") {
+  for (const auto& [lo, hi, bin, n] : std::vector<std::tuple<double, double, double, std::size_t>>{
+           {0.01591, 0.034, 0.0012, 15},  // 15.07 bins: the sliver is left out
+           {0.010, 0.0292, 0.0012, 16},   // 16.0 bins
+           {0.010, 0.0295, 0.0012, 16},   // 16.25 bins
+           {0.010, 0.0298, 0.0012, 17},   // 16.5 bins: the half bin holds its centre
+           {0.010, 0.0108, 0.0012, 1}}) { // two thirds of a bin: one
+    ProfileOptions o;
+    o.r_min_m = lo;
+    o.r_max_m = hi;
+    o.bin_m = bin;
+    INFO(lo << " to " << hi << " m in bins of " << bin << " m");
+    CHECK(o.num_bins() == n);
+    for (std::size_t k = 0; k < o.num_bins(); ++k) CHECK(o.bin_centre_m(k) <= hi + 1e-12);
+  }
+  ProfileOptions narrow;  // a bin more than twice the annulus: refused
+  narrow.r_min_m = 0.010;
+  narrow.r_max_m = 0.0104;
+  narrow.bin_m = 0.0012;
+  CHECK_THROWS_AS(narrow.validate(), ConfigError);
 }

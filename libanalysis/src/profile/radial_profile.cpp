@@ -30,12 +30,20 @@ void ProfileOptions::validate() const {
   if (lockin_harmonics != 0 && !(lockin_harmonics >= 1 && lockin_harmonics <= 31 && lockin_harmonics % 2 == 1))
     throw ConfigError(fmt::format("profile: lock-in harmonics {}: expected 0 (off) or an odd number 1..31",
                                   lockin_harmonics));
+  if ((r_max_m - r_min_m) < 0.5 * bin_m)
+    throw ConfigError(fmt::format("profile: bin width {} m is more than twice the annulus ({} to {} m); expected a "
+                                  "bin that fits",
+                                  bin_m, r_min_m, r_max_m));
   if ((r_max_m - r_min_m) / bin_m > 1e5)
     throw ConfigError(fmt::format("profile: bin width {} m gives more than 1e5 bins", bin_m));
 }
 
 std::size_t ProfileOptions::num_bins() const {
-  return static_cast<std::size_t>(std::ceil((r_max_m - r_min_m) / bin_m - 1e-9));
+  // Whole bins, and a last partial one only when it holds its own centre: a sliver past
+  // the last whole bin (less than half a bin) would put a row's r_m outside the cup
+  // (a 17th row at 0.0345 m for a cup of 0.034 m); its vectors are left out.
+  const double n = (r_max_m - r_min_m) / bin_m;
+  return std::max<std::size_t>(1, static_cast<std::size_t>(std::floor(n + 0.5 + 1e-9)));
 }
 
 double ProfileOptions::bin_centre_m(std::size_t k) const {

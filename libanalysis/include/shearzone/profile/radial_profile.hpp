@@ -58,6 +58,8 @@ struct ProfileOptions {
   int lockin_harmonics = 1;
   /// Throws ConfigError naming the option.
   void validate() const;
+  /// (r_max - r_min) / bin rounded to the nearest whole number (at least 1): every bin
+  /// centre lies inside [r_min, r_max].
   std::size_t num_bins() const;
   double bin_centre_m(std::size_t k) const;
 };
