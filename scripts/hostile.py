@@ -189,6 +189,10 @@ def cases(work):
         ("study_grid_1e5", ["study", "run", "study_big.toml", "--dry-run", "-o", "so"], 2, ["so"], "a line of [0-9]+ characters"),
         ("study_grid_2000", ["study", "run", "study_2000.toml", "--dry-run", "-o", "so"], 2, ["so"],
          r"sim.seeds\": a grid of 2000 points"),
+        ("sim_drive_alias", ["sim", "cup_alias.toml", "-o", "run"], 2, ["run"],
+         r"cup_alias.toml:44: key \"protocol.f_Hz\": 199 Hz with sim.time_step_s = 0.001 s"),
+        ("sim_branch_steps_1e9", ["sim", "cup_cycles.toml", "-o", "run"], 2, ["run"],
+         r"key \"protocol.cycles\": 1000000 cycles at 0.5 Hz"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -264,6 +268,8 @@ def make_inputs(bin_, work):
     w("study_wild.toml", "[lab.clip_glob]\nfiles = \"wild/*.mp4\"\npattern = \"*a*a*a*a*a*a*a*N{N}*b\"\n")
     cup = open(os.path.join(ROOT, "data-samples", "sim", "vane_cup.toml")).read()
     w("cup.toml", cup)
+    w("cup_alias.toml", cup.replace("f_Hz = 0.5 ", "f_Hz = 199 ", 1))
+    w("cup_cycles.toml", cup.replace("cycles = 2", "cycles = 1e6", 1))
     w("study_dup.toml", "[sim]\nscene = \"cup.toml\"\nl_max_m = [0.0004, 4e-4]\n")
     w("study_2000.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(2000)) + "]\n")
     w("study_big.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(100000)) + "]\n")

@@ -59,6 +59,11 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     if (!(std::abs(o.branch_phi0_rad) <= 100.0))
       throw ConfigError(fmt::format("--phi0 {}: expected |phi0| <= 100 rad", o.branch_phi0_rad));
     if (!(f > 0 && f <= 1000.0)) throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1000 Hz", f));
+    if (const double h = w.options().time_step; f * h > 1.0 / sim::kMinStepsPerDrivePeriod)
+      throw ConfigError(fmt::format("--f-hz {}: {:.3g} time steps of {} s per period; expected at least {} (f <= {:.4g} "
+                                    "Hz), or the vane is sampled at an alias",
+                                    f, 1.0 / (f * h), io::format_number(h), sim::kMinStepsPerDrivePeriod,
+                                    1.0 / (sim::kMinStepsPerDrivePeriod * h)));
     const double k = std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles;
     if (!(k > 0 && k <= 1e6)) throw ConfigError(fmt::format("--cycles {}: expected 0 < cycles <= 1e6", k));
     w.set_rotor_drive(0, o.branch_phi0_rad, f, 0.0, w.time());
@@ -78,15 +83,21 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   sum.threads = w.options().threads;
   const double h = w.options().time_step;
   // The number of steps must be a count this run can reach (and llround can hold).
-  constexpr double kMaxSteps = 1e9;
+  constexpr double kMaxSteps = sim::kMaxRunSteps;
   const double branch_end_s =
       branch ? w.time() + (std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles) / w.rotor(0).f_Hz : 0.0;
   const double steps = (branch ? branch_end_s : cad.duration_s) / h;
-  if (!(steps <= kMaxSteps))
+  if (!(steps <= kMaxSteps)) {
+    if (branch)  // the branch's own length: its cycles at its frequency
+      throw ConfigError(fmt::format("--cycles {} at --f-hz {} over the time step {} s is {:.3g} steps; expected at "
+                                    "most {:.0e} (fewer cycles or a higher frequency)",
+                                    io::format_number(std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles),
+                                    io::format_number(w.rotor(0).f_Hz), io::format_number(h), steps, kMaxSteps));
     throw ConfigError(fmt::format("{}: sim.duration_s = {} s over sim.time_step_s = {} s is {:.3g} steps; "
                                   "expected at most {:.0e} (a longer time step or a shorter run)",
                                   o.scene.string(), io::format_number(cad.duration_s),
                                   io::format_number(h), steps, kMaxSteps));
+  }
   const auto end_step = static_cast<std::int64_t>(std::llround(steps));
   const std::int64_t todo = std::max<std::int64_t>(0, end_step - w.steps_done());
 

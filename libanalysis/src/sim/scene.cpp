@@ -677,6 +677,25 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
     b.vane_phase = 0.0;
     b.vane_stop_change = protocol->stop_change;
   }
+  // Every drive resolved by the time step (kMinStepsPerDrivePeriod).
+  auto resolved = [&](double f, const char* key) {
+    if (f > 0 && f * opt.time_step > 1.0 / kMinStepsPerDrivePeriod)
+      s.fail(key, fmt::format("{} Hz with sim.time_step_s = {} s: {:.3g} steps per period; expected at least {} "
+                              "(f <= {:.4g} Hz), or the vane is sampled at an alias",
+                              f, opt.time_step, 1.0 / (f * opt.time_step), kMinStepsPerDrivePeriod,
+                              1.0 / (kMinStepsPerDrivePeriod * opt.time_step)));
+  };
+  resolved(b.vane_f, protocol ? "protocol.preshear_f_Hz" : "vane.f_Hz");
+  if (protocol) {
+    resolved(protocol->f_Hz, "protocol.f_Hz");
+    // A branch's length is known here: refused before the pre-shear runs, not after.
+    const double branch_steps = protocol->cycles / protocol->f_Hz / opt.time_step;
+    if (!(branch_steps <= kMaxRunSteps))
+      s.fail("protocol.cycles", fmt::format("{} cycles at {} Hz over sim.time_step_s = {} s is {:.3g} steps per "
+                                            "branch; expected at most {:.0e}",
+                                            protocol->cycles, protocol->f_Hz, opt.time_step, branch_steps,
+                                            kMaxRunSteps));
+  }
   if (protocol && b.sectors != 0) {  // every drive keeps the blade inside its wedge
     const double limit = std::numbers::pi / b.sectors;
     if (!(protocol->preshear_phi0_rad < limit))

@@ -115,6 +115,15 @@
 
 namespace shearzone::sim {
 
+/// The vane's drive phi0 sin(2 pi f t) is imposed once per time step h: with fewer than
+/// this many steps per period (f h > 1/20) the angle is sampled towards an alias (at
+/// f h = 1 it does not move at all) while the torque log states the requested f.
+/// Scenes and branches beyond it are refused.
+inline constexpr double kMinStepsPerDrivePeriod = 20.0;
+/// The most time steps one run (a pre-shear, a branch) may take.
+inline constexpr double kMaxRunSteps = 1e9;
+
+
 /// Duration and output cadence ([sim] duration_s, [output]).
 struct SceneCadence {
   double duration_s = 0.0;
