@@ -49,6 +49,25 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
                 sum.groups.size() == 1 ? "" : "s", params.c_str(), sum.long_csv.string().c_str(),
                 sum.wide_csv.string().c_str(), sum.summary_csv.string().c_str(),
                 ctx.level == core::LogLevel::kVerbose ? "" : " (-v prints the report)");
+    // Several groups: one line each with its parameters (value +/- standard error),
+    // the first 20; every number is in the CSVs.
+    constexpr std::size_t kMaxGroupLines = 20;
+    if (sum.groups.size() > 1 && ctx.level != core::LogLevel::kVerbose) {
+      for (std::size_t g = 0; g < sum.groups.size() && g < kMaxGroupLines; ++g) {
+        const auto& gr = sum.groups[g];
+        std::string line = fmt::format("  {} = {}: {}", j.group_column, gr.group, fit::status_name(gr.fit.status));
+        if (gr.fit.status == fit::FitStatus::kOk) {
+          const auto& f = gr.fit.result;
+          for (std::size_t i = 0; i < f.names.size() && i < f.values.size(); ++i)
+            line += fmt::format("{}{} = {:.4g} +/- {:.2g}", i == 0 ? "; " : ", ", f.names[i], f.values[i],
+                                i < f.std_errors.size() ? f.std_errors[i] : core::kUnset);
+        }
+        std::printf("%s\n", line.c_str());
+      }
+      if (sum.groups.size() > kMaxGroupLines)
+        std::printf("  ... %zu more groups in %s\n", sum.groups.size() - kMaxGroupLines,
+                    sum.wide_csv.string().c_str());
+    }
   }
   if (sum.usable == 0) {
     std::string why;

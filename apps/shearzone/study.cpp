@@ -9,7 +9,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <string>
 #include <thread>
 
 #include <fmt/format.h>
@@ -95,6 +97,76 @@ int run_program(std::vector<std::string> argv, bool silent) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+/// What a failed workflow left in its log: the failed rule, its input, the job's own
+/// error line.
+struct WorkflowFailure {
+  std::string rule, input, message, last_line;
+};
+
+/// Runs Snakemake with its output (stdout and stderr) through a pipe: every line goes to
+/// `log_path`; lines go on to our stdout (progress) until the first sign of a failed job ("Error in
+/// rule", a job's `shearzone: error:` line, a traceback), after which the rest (the
+/// workflow engine's 160-180 lines of a failure) stays in the log. Returns the exit status.
+int run_workflow(std::vector<std::string> argv, const fs::path& log_path, WorkflowFailure& failure) {
+  std::ofstream log(log_path, std::ios::trunc);
+  if (!log) throw ConfigError(fmt::format("{}: cannot write the workflow's log", log_path.string()));
+  int fds[2];
+  if (::pipe(fds) != 0) throw ConfigError("cannot start snakemake: pipe failed");
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", argv[0]));
+  if (pid == 0) {
+    ::close(fds[0]);
+    ::dup2(fds[1], 1);
+    ::dup2(fds[1], 2);
+    ::close(fds[1]);
+    std::vector<char*> args;
+    for (auto& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    ::execv(args[0], args.data());
+    std::fprintf(stderr, "cannot run %s\n", args[0]);
+    ::_exit(127);
+  }
+  ::close(fds[1]);
+  bool echo = true, in_error = false;
+  std::string pending;
+  auto line_done = [&](const std::string& line) {
+    log << line << '\n';
+    const bool job_error = line.rfind("shearzone: error: ", 0) == 0;
+    if (job_error && failure.message.empty()) failure.message = line.substr(18);
+    if (line.rfind("Error in rule ", 0) == 0) {
+      in_error = true;
+      if (failure.rule.empty()) failure.rule = line.substr(14, line.size() - 14 - (line.back() == ':' ? 1 : 0));
+    } else if (in_error && failure.input.empty() && line.find("input:") != std::string::npos) {
+      failure.input = line.substr(line.find("input:") + 6);
+      while (!failure.input.empty() && failure.input.front() == ' ') failure.input.erase(0, 1);
+    }
+    if (job_error || in_error || line.rfind("Traceback", 0) == 0) echo = false;
+    if (!line.empty() && line.find_first_not_of(' ') != std::string::npos) failure.last_line = line;
+    if (echo) {
+      std::fprintf(stdout, "%s\n", line.c_str());
+      std::fflush(stdout);
+    }
+  };
+  char buf[4096];
+  for (;;) {
+    const ssize_t n = ::read(fds[0], buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    pending.append(buf, static_cast<std::size_t>(n));
+    for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos;) {
+      line_done(pending.substr(0, nl));
+      pending.erase(0, nl + 1);
+    }
+  }
+  if (!pending.empty()) line_done(pending);
+  ::close(fds[0]);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   const pipeline::Study study = pipeline::load_study(
       s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); });
@@ -157,12 +229,24 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
     if (run_program(unlock, true) != 0)
       throw ConfigError(fmt::format("{}: cannot clear the lock a killed run left (snakemake --unlock failed)", s.output));
   }
-  const int rc = run_program(argv, false);
+  // The workflow's whole output is kept in OUT/.snakemake/log/study_run.log (beside
+  // Snakemake's own bookkeeping, outside the results); a failure is one line.
+  const fs::path log_dir = fs::path(s.output) / ".snakemake" / "log";
+  fs::create_directories(log_dir);
+  const fs::path log_path = log_dir / "study_run.log";
+  WorkflowFailure failure;
+  const int rc = run_workflow(argv, log_path, failure);
   if (rc != 0) {
-    std::fprintf(stderr,
-                 "shearzone: error: %s: the workflow stopped (snakemake exit %d; the failed job's message is above); "
-                 "the same command resumes it\n",
-                 s.output.c_str(), rc);
+    std::string what;
+    if (!failure.rule.empty())
+      what = fmt::format("job \"{}\"{} failed: {}", failure.rule,
+                         failure.input.empty() ? "" : fmt::format(" (input {})", failure.input),
+                         failure.message.empty() ? "see the log" : failure.message);
+    else
+      what = fmt::format("the workflow stopped (snakemake exit {}): {}", rc,
+                         failure.message.empty() ? failure.last_line : failure.message);
+    std::fprintf(stderr, "shearzone: error: %s: %s; the full log: %s; the same command resumes it\n",
+                 s.output.c_str(), what.c_str(), log_path.c_str());
     return kExitNoResult;
   }
   if (ctx.level != core::LogLevel::kQuiet && !s.dry_run) {
