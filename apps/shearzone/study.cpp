@@ -104,9 +104,9 @@ struct WorkflowFailure {
 };
 
 /// Runs Snakemake with its output (stdout and stderr) through a pipe: every line goes to
-/// `log_path`; lines go on to our stdout (progress) until the first sign of a failed job ("Error in
-/// rule", a job's `shearzone: error:` line, a traceback), after which the rest (the
-/// workflow engine's 160-180 lines of a failure) stays in the log. Returns the exit status.
+/// `log_path`; lines go on to our stdout (progress) until Snakemake reports a failed job
+/// ("Error in rule"), after which the rest (the workflow engine's 160-180 lines of a
+/// failure) stays in the log. Returns the exit status.
 int run_workflow(std::vector<std::string> argv, const fs::path& log_path, WorkflowFailure& failure) {
   std::ofstream log(log_path, std::ios::trunc);
   if (!log) throw ConfigError(fmt::format("{}: cannot write the workflow's log", log_path.string()));
@@ -129,19 +129,23 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
   }
   ::close(fds[1]);
   bool echo = true, in_error = false;
-  std::string pending;
+  std::string pending, last_job_error;
   auto line_done = [&](const std::string& line) {
     log << line << '\n';
-    const bool job_error = line.rfind("shearzone: error: ", 0) == 0;
-    if (job_error && failure.message.empty()) failure.message = line.substr(18);
+    // A job's own error line (some jobs' refusals are tolerated by the workflow, such as
+    // width's exit 3): the last one before Snakemake reports a failed job is its message.
+    if (line.rfind("shearzone: error: ", 0) == 0 && !in_error) last_job_error = line.substr(18);
     if (line.rfind("Error in rule ", 0) == 0) {
       in_error = true;
-      if (failure.rule.empty()) failure.rule = line.substr(14, line.size() - 14 - (line.back() == ':' ? 1 : 0));
+      if (failure.rule.empty()) {
+        failure.rule = line.substr(14, line.size() - 14 - (line.back() == ':' ? 1 : 0));
+        failure.message = last_job_error;
+      }
     } else if (in_error && failure.input.empty() && line.find("input:") != std::string::npos) {
       failure.input = line.substr(line.find("input:") + 6);
       while (!failure.input.empty() && failure.input.front() == ' ') failure.input.erase(0, 1);
     }
-    if (job_error || in_error || line.rfind("Traceback", 0) == 0) echo = false;
+    if (in_error) echo = false;
     if (!line.empty() && line.find_first_not_of(' ') != std::string::npos) failure.last_line = line;
     if (echo) {
       std::fprintf(stdout, "%s\n", line.c_str());

@@ -196,3 +196,34 @@ TEST_CASE("guards: --no-split over several amplitudes is refused unless forced",
   o.split_amplitudes = true;
   CHECK(analyse_record(a, o, "two").amplitudes.size() == 2);
 }
+
+// Issue 34: the simulated cup's tau_max was one impulsive contact (6.0 mN m against a
+// 99th percentile of 1.3). tau_max is now min(the largest sample, the largest value of
+// the cycle's odd-harmonic reconstruction); the raw largest sample is kept beside it.
+TEST_CASE("tau_max ignores a single spike and keeps a plateau; the raw maximum keeps the spike", "[laos]") {
+  const double x0 = 0.3, omega = 2 * kPi * 0.5;
+  const double G1 = 0.01, G3 = 0.002;  // torque per rad: elastic first and third harmonic
+  auto model = [&](double th, double) { return x0 * (G1 * std::sin(th) + G3 * std::sin(3 * th)); };
+  Waveform w = testutil::timed(x0, omega, 400, 4, model);
+  double exact = 0;  // the exact maximum over a period
+  for (int k = 0; k < 100000; ++k) exact = std::max(exact, std::abs(model(2 * kPi * k / 100000.0, 0)));
+  // 400 samples per cycle: the sampled peak misses the exact one by < 1e-4.
+  constexpr double kSampledPeak = 1e-4;
+  const auto clean = analyse_record(w, {}, "synthetic").amplitudes.at(0);
+  CHECK(clean.r_max == Approx(exact).epsilon(kSampledPeak));
+  CHECK(clean.r_max_raw == Approx(exact).epsilon(kSampledPeak));
+  // One sample in the last cycle 5x the torque amplitude.
+  w.response[w.response.size() - 150] += 5 * exact;
+  const auto spiked = analyse_record(w, {}, "synthetic").amplitudes.at(0);
+  INFO("tau_max " << spiked.r_max << ", raw " << spiked.r_max_raw << ", exact " << exact);
+  // The spike s leaks into each of the 5 odd harmonics (n <= 9) by at most 2 s/N: 12.5 %
+  // of the peak in its cycle for s = 5 peaks and N = 400, less in the mean over cycles.
+  constexpr double kLeakage = 5 * 2 * 5.0 / 400;
+  CHECK(spiked.r_max == Approx(exact).epsilon(kLeakage));
+  CHECK(spiked.r_max_raw > 1.5 * exact);  // the raw maximum carries it
+  // A square wave (Coulomb friction): the plateau, not the reconstruction's overshoot.
+  const double ty = 0.004;
+  Waveform sq = testutil::timed(x0, omega, 400, 4, [&](double th, double) { return std::cos(th) > 0 ? ty : -ty; });
+  const auto square = analyse_record(sq, {}, "synthetic").amplitudes.at(0);
+  CHECK(square.r_max == Approx(ty).epsilon(1e-12));
+}

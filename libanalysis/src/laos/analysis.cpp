@@ -17,6 +17,24 @@
 namespace shearzone::laos {
 
 namespace {
+
+/// τ_max of a cycle: the smaller of the largest |r| sample and the largest |offset +
+/// odd harmonics| of the cycle's harmonic fit (64 points per period of the highest
+/// harmonic). A smooth response keeps its sampled maximum (the reconstruction is at
+/// least as high); a plateau (a yield torque) keeps it too (the reconstruction overshoots
+/// a square wave by Gibbs' 9 %); a single impulsive sample (a contact in a simulated
+/// torque log) is left out, up to its leakage into the harmonics, (odd n <= M) x 2/N of
+/// its size for N samples per cycle.
+double robust_max(double sampled_max, const HarmonicFit& f) {
+  const int n = 64 * std::max(1, f.M);
+  double m = 0;
+  for (int k = 0; k < n; ++k) {
+    const double th = 2.0 * std::numbers::pi * k / n;
+    m = std::max(m, std::abs(f.offset + f.odd_sin_part(th) + f.odd_cos_part(th)));
+  }
+  return std::min(sampled_max, m);
+}
+
 constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * kPi;
 /// Slack on cycle boundaries in θ: a record that starts (or ends) on an upward
@@ -406,13 +424,14 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
     lx.push_back(interp_at(theta, x, b));
     lr.push_back(interp_at(theta, r, b));
     cr.x0 = 0.5 * (hi - lo);
-    cr.r_max = rmax;
+    cr.r_max_raw = rmax;
     cr.E_d = loop_area(lx, lr);
     HarmonicFitOptions fc = fo;
     // One cycle may hold fewer samples than the block fit's parameters need.
     const auto m = static_cast<int>(std::count_if(wc.begin(), wc.end(), [](double v) { return v > 0; }));
     fc.max_harmonic = std::max(1, std::min(fo.max_harmonic, (m - 4) / 2));
     const HarmonicFit hf = fit_harmonics(theta, r, wc, A.x0, fc);
+    cr.r_max = robust_max(rmax, hf);
     cr.K1p = hf.Kp[1];
     cr.K1pp = hf.Kpp[1];
     A.cycles.push_back(cr);
@@ -459,7 +478,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
   }
   // Block fit over the used cycles.
   std::vector<double> wsum(n, 0.0);
-  double Esum = 0, rsum = 0;
+  double Esum = 0, rsum = 0, rsum_raw = 0;
   int nused = 0;
   for (int c = 0; c < ncyc; ++c) {
     const auto& cr = A.cycles[static_cast<std::size_t>(c)];
@@ -468,6 +487,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
     for (std::size_t i = 0; i < n; ++i) wsum[i] += wc[i];
     Esum += cr.E_d;
     rsum += cr.r_max;
+    rsum_raw += cr.r_max_raw;
     ++nused;
   }
   {
@@ -485,6 +505,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
   check_fit_meaningful(A, where);
   A.E_d = Esum / nused;
   A.r_max = rsum / nused;
+  A.r_max_raw = rsum_raw / nused;
   A.E_d_ratio = A.E_d / (kPi * A.x0 * A.x0 * A.measures.K1pp);
   A.phi_d = A.E_d / (4.0 * A.x0 * A.r_max);
   for (std::size_t i = 0; i < n; ++i) {
@@ -699,7 +720,8 @@ AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& o
   CycleResult cr;
   cr.cycle = 1;
   cr.x0 = 0.5 * (*xmx - *xmn);
-  cr.r_max = std::max(std::abs(*rmn), std::abs(*rmx));
+  cr.r_max_raw = std::max(std::abs(*rmn), std::abs(*rmx));
+  cr.r_max = robust_max(cr.r_max_raw, A.fit);
   cr.E_d = loop_area(w.drive, w.response);  // the stored samples, closed
   cr.K1p = A.fit.Kp[1];
   cr.K1pp = A.fit.Kpp[1];
@@ -708,6 +730,7 @@ AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& o
   A.status = AmplitudeStatus::kClosedCycle;
   A.E_d = cr.E_d;
   A.r_max = cr.r_max;
+  A.r_max_raw = cr.r_max_raw;
   A.E_d_ratio = A.E_d / (kPi * A.x0 * A.x0 * A.measures.K1pp);
   A.phi_d = A.E_d / (4.0 * A.x0 * A.r_max);
   A.sample_cycle.assign(N, 1);

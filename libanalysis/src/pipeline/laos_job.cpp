@@ -21,13 +21,13 @@ namespace {
 
 /// Column-name vocabulary of one unit system.
 struct Names {
-  std::string x0, r_max, K, K_s, E, x, xn, xdotn, r;
+  std::string x0, r_max, K, K_s, E, x, xn, xdotn, r, r_max_raw;
 };
 Names names(bool ss) {
   if (ss) return {"gamma0", "sigma_max_Pa", "Pa", "Pa_s", "E_d_J_per_m3", "gamma", "gamma_over_gamma0",
-                  "gammadot_over_gammadot_max", "sigma_Pa"};
+                  "gammadot_over_gammadot_max", "sigma_Pa", "sigma_max_raw_Pa"};
   return {"phi0_rad", "tau_max_N_m", "N_m_per_rad", "N_m_s_per_rad", "E_d_J", "phi_rad",
-          "phi_over_phi0", "phidot_over_phidot_max", "tau_N_m"};
+          "phi_over_phi0", "phidot_over_phidot_max", "tau_N_m", "tau_max_raw_N_m"};
 }
 
 using io::format_number_nan_empty;
@@ -194,6 +194,10 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
                     "mod 2 pi, delta_n = atan2(K''_n, K'_n); a closed cycle (one stored period of N "
                     "samples, phase_method closed_cycle_dft): theta_k = 2 pi k/N + psi, harmonics "
                     "by the discrete Fourier transform of the period, no drift column");
+  add("tau_max", fmt::format("{}: mean over the used cycles of the largest |offset + sum over odd n of the "
+                              "harmonics| of each cycle's fit (the symmetric response without drift: robust to "
+                              "a single impulsive sample); {}: mean over the used cycles of the largest |sample|",
+                              nm.r_max, nm.r_max_raw));
   add("instrument_columns", "instrument_*: what the instrument itself reported for the segment "
                             "(frequency, G', G'', torque amplitude); empty when the log has none");
   add("laos_sign", "phi > 0 counter-clockwise as the camera sees it; tau > 0 when the motor drives "
@@ -214,7 +218,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   for (const std::string& c :
        {std::string("first_line"), std::string("last_line"), nm.x0, ss ? std::string("gamma0_nominal") : std::string("phi0_nominal_rad"),
         std::string("omega_rad_per_s"),
-        nm.r_max, Kp, Kpse, Kpp, Kppse, std::string("tan_delta_1"), std::string("I2_over_I1"),
+        nm.r_max, nm.r_max_raw, Kp, Kpse, Kpp, Kppse, std::string("tan_delta_1"), std::string("I2_over_I1"),
         std::string("I3_over_I1"), std::string("Phi3_rad"), "e1_" + K, std::string("e3_over_e1"),
         "v1_" + Ks, std::string("v3_over_v1"), pre + "_M_prime_" + K, pre + "_L_prime_" + K,
         "eta_M_" + Ks, "eta_L_" + Ks, std::string("S"), std::string("T"), nm.E,
@@ -241,7 +245,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       const std::vector<double> vals = {
           static_cast<double>(A.first_line), static_cast<double>(A.last_line), A.x0,
           nominal(A.x0), A.omega,
-          A.r_max, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
+          A.r_max, A.r_max_raw, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
           A.M >= 3 ? m.Phi[3] : core::kUnset, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
           m.K_L, m.eta_M, m.eta_L, m.S, m.T, A.E_d, A.E_d_ratio, A.phi_d,
           static_cast<double>(used), static_cast<double>(A.cycles.size()),
@@ -265,7 +269,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   {
     auto& f = set.add("cycles.csv");
     io::CsvWriter w(f.stream(), meta,
-                    {"source", "segment", "amplitude", "cycle", "t_start_s", nm.x0, nm.r_max,
+                    {"source", "segment", "amplitude", "cycle", "t_start_s", nm.x0, nm.r_max, nm.r_max_raw,
                      (ss ? "G1_prime_" : "K1_prime_") + K, (ss ? "G1_dprime_" : "K1_dprime_") + K,
                      nm.E, "steady", "used"});
     for (std::size_t i = 0; i < items.size(); ++i)
@@ -273,7 +277,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
         w.row(std::vector<std::string>{
             items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(c.cycle),
             format_number_nan_empty(c.t_start_s), format_number_nan_empty(c.x0),
-            format_number_nan_empty(c.r_max), format_number_nan_empty(c.K1p), format_number_nan_empty(c.K1pp),
+            format_number_nan_empty(c.r_max), format_number_nan_empty(c.r_max_raw), format_number_nan_empty(c.K1p), format_number_nan_empty(c.K1pp),
             format_number_nan_empty(c.E_d), c.steady ? "1" : "0", c.used ? "1" : "0"});
   }
   {

@@ -20,7 +20,10 @@
 //     options or is unknown (rate measures NaN).
 //  3. Cycles: θ ∈ [2πk, 2π(k+1)] (upward zero crossings of the fitted drive); partial
 //     cycles at the ends are dropped and counted. Per cycle: a harmonic fit, x0,
-//     τ_max = max|r|, loop area E_d. Steady state: the cycles from the first one after
+//     τ_max = min(largest |r| sample, largest |offset + odd harmonics| of the cycle's
+//     fit): a single impulsive sample is left out, a plateau kept (the largest |r| is
+//     also kept, as r_max_raw: one impulsive contact in a simulated torque log made it
+//     4.6x the 99th percentile), loop area E_d. Steady state: the cycles from the first one after
 //     which every cycle-to-cycle change of K'_1 and K''_1 is below
 //     steady_tolerance·|K*_1|. Default analysis: the steady cycles (none steady: the
 //     last cycle only, status "not_steady"); `cycles` (1-based) overrides.
@@ -82,7 +85,8 @@ struct CycleResult {
   int cycle = 0;            ///< 1-based within the amplitude
   double t_start_s = core::kUnset;  ///< time of θ = 2πk (NaN without time)
   double x0 = 0;            ///< half range of the drive samples in the cycle
-  double r_max = 0;         ///< max |r| over the cycle's samples
+  double r_max = 0;         ///< min(r_max_raw, max |offset + odd harmonics| of the cycle's fit)
+  double r_max_raw = 0;     ///< max |r| over the cycle's samples
   double K1p = 0, K1pp = 0; ///< per-cycle first harmonic
   double E_d = 0;           ///< loop area ∮ r dx over the cycle
   bool steady = false, used = false;
@@ -112,7 +116,8 @@ struct AmplitudeResult {
   std::vector<CycleResult> cycles;
   HarmonicFit fit;              ///< over the used cycles
   Measures measures;
-  double r_max = 0;             ///< mean over used cycles of max|r|
+  double r_max = 0;             ///< mean over used cycles of CycleResult::r_max
+  double r_max_raw = 0;         ///< mean over used cycles of max|r| of the samples
   double E_d = 0;               ///< mean loop area over used cycles
   double E_d_ratio = 0;         ///< E_d/(π x0² K''_1)
   double phi_d = 0;             ///< E_d/(4 x0 r_max)
