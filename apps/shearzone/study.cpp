@@ -71,6 +71,16 @@ fs::path find_program(const std::string& name, const std::vector<fs::path>& firs
   return {};
 }
 
+/// In a forked child: replaces it by argv[0] with its arguments (exit 127 if it cannot run).
+[[noreturn]] void exec_child(std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (auto& a : argv) args.push_back(a.data());
+  args.push_back(nullptr);
+  ::execv(args[0], args.data());
+  std::fprintf(stderr, "shearzone: error: cannot run %s\n", args[0]);
+  ::_exit(127);
+}
+
 /// Runs argv[0] with its arguments and returns its exit status (128 + signal if killed).
 int run_program(std::vector<std::string> argv, bool silent) {
   std::fflush(nullptr);
@@ -84,12 +94,7 @@ int run_program(std::vector<std::string> argv, bool silent) {
         ::dup2(devnull, 2);
       }
     }
-    std::vector<char*> args;
-    for (auto& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    std::fprintf(stderr, "shearzone: error: cannot run %s\n", args[0]);
-    ::_exit(127);
+    exec_child(argv);
   }
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0)
@@ -120,12 +125,7 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
     ::dup2(fds[1], 1);
     ::dup2(fds[1], 2);
     ::close(fds[1]);
-    std::vector<char*> args;
-    for (auto& a : argv) args.push_back(a.data());
-    args.push_back(nullptr);
-    ::execv(args[0], args.data());
-    std::fprintf(stderr, "cannot run %s\n", args[0]);
-    ::_exit(127);
+    exec_child(argv);
   }
   ::close(fds[1]);
   bool echo = true, in_error = false;
