@@ -193,6 +193,10 @@ def cases(work):
          r"cup_alias.toml:44: key \"protocol.f_Hz\": 199 Hz with sim.time_step_s = 0.001 s"),
         ("sim_branch_steps_1e9", ["sim", "cup_cycles.toml", "-o", "run"], 2, ["run"],
          r"key \"protocol.cycles\": 1000000 cycles at 0.5 Hz"),
+        ("sim_check_passes_9", ["sim", "check", "run_none", "-o", "co", "--passes", "9"], 2, ["co"],
+         "--passes 9: expected 1..6"),
+        ("sim_check_passes_alone", ["sim", "check", "run_none", "-o", "co", "--passes", "2"], 2, ["co"],
+         "--passes: it sets the passes of the --final-windows grid"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]

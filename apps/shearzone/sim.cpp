@@ -158,6 +158,7 @@ struct CheckCli {
   std::vector<int> size, windows, final_windows, passes{3}, spacings{1};
   std::vector<std::string> interpolations;
   std::string estimator = "auto";
+  bool passes_given = false;
 };
 
 int run_check(CheckCli& s, const Context& ctx) {
@@ -168,6 +169,13 @@ int run_check(CheckCli& s, const Context& ctx) {
   if (!profile::parse_estimator(s.estimator, j.width.estimator))
     throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
   if (!s.windows.empty()) j.piv.piv.windows_px = s.windows;
+  // --passes shapes the --final-windows grid: checked always, and refused without it
+  // (it was ignored there, out of range or not).
+  for (const int p : s.passes)
+    if (!(p >= 1 && p <= 6)) throw ConfigError(fmt::format("--passes {}: expected 1..6", p));
+  if (s.passes_given && s.final_windows.empty())
+    throw ConfigError("--passes: it sets the passes of the --final-windows grid; give --final-windows too "
+                      "(or --windows for one window list)");
   // The grid: final windows x passes (halving down to the final window) x
   // interpolations x pair spacings; --windows alone is one window list.
   std::vector<std::vector<int>> grids;
@@ -175,7 +183,6 @@ int run_check(CheckCli& s, const Context& ctx) {
     if (w != 8 && w != 16 && w != 32 && w != 64)
       throw ConfigError(fmt::format("--final-windows {}: expected 8, 16, 32 or 64 px", w));
     for (const int p : s.passes) {
-      if (!(p >= 1 && p <= 6)) throw ConfigError(fmt::format("--passes {}: expected 1..6", p));
       std::vector<int> g;
       for (int q = p - 1; q >= 0; --q) g.push_back(w << q);
       grids.push_back(std::move(g));
@@ -282,7 +289,10 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx) {
       ->capture_default_str();
   ck->add_option("--truth-spacing-px", k->job.truth_spacing_px, "Grid step of the camera's truth field, px; range: 1..1024")
       ->capture_default_str();
-  subs.push_back({ck, [k, &ctx] { return run_check(*k, ctx); }});
+  subs.push_back({ck, [k, ck, &ctx] {
+                    k->passes_given = ck->count("--passes") > 0;
+                    return run_check(*k, ctx);
+                  }});
   return subs;
 }
 
