@@ -197,6 +197,8 @@ def cases(work):
          "--passes 9: expected 1..6"),
         ("sim_check_passes_alone", ["sim", "check", "run_none", "-o", "co", "--passes", "2"], 2, ["co"],
          "--passes: it sets the passes of the --final-windows grid"),
+        ("sim_existing_output_before_fill", ["sim", os.path.join(ROOT, "data-samples", "sim", "filmed_cup.toml"),
+         "-o", "simdone"], 2, [], "simdone/snapshots.h5: output exists"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -278,6 +280,8 @@ def make_inputs(bin_, work):
     w("study_2000.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(2000)) + "]\n")
     w("study_big.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(100000)) + "]\n")
     os.symlink(os.path.join(work, "missing", "w.csv"), os.path.join(work, "dangling.csv"))
+    os.makedirs(os.path.join(work, "simdone"), exist_ok=True)
+    w("simdone/snapshots.h5", "a finished run's file")
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
     w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
     w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))

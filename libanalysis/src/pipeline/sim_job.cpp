@@ -30,6 +30,10 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   SimJobSummary sum;
   std::vector<std::int64_t> chain_ids;
   std::optional<sim::World> built;
+  // The files every run writes, refused before the fill (minutes for a large cup) rather
+  // than after it; the others (torque, surface, frames, cycles) when they are known.
+  for (const char* name : {"snapshots.h5", "snapshots.xdmf", "diagnostics.csv", "checkpoint.h5"})
+    io::check_output_allowed(o.output_dir / name, o.force);
   sim::LoadedScene scene = sim::load_scene(o.scene, !o.restart.empty(), fill_progress);
   const sim::SceneCadence cad = scene.cadence;
   if (o.restart.empty()) {
