@@ -70,16 +70,24 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
                 j.output.string().c_str());
     // The log column only when several logs are given.
     const bool many = sum.logs > 1;
-    std::printf("  %3s %s%-10s %10s %11s %11s %11s %9s %8s %6s %3s %6s  %s\n", "#",
-                many ? fmt::format("{:<16.16s} ", "log").c_str() : "", "segment",
+    // The segment column as wide as its longest label (vendor labels such as
+    // "LAOS 1 / interval 2 / point 1" were cut to "LAOS 1 / i"), 10 to 48 characters.
+    constexpr std::size_t kMinSegment = 10, kMaxSegment = 48;
+    std::size_t seg_width = kMinSegment;
+    for (const auto& r : sum.rows) seg_width = std::max(seg_width, std::min(kMaxSegment, r.segment.size()));
+    const auto segment_cell = [&](const std::string& text) {
+      return fmt::format("{:<{}.{}}", text, seg_width, seg_width);
+    };
+    std::printf("  %3s %s%s %10s %11s %11s %11s %9s %8s %6s %3s %6s  %s\n", "#",
+                many ? fmt::format("{:<16.16s} ", "log").c_str() : "", segment_cell("segment").c_str(),
                 ss ? "gamma0" : "phi0/rad", ss ? "sig_max/Pa" : "tau_max/Nm", ss ? "G'1/Pa" : "K'1/Nm/rad",
                 ss ? "G''1/Pa" : "K''1/Nm/rad", "tan_d", "I3/I1", "phi_d", "M", "cycles", "status");
     for (const auto& r : sum.rows)
-      std::printf("  %3zu %s%-10.10s %10.4g %11.4g %11.4g %11.4g %9.4g %8.3g %6.3f %3d %3d/%-2d  %s\n",
+      std::printf("  %3zu %s%s %10.4g %11.4g %11.4g %11.4g %9.4g %8.3g %6.3f %3d %3d/%-2d  %s\n",
                   r.amplitude,
                   many ? fmt::format("{:<16.16s} ", std::filesystem::path(r.source).filename().string()).c_str()
                        : "",
-                  r.segment.c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
+                  segment_cell(r.segment).c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
                   r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, laos::amplitude_status_name(r.status));
   }
   return kExitOk;
