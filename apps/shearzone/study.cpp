@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -34,8 +35,9 @@ struct StudyCli {
   bool slurm = false, dry_run = false, keep_going = false;
 };
 
-/// Does `shearzone <stage>` have the long option --key?
-bool has_option(CLI::App& root, const std::string& stage, const std::string& key) {
+/// The long options of `shearzone <stage>` ("render" is `sim render`, "erf"/"power" are
+/// `fit erf|power`, "collapse" is `collapse erf`); none for an unknown stage.
+std::vector<std::string> option_names(CLI::App& root, const std::string& stage) {
   CLI::App* sub = nullptr;
   try {
     if (stage == "render") sub = root.get_subcommand("sim")->get_subcommand("render");
@@ -43,12 +45,18 @@ bool has_option(CLI::App& root, const std::string& stage, const std::string& key
     else if (stage == "collapse") sub = root.get_subcommand("collapse")->get_subcommand("erf");
     else sub = root.get_subcommand(stage);
   } catch (const CLI::Error&) {
-    return false;
+    return {};
   }
+  std::vector<std::string> names;
   for (const CLI::Option* o : sub->get_options())
-    for (const std::string& n : o->get_lnames())
-      if (n == key) return true;
-  return false;
+    for (const std::string& n : o->get_lnames()) names.push_back(n);
+  return names;
+}
+
+/// Does `shearzone <stage>` have the long option --key?
+bool has_option(CLI::App& root, const std::string& stage, const std::string& key) {
+  const std::vector<std::string> names = option_names(root, stage);
+  return std::find(names.begin(), names.end(), key) != names.end();
 }
 
 /// The folder of the workflow and figure scripts: $SHEARZONE_SCRIPTS, else the source tree's.
@@ -173,7 +181,8 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
 
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   const pipeline::Study study = pipeline::load_study(
-      s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); });
+      s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); },
+      [&root](const std::string& stage) { return option_names(root, stage); });
   const fs::path scripts = scripts_dir();
   const fs::path snakefile = scripts / "study" / "Snakefile";
   if (!fs::is_regular_file(snakefile))

@@ -58,7 +58,8 @@ bool valid_name(const std::string& s) {
 
 class Reader {
  public:
-  Reader(const io::TomlConfig& c, KnownOption known) : c_(c), known_(std::move(known)) {}
+  Reader(const io::TomlConfig& c, KnownOption known, OptionNames names = {})
+      : c_(c), known_(std::move(known)), names_(std::move(names)) {}
 
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
     throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", c_.source(), c_.line(key), key, what));
@@ -119,7 +120,15 @@ class Reader {
         fail(key, fmt::format("a table inside [{}] (expected options of shearzone {})", prefix, stage_name(stage)));
       if (kReserved.at(stage).count(opt))
         fail(key, fmt::format("set by the study itself (expected another option of shearzone {})", stage_name(stage)));
-      if (!known_(stage, opt)) fail(key, fmt::format("shearzone {} has no option --{}", stage_name(stage), opt));
+      if (!known_(stage, opt)) {
+        std::string best;
+        std::size_t bd = 1000;
+        if (names_)
+          for (const std::string& n : names_(stage))
+            if (const std::size_t d = io::edit_distance(opt, n); d < bd) bd = d, best = n;
+        fail(key, fmt::format("shearzone {} has no option --{}{}", stage_name(stage), opt,
+                              bd <= 3 ? fmt::format(" (did you mean --{}?)", best) : ""));
+      }
       const auto& texts = c_.texts(key);
       if (!c_.is_array(key) && (texts[0] == "true" || texts[0] == "false")) {
         // a flag: present when true
@@ -143,6 +152,7 @@ class Reader {
 
   const io::TomlConfig& c_;
   KnownOption known_;
+  OptionNames names_;
 };
 
 /// A tag pattern ("N{N}_phi{phi0_rad}"): literal text, '*' (any text) and {tag} (a
@@ -409,9 +419,9 @@ const std::vector<std::string>& study_rules() {
 
 std::string study_branch_name(double phi0_rad) { return sim::SceneProtocol::branch_folder(phi0_rad); }
 
-Study load_study(const fs::path& file, const KnownOption& known_option) {
+Study load_study(const fs::path& file, const KnownOption& known_option, const OptionNames& option_names) {
   const io::TomlConfig c = io::TomlConfig::load(file);
-  const Reader r(c, known_option);
+  const Reader r(c, known_option, option_names);
   Study s;
   s.file = fs::absolute(file).lexically_normal();
 

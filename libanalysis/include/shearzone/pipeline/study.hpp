@@ -88,8 +88,13 @@ struct Study {
 /// "collapse" is `collapse erf`).
 using KnownOption = std::function<bool(const std::string& stage, const std::string& key)>;
 
-/// Reads and checks a study file. ConfigError / InputError name the file, line and key.
-Study load_study(const std::filesystem::path& file, const KnownOption& known_option);
+/// The long options of `shearzone <stage>` (for a "did you mean" when a key is unknown).
+using OptionNames = std::function<std::vector<std::string>(const std::string& stage)>;
+
+/// Reads and checks a study file. ConfigError / InputError name the file, line and key;
+/// an unknown stage option is refused with the nearest of `option_names` (when given).
+Study load_study(const std::filesystem::path& file, const KnownOption& known_option,
+                 const OptionNames& option_names = {});
 
 /// The rules the [slurm] tables may name.
 const std::vector<std::string>& study_rules();
