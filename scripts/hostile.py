@@ -199,6 +199,8 @@ def cases(work):
          "--passes: it sets the passes of the --final-windows grid"),
         ("sim_existing_output_before_fill", ["sim", os.path.join(ROOT, "data-samples", "sim", "filmed_cup.toml"),
          "-o", "simdone"], 2, [], "simdone/snapshots.h5: output exists"),
+        ("sim_check_no_surface", ["sim", "check", "branch_nosurf", "-o", "co"], 2, ["co"],
+         "branch_nosurf/surface.h5: no such file"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -280,6 +282,8 @@ def make_inputs(bin_, work):
     w("study_2000.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(2000)) + "]\n")
     w("study_big.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(100000)) + "]\n")
     os.symlink(os.path.join(work, "missing", "w.csv"), os.path.join(work, "dangling.csv"))
+    os.makedirs(os.path.join(work, "branch_nosurf"), exist_ok=True)
+    w("branch_nosurf/frames.h5", "frames of a branch whose surface.h5 is missing")
     os.makedirs(os.path.join(work, "simdone"), exist_ok=True)
     w("simdone/snapshots.h5", "a finished run's file")
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))

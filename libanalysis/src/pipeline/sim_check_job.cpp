@@ -115,6 +115,14 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
   if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1, ""});
   if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
     throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
+  // Every branch's inputs before any work: a missing surface.h5 used to be found after
+  // the first branch's video and truths were written (8 files left behind).
+  for (const auto& [name, dir] : branches)
+    for (const char* need : {"frames.h5", "surface.h5"})
+      if (!fs::is_regular_file(dir / need))
+        throw InputError(fmt::format("{}: no such file; expected the branch's {} (a scene with a [camera] writes "
+                                     "frames.h5 and surface.h5)",
+                                     (dir / need).string(), need));
   // Progress in stages: per branch the render, the truths, then each setting.
   const std::size_t total = branches.size() * (2 + settings.size());
   std::size_t done = 0;
