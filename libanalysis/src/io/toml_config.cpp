@@ -100,11 +100,25 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
 TomlConfig TomlConfig::parse(const std::string& text, const std::string& source) {
   // TOML is UTF-8. Invalid bytes are refused before parsing: the parser (toml11 3.7)
   // reads past its buffer on some of them (found by fuzzing, ASan heap-buffer-overflow).
+  // The parser's cost grows with the square of a line's length (toml11 3.7 rescans the
+  // line for every value on it: a list of 40 000 numbers on one line took 3.9 s, 100 000
+  // took 23 s). No configuration needs lines this long.
+  constexpr std::size_t kMaxLine = 65536;
   {
-    std::size_t line = 1;
+    std::size_t line = 1, line_start = 0;
+    auto check_line = [&](std::size_t end) {
+      if (end - line_start > kMaxLine)
+        throw ConfigError(fmt::format("{}:{}: a line of {} characters; at most {} (a list this long is no "
+                                      "configuration: grids take at most 1000 points)",
+                                      source, line, end - line_start, kMaxLine));
+    };
     for (std::size_t i = 0; i < text.size();) {
       const auto c = static_cast<unsigned char>(text[i]);
-      if (c == '\n') ++line;
+      if (c == '\n') {
+        check_line(i);
+        ++line;
+        line_start = i + 1;
+      }
       std::size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
       bool ok = len > 0 && i + len <= text.size() && !(c == 0xC0 || c == 0xC1 || c > 0xF4);
       for (std::size_t k = 1; ok && k < len; ++k) ok = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
@@ -113,22 +127,7 @@ TomlConfig TomlConfig::parse(const std::string& text, const std::string& source)
                                       source, line, c));
       i += len;
     }
-  }
-  // The parser's cost grows with the square of a line's length (toml11 3.7 rescans the
-  // line for every value on it: a list of 40 000 numbers on one line took 3.9 s, 100 000
-  // took 23 s). No configuration needs lines this long.
-  constexpr std::size_t kMaxLine = 65536;
-  {
-    std::size_t line = 1, start = 0;
-    for (std::size_t i = 0; i <= text.size(); ++i)
-      if (i == text.size() || text[i] == '\n') {
-        if (i - start > kMaxLine)
-          throw ConfigError(fmt::format("{}:{}: a line of {} characters; at most {} (a list this long is no "
-                                        "configuration: grids take at most 1000 points)",
-                                        source, line, i - start, kMaxLine));
-        ++line;
-        start = i + 1;
-      }
+    check_line(text.size());
   }
   constexpr int kMaxNesting = 64;
   if (const std::size_t bad = line_of_excess_nesting(text, kMaxNesting))

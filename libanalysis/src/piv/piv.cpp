@@ -63,6 +63,18 @@ double sample_grid(const cv::Mat& values, const Grid& g, double x, double y) {
   return (1 - ty) * top + ty * bot;
 }
 
+/// The predictor of the next pass: a field's u and v as ny x nx CV_32F grids, smoothed
+/// by `smoothing` grid steps (0: as they are).
+void smoothed_predictor(const VectorField& f, double smoothing, cv::Mat& pred_u, cv::Mat& pred_v) {
+  const int nx = static_cast<int>(f.nx()), ny = static_cast<int>(f.ny());
+  pred_u = cv::Mat(ny, nx, CV_32F, const_cast<float*>(f.u_px.data())).clone();
+  pred_v = cv::Mat(ny, nx, CV_32F, const_cast<float*>(f.v_px.data())).clone();
+  if (smoothing > 0) {
+    cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), smoothing, 0, cv::BORDER_REPLICATE);
+    cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), smoothing, 0, cv::BORDER_REPLICATE);
+  }
+}
+
 /// Fraction of masked pixels in a window, from an integral image of (mask != 0).
 double masked_fraction(const cv::Mat& integral, int x, int y, int w) {
   if (integral.empty()) return 0.0;
@@ -170,7 +182,7 @@ CoarseField coarse_field(const cv::Mat& a_in, const cv::Mat& b_in, const cv::Mat
   CoarseField out;
   VectorField& f = out.field;
   if (half.width < t + 2 || half.height < t + 2) return out;
-  cv::Mat a, b, ma, mb;
+  cv::Mat a, b;
   auto down = [&](const cv::Mat& in, cv::Mat& dst) {
     cv::Mat u;
     unit_float_into(in, u);
@@ -203,7 +215,8 @@ CoarseField coarse_field(const cv::Mat& a_in, const cv::Mat& b_in, const cv::Mat
     if (n_masked > 0) patch.setTo(cv::mean(patch, m == 0), m);
     return true;
   };
-#pragma omp parallel for schedule(dynamic, 1)
+  std::size_t textured = 0, matched = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : textured, matched)
   for (int i = 0; i < ny; ++i) {
     cv::Mat tpl, reg, res;
     for (int j = 0; j < nx; ++j) {
@@ -238,15 +251,14 @@ CoarseField coarse_field(const cv::Mat& a_in, const cv::Mat& b_in, const cv::Mat
       const bool border = (at.x == 0 && x0 > 0) || (at.y == 0 && y0 > 0) ||
                           (at.x == res.cols - 1 && x1 < half.width) || (at.y == res.rows - 1 && y1 < half.height);
       f.flag[k] = best >= kMinCoarsePeak && !border ? VectorFlag::kValid : VectorFlag::kInvalid;
-      f.peak_ratio[k] = 2.0f;  // marks a textured template (counted below)
+      ++textured;
+      matched += f.flag[k] == VectorFlag::kValid;
       f.u_px[k] = static_cast<float>(2 * (x0 + at.x - x));
       f.v_px[k] = static_cast<float>(2 * (y0 + at.y - y));
     }
   }
-  for (std::size_t k = 0; k < f.size(); ++k) {
-    out.textured += f.peak_ratio[k] > 1.5f;
-    out.matched += f.flag[k] == VectorFlag::kValid;
-  }
+  out.textured = textured;
+  out.matched = matched;
   return out;
 }
 
@@ -321,17 +333,11 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
       if (dmax > 0.25 * w0) {
         // The coarse field, gap-filled (masked windows too), is the first pass's predictor.
         fill_holes(cf, {VectorFlag::kReplaced, VectorFlag::kInvalid, VectorFlag::kMasked});
-        const int nx = static_cast<int>(cf.nx()), ny = static_cast<int>(cf.ny());
-        pred_u = cv::Mat(ny, nx, CV_32F, cf.u_px.data()).clone();
-        pred_v = cv::Mat(ny, nx, CV_32F, cf.v_px.data()).clone();
-        if (opt_.predictor_smoothing > 0) {
-          cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
-          cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
-        }
+        smoothed_predictor(cf, opt_.predictor_smoothing, pred_u, pred_v);
         prev.window = w0;
-        prev.nx = nx;
-        prev.ny = ny;
-        prev.step = static_cast<int>(std::lround(cf.x_px.size() > 1 ? cf.x_px[1] - cf.x_px[0] : w0 / 2));
+        prev.nx = static_cast<int>(cf.nx());
+        prev.ny = static_cast<int>(cf.ny());
+        prev.step = w0;  // coarse templates side by side: w0/2 coarse px = w0 px apart
         prev.x0 = cf.x_px.front();
         prev.y0 = cf.y_px.front();
         have_predictor = true;
@@ -583,12 +589,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     result.passes.push_back(rep);
 
     // Step 5: the predictor for the next pass (smoothed copy).
-    pred_u = cv::Mat(g.ny, g.nx, CV_32F, f.u_px.data()).clone();
-    pred_v = cv::Mat(g.ny, g.nx, CV_32F, f.v_px.data()).clone();
-    if (opt_.predictor_smoothing > 0) {
-      cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
-      cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), opt_.predictor_smoothing, 0, cv::BORDER_REPLICATE);
-    }
+    smoothed_predictor(f, opt_.predictor_smoothing, pred_u, pred_v);
     prev = g;
   }
 
