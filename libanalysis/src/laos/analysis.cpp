@@ -431,7 +431,9 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
     const auto m = static_cast<int>(std::count_if(wc.begin(), wc.end(), [](double v) { return v > 0; }));
     fc.max_harmonic = std::max(1, std::min(fo.max_harmonic, (m - 4) / 2));
     const HarmonicFit hf = fit_harmonics(theta, r, wc, A.x0, fc);
-    cr.r_max = robust_max(rmax, hf);
+    // A cycle too short for the block's harmonics cannot reconstruct its peak (a first
+    // harmonic alone would read a peaked response low): its largest sample stands.
+    cr.r_max = fc.max_harmonic >= fo.max_harmonic ? robust_max(rmax, hf) : rmax;
     cr.K1p = hf.Kp[1];
     cr.K1pp = hf.Kpp[1];
     A.cycles.push_back(cr);
