@@ -201,6 +201,8 @@ def cases(work):
          "-o", "simdone"], 2, [], "simdone/snapshots.h5: output exists"),
         ("sim_check_no_surface", ["sim", "check", "branch_nosurf", "-o", "co"], 2, ["co"],
          "branch_nosurf/surface.h5: no such file"),
+        ("sim_restart_other_scene", ["sim", "ck_other.toml", "--restart", "ck_run/checkpoint.h5", "-o", "run"], 2,
+         ["run"], r"ck_run/checkpoint.h5: not a checkpoint of ck_other.toml: the scene has 2 beads"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -286,6 +288,9 @@ def make_inputs(bin_, work):
     w("branch_nosurf/frames.h5", "frames of a branch whose surface.h5 is missing")
     os.makedirs(os.path.join(work, "simdone"), exist_ok=True)
     w("simdone/snapshots.h5", "a finished run's file")
+    w("ck.toml", sim_scene())
+    subprocess.run([bin_, "sim", "ck.toml", "-q", "-o", "ck_run"], cwd=work, check=True)
+    w("ck_other.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0.011, 0, 0.005]\n"))
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
     w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
     w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))

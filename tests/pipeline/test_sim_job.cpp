@@ -367,6 +367,24 @@ TEST_CASE("protocol: a pre-shear stops once its torque is steady, then amplitude
   bad.output_dir = dir / "bad2";
   bad.branch_phi0_rad = std::numeric_limits<double>::quiet_NaN();
   CHECK_THROWS_WITH(pipeline::run_sim_job(bad, {}), Contains("give --phi0"));
+  // A checkpoint of another cup: refused before any work (the run's surface.h5 and
+  // torque log would describe the scene's cup around the checkpoint's beads).
+  const std::vector<std::pair<std::string, std::string>> others = {
+      {"radius_m = 0.024", "radius_m = 0.026"},                // the cup
+      {"radius_m = 0.01\n", "radius_m = 0.014\n"},             // the vane (one bead longer)
+      {"diameter_m = 0.004\ndensity", "diameter_m = 0.0045\ndensity"},  // the beads
+      {"count = 150", "count = 149"},                          // the count
+      {"bead_diameter_m = 0.004", "bead_diameter_m = 0.004\nrough_floor = true"}};
+  for (const auto& [from, to] : others) {
+    INFO(to);
+    testing::write_file(dir / "other.toml", with(pre, from, to));
+    bad = o;
+    bad.scene = dir / "other.toml";
+    bad.output_dir = dir / "other";
+    CHECK_THROWS_WITH(pipeline::run_sim_job(bad, {}), Contains("pre/checkpoint.h5: not a checkpoint of") &&
+                                                         Contains("other.toml"));
+    CHECK_FALSE(std::filesystem::exists(dir / "other"));
+  }
 }
 
 namespace {

@@ -42,7 +42,9 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     sum.fill = scene.fill;
   } else {
     // The scene's sections were checked; the world comes from the checkpoint.
-    built.emplace(sim::World::from_state(sim::read_checkpoint(o.restart)));
+    sim::WorldState state = sim::read_checkpoint(o.restart);
+    sim::check_checkpoint_matches(scene, state, o.scene, o.restart);
+    built.emplace(sim::World::from_state(std::move(state)));
     chain_ids = sim::chain_ids_from_ropes(built->state());
   }
   sim::World& w = *built;

@@ -740,6 +740,9 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
   out.stop_change = b.vane_stop_change;
   out.vane = !b.vane.empty();
   out.beads_per_chain = b.chains.beads_per_chain;
+  out.bead_diameter_m = b.diameter;
+  out.mobile_beads = static_cast<std::int64_t>(b.mobile.size()) +
+                     (b.fill ? std::int64_t{b.chains.chains} * b.chains.beads_per_chain : 0);
   World container(opt);
   add_container(container, b, true);
   // Every container body is a chain of its own; then the explicit chains, then the fill.
@@ -858,6 +861,81 @@ std::string SceneProtocol::branch_folder(double phi0_rad) {
   const std::string three = fmt::format("{:.3f}", phi0_rad);
   // Three decimals when they hold the value (0.300), else its shortest exact form.
   return "phi0_" + (std::stod(three) == phi0_rad ? three : fmt::format("{}", phi0_rad));
+}
+
+void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, const std::filesystem::path& scene_path,
+                              const std::filesystem::path& checkpoint_path) {
+  const World& c = *scene.world;  // the container alone (check_only)
+  auto refuse = [&](const std::string& what) {
+    throw InputError(fmt::format("{}: not a checkpoint of {}: {}; restart from a checkpoint of this scene",
+                                 checkpoint_path.string(), scene_path.string(), what));
+  };
+  auto num = [](double v) { return io::format_number(v); };
+  // Lengths compared to 1e-9 of the bead diameter (a checkpoint stores doubles exactly).
+  const double tol = 1e-9 * std::max(scene.bead_diameter_m, 1e-9);
+  auto same = [&](const Vec3& a, const Vec3& b) { return (a - b).norm() <= tol; };
+  auto xyz = [](const Vec3& v) { return fmt::format("({:.6g}, {:.6g}, {:.6g}) m", v.x(), v.y(), v.z()); };
+  if (ck.options.sectors != c.options().sectors)
+    refuse(fmt::format("the scene's cylinder.sectors is {}, the checkpoint's {}", c.options().sectors,
+                       ck.options.sectors));
+  if (ck.walls.size() != c.walls().size())
+    refuse(fmt::format("the scene has {} walls, the checkpoint {}", c.walls().size(), ck.walls.size()));
+  for (std::size_t k = 0; k < ck.walls.size(); ++k) {
+    const Wall &a = c.walls()[k], &b = ck.walls[k];
+    if (!same(a.normal * a.normal.dot(a.point), b.normal * b.normal.dot(b.point)) || !same(a.normal, b.normal))
+      refuse(fmt::format("wall {} differs (the scene's through {} with normal {}, the checkpoint's through {} with "
+                         "normal {})",
+                         k, xyz(a.point), xyz(a.normal), xyz(b.point), xyz(b.normal)));
+  }
+  const int nc = c.body_count();
+  const auto n = static_cast<std::int64_t>(ck.position.size());
+  if (n < nc) refuse(fmt::format("the scene's cup and vane are {} beads, the checkpoint holds {} bodies", nc, n));
+  int fixed = 0, kinematic = 0;
+  for (int k = 0; k < nc; ++k) {
+    fixed += c.kind(k) == BodyKind::fixed ? 1 : 0;
+    kinematic += c.kind(k) == BodyKind::kinematic ? 1 : 0;
+  }
+  for (int k = 0; k < nc; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    if (ck.kind[kk] != c.kind(k))
+      refuse(fmt::format("the scene's cup and vane are {} fixed and {} moving beads; body {} of the checkpoint is "
+                         "not one of them",
+                         fixed, kinematic, k));
+    if (std::abs(ck.diameter[kk] - c.diameter(k)) > tol)
+      refuse(fmt::format("body {} (the cup or vane) has diameter {} m in the scene, {} m in the checkpoint", k,
+                         num(c.diameter(k)), num(ck.diameter[kk])));
+    if (c.kind(k) == BodyKind::fixed && !same(ck.position[kk], c.position(k)))
+      refuse(fmt::format("fixed bead {} (the cup) lies at {} in the scene, {} in the checkpoint", k,
+                         xyz(c.position(k)), xyz(ck.position[kk])));
+  }
+  if (ck.rotors.size() != (scene.vane ? 1U : 0U))
+    refuse(fmt::format("the scene has {} vane, the checkpoint {}", scene.vane ? "a" : "no",
+                       ck.rotors.empty() ? "none" : "one"));
+  if (scene.vane) {  // the vane's beads at phi = 0 where the scene puts them
+    const Rotor& r = ck.rotors[0];
+    for (std::size_t j = 0; j < r.bodies.size(); ++j) {
+      const int k = r.bodies[j];
+      if (k < 0 || k >= nc || c.kind(k) != BodyKind::kinematic || !same(r.reference[j], c.position(k)))
+        refuse(fmt::format("the vane's bead {} lies at {} at phi = 0 in the checkpoint, not where the scene's vane "
+                           "puts it",
+                           j, xyz(r.reference[j])));
+    }
+  }
+  std::int64_t mobile = 0;
+  for (std::int64_t k = nc; k < n; ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    if (ck.kind[kk] != BodyKind::mobile)
+      refuse(fmt::format("body {} of the checkpoint is a {} bead beyond the scene's cup and vane", k,
+                         ck.kind[kk] == BodyKind::fixed ? "fixed" : "moving"));
+    if (std::abs(ck.diameter[kk] - scene.bead_diameter_m) > tol)
+      refuse(fmt::format("the scene's beads are {} m across (beads.diameter_m), the checkpoint's bead {} {} m",
+                         num(scene.bead_diameter_m), k, num(ck.diameter[kk])));
+    ++mobile;
+  }
+  if (mobile != scene.mobile_beads)
+    refuse(fmt::format("the scene has {} beads (beads.positions_m, fill.count x chains.beads_per_chain), the "
+                       "checkpoint {}",
+                       scene.mobile_beads, mobile));
 }
 
 LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {

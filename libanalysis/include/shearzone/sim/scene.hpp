@@ -187,6 +187,8 @@ struct LoadedScene {
   std::optional<World> world;           ///< built (check_only: the container only)
   std::vector<std::int64_t> chain_ids;  ///< per body, for the snapshots
   SceneFillReport fill;
+  double bead_diameter_m = 0.0;  ///< beads.diameter_m (every mobile bead)
+  std::int64_t mobile_beads = 0;  ///< the scene's mobile beads: beads.positions_m and fill.count x N
 };
 
 /// Reads a scene file and builds its world. `check_only` (restart from a checkpoint):
@@ -199,5 +201,14 @@ struct FillProgress {
 };
 
 LoadedScene load_scene(const std::filesystem::path& scene, bool check_only, const FillProgress& progress = {});
+
+/// A restart takes its world from a checkpoint while the run's outputs (surface.h5,
+/// frames.h5, the torque log) describe the scene's cup and vane: the two must be the same
+/// cup. `scene` is load_scene(.., check_only = true) (its world the container alone).
+/// Checks the periodic sector, the walls, the container's beads (kind, diameter, the
+/// fixed beads' and the vane's positions), the vane, and the count and diameter of the
+/// mobile beads; throws InputError naming the first difference, else returns.
+void check_checkpoint_matches(const LoadedScene& scene, const WorldState& checkpoint,
+                              const std::filesystem::path& scene_path, const std::filesystem::path& checkpoint_path);
 
 }  // namespace shearzone::sim
