@@ -203,6 +203,9 @@ def cases(work):
          "branch_nosurf/surface.h5: no such file"),
         ("sim_restart_other_scene", ["sim", "ck_other.toml", "--restart", "ck_run/checkpoint.h5", "-o", "run"], 2,
          ["run"], r"ck_run/checkpoint.h5: not a checkpoint of ck_other.toml: the scene has 2 beads"),
+        ("sim_check_mixed_runs", ["sim", "check", "mix", "-o", "co"], 2, ["co"],
+         r"mix/surface.h5: run_id [0-9a-f]{16} is not frames.h5's run_id [0-9a-f]{16}: the two files come from "
+         "different runs"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -291,6 +294,19 @@ def make_inputs(bin_, work):
     w("ck.toml", sim_scene())
     subprocess.run([bin_, "sim", "ck.toml", "-q", "-o", "ck_run"], cwd=work, check=True)
     w("ck_other.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0.011, 0, 0.005]\n"))
+    # Two tiny filmed cups (a periodic quarter, 40 beads, 0.1 s) and a branch folder
+    # holding the frames of one and the surface field of the other.
+    cam = ("[sim]\nduration_s = 0.1\ntime_step_s = 1e-3\nfriction = 0.3\ntolerance = 1e-3\n"
+           "max_iterations = 100\n[output]\nsnapshot_every = 0\n[cylinder]\nradius_m = 0.024\nheight_m = 0.02\n"
+           "bead_diameter_m = 0.004\nsectors = 4\n[beads]\ndiameter_m = 0.004\ndensity_kg_per_m3 = 7800\n"
+           "[vane]\nradius_m = 0.01\nheight_m = 0.02\nphi0_rad = 0.0628\nf_Hz = 2.0\n[fill]\ncount = 40\n"
+           "settle = true\n[camera]\nspacing_px = 4\n")
+    for name, text in (("cam_a", cam), ("cam_b", cam.replace("f_Hz = 2.0", "f_Hz = 3.0"))):
+        w(name + ".toml", text)
+        subprocess.run([bin_, "sim", name + ".toml", "-q", "-o", name], cwd=work, check=True)
+    os.makedirs(os.path.join(work, "mix"), exist_ok=True)
+    shutil.copy(os.path.join(work, "cam_a", "frames.h5"), os.path.join(work, "mix", "frames.h5"))
+    shutil.copy(os.path.join(work, "cam_b", "surface.h5"), os.path.join(work, "mix", "surface.h5"))
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
     w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
     w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))

@@ -16,6 +16,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
+#include "shearzone/io/hdf5.hpp"
 #include "shearzone/io/profile_csv.hpp"
 #include "shearzone/io/video.hpp"
 #include "shearzone/pipeline/profile_job.hpp"
@@ -123,6 +124,23 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
         throw InputError(fmt::format("{}: no such file; expected the branch's {} (a scene with a [camera] writes "
                                      "frames.h5 and surface.h5)",
                                      (dir / need).string(), need));
+  // The two files of a branch from one run: the camera's frames and the simulator's
+  // surface field set against each other must describe the same motion.
+  for (const auto& [name, dir] : branches) {
+    auto run_id = [](const fs::path& p) {
+      const io::H5File f = io::H5File::open_read(p);
+      return f.has_attribute("/", "run_id") ? f.attribute_string("/", "run_id") : std::string("none");
+    };
+    const std::string a = run_id(dir / "frames.h5"), b = run_id(dir / "surface.h5");
+    for (const auto& [file, id] : {std::pair{"frames.h5", a}, std::pair{"surface.h5", b}})
+      if (id == "none")
+        throw InputError(fmt::format("{}: no run_id attribute (written by an older shearzone): run the scene again",
+                                     (dir / file).string()));
+    if (a != b)
+      throw InputError(fmt::format("{}: run_id {} is not frames.h5's run_id {}: the two files come from different "
+                                   "runs (expected the frames.h5 and surface.h5 of one run of shearzone sim)",
+                                   (dir / "surface.h5").string(), b, a));
+  }
   // Progress in stages: per branch the render, the truths, then each setting.
   const std::size_t total = branches.size() * (2 + settings.size());
   std::size_t done = 0;

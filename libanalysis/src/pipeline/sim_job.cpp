@@ -2,6 +2,7 @@
 #include "shearzone/pipeline/sim_job.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -117,6 +118,23 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
                                             io::format_number(r.phi0), io::format_number(r.f_Hz),
                                             io::format_number(r.t_start),
                                             io::format_number(std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles)));
+  }
+  // One id for every file of this run (frames.h5 and surface.h5 carry it: sim check
+  // refuses a pair from two runs): the starting state, the drive and the step range,
+  // hashed (FNV-1a), so a rerun writes the same bytes.
+  {
+    std::uint64_t id = 1469598103934665603ULL;
+    auto mix = [&id](std::uint64_t v) {
+      for (int b = 0; b < 8; ++b) id = (id ^ ((v >> (8 * b)) & 0xffU)) * 1099511628211ULL;
+    };
+    auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v); };
+    mix(w.state_hash());
+    mix(static_cast<std::uint64_t>(end_step));
+    if (w.rotor_count() > 0) {
+      const sim::Rotor& r = w.rotor(0);
+      for (const double v : {r.phi0, r.f_Hz, r.phase, r.t_start}) mix(bits(v));
+    }
+    meta.emplace_back("run_id", fmt::format("{:016x}", id));
   }
   meta.emplace_back("time_step_s", io::format_number(h));
   meta.emplace_back("threads", std::to_string(w.options().threads));
@@ -278,6 +296,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       surface->set_attribute("vane_phase_rad", r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start);
     }
     surface->set_attribute("source", "shearzone sim: virtual top camera (exact surface motion)");
+    surface->set_attribute("run_id", core::metadata_value(meta, "run_id"));
     // No measurement noise (float32 rounding only: 6e-8 relative): profile takes the
     // beads' radial motion as motion, not as the noise floor.
     surface->set_attribute("noise_sigma_px", 0.0);
