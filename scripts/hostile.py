@@ -206,6 +206,10 @@ def cases(work):
         ("sim_check_mixed_runs", ["sim", "check", "mix", "-o", "co"], 2, ["co"],
          r"mix/surface.h5: run_id [0-9a-f]{16} is not frames.h5's run_id [0-9a-f]{16}: the two files come from "
          "different runs"),
+        ("piv_mp4_stalled_stamps", ["piv", "stalled.mp4", "--windows", "32,16", "-o", "st.h5"], 2, ["st.h5"],
+         r"stalled.mp4: the container's clocks disagree: its time stamps give no rate \(20 frames in 0 s, 19 of them"),
+        ("piv_mp4_tick_stamps", ["piv", "tick.mp4", "--windows", "32,16", "-o", "st.h5"], 2, ["st.h5"],
+         r"tick.mp4: the container's clocks disagree: its time stamps give 12800 fps"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -307,6 +311,22 @@ def make_inputs(bin_, work):
     os.makedirs(os.path.join(work, "mix"), exist_ok=True)
     shutil.copy(os.path.join(work, "cam_a", "frames.h5"), os.path.join(work, "mix", "frames.h5"))
     shutil.copy(os.path.join(work, "cam_b", "surface.h5"), os.path.join(work, "mix", "surface.h5"))
+    # MP4s whose time stamps stall (every stts delta 0) or tick once per frame (1/12800 s).
+    import cv2  # python3-opencv (scripts/setup.sh)
+    import numpy as np
+    import struct
+    grain = (np.random.default_rng(1).random((96, 160)) * 255).astype(np.uint8)
+    for name, delta in (("stalled.mp4", 0), ("tick.mp4", 1)):
+        path = os.path.join(work, name)
+        vw = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (128, 96), False)
+        for k in range(20):
+            vw.write(np.ascontiguousarray(grain[:, k:k + 128]))
+        vw.release()
+        data = bytearray(open(path, "rb").read())
+        at = data.find(b"stts")
+        for e in range(struct.unpack(">I", data[at + 8:at + 12])[0]):
+            data[at + 16 + 8 * e:at + 20 + 8 * e] = struct.pack(">I", delta)
+        open(path, "wb").write(bytes(data))
     w("dur.toml", sim_scene(sim="duration_s = 1e300\ntime_step_s = 1e-3\n"))
     w("dt.toml", sim_scene(sim="duration_s = 0.01\ntime_step_s = 1e-300\n"))
     w("coincident.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0, 0, 0.005]\n"))

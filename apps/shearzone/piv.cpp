@@ -47,6 +47,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
   j.piv.residual = piv::residual_from_name(s.residual);
   j.size_windows_to_texture = c.count("--windows") == 0;
+  j.video_fps = c.count("--fps") > 0 ? j.fps : 0.0;
   j.piv.deform = !s.no_deform;
   j.piv.coarse_estimate = !s.no_coarse;
   j.grey = io::grey_mode_from_name(s.grey);
@@ -217,7 +218,9 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
                 "High-pass: subtract a Gaussian blur of this sigma, px (0: off); range: 0..256")
       ->capture_default_str();
   // Frames
-  c->add_option("--fps", j.fps, "Frame rate of an image sequence, Hz; range: > 0, finite")
+  c->add_option("--fps", j.fps,
+                "Frame rate of an image sequence, Hz; with a video: time its frames index / fps instead of by the "
+                "container's time stamps; range: > 0, finite")
       ->capture_default_str();
   c->add_option("--grey", s->grey, "Colour to grey: luma, mean, red, green or blue")
       ->capture_default_str();

@@ -1,4 +1,7 @@
+#include <fstream>
+
 #include <catch2/catch.hpp>
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "shearzone/core/error.hpp"
@@ -96,4 +99,57 @@ TEST_CASE("truncated or non-video files are input errors naming the file", "[io]
   testing::write_file(dir / "text.mp4", "no video here");
   CHECK_THROWS_WITH(io::VideoReader(dir / "text.mp4"), Contains("text.mp4: cannot open as video"));
   CHECK_THROWS_WITH(io::VideoReader(dir / "none.mp4"), Contains("none.mp4: no such file"));
+}
+
+namespace {
+/// `path`'s MP4 with every sample delta of its time-to-sample table (stts) set to `delta`
+/// ticks: a muxer whose stamps stall (0) or run at the wrong rate.
+void rewrite_stts(const std::filesystem::path& path, std::uint32_t delta) {
+  std::string b = testing::read_file(path);
+  const auto at = b.find("stts");
+  REQUIRE(at != std::string::npos);
+  auto be32 = [&](std::size_t i) {
+    return (std::uint32_t{static_cast<unsigned char>(b[i])} << 24) |
+           (std::uint32_t{static_cast<unsigned char>(b[i + 1])} << 16) |
+           (std::uint32_t{static_cast<unsigned char>(b[i + 2])} << 8) | static_cast<unsigned char>(b[i + 3]);
+  };
+  const std::uint32_t entries = be32(at + 8);
+  for (std::uint32_t e = 0; e < entries; ++e)
+    for (int k = 0; k < 4; ++k) b[at + 16 + 8 * e + static_cast<std::size_t>(k)] = static_cast<char>((delta >> (24 - 8 * k)) & 0xff);
+  std::ofstream(path, std::ios::binary) << b;
+}
+}  // namespace
+
+TEST_CASE("an MP4 whose time stamps stall or run at another rate than its duration is refused; --fps times "
+          "its frames index / fps",
+          "[io][video]") {
+  testing::TempDir dir("video");
+  // OpenCV's mp4v muxer: time scale 12800 per s at 25 fps, 512 ticks per frame.
+  for (const std::uint32_t delta : {0U, 1U, 3072U}) {  // stalled, 512 x too short, 6 x too long
+    const auto path = dir / fmt::format("clip_{}.mp4", delta);
+    write_clip(path, 20, 25.0, "mp4v");
+    rewrite_stts(path, delta);
+    CHECK_THROWS_WITH(io::VideoReader(path), Contains(path.string() + ": the container's clocks disagree") &&
+                                                 Contains("its duration 25 fps") && Contains("give --fps"));
+    io::VideoReader r(path, 25.0);
+    CHECK(r.timed_by_index());
+    cv::Mat g;
+    double t = -1;
+    int k = 0;
+    auto read_all = [&] {
+      while (r.read(g, t)) {
+        CHECK(t == Approx(k / 25.0).margin(1e-12));
+        ++k;
+      }
+    };
+    if (delta == 3072U) {  // FFmpeg ends the stream at the edit list's 0.8 s: said, not cut short silently
+      CHECK_THROWS_WITH(read_all(), Contains("frame 4: cannot decode; the container declares 20 frames"));
+    } else {
+      read_all();
+      CHECK(k == 20);
+    }
+  }
+  // A healthy clip, H.264 included, passes the cross-check.
+  write_clip(dir / "ok.mp4", 20, 29.97, "mp4v");
+  CHECK_NOTHROW(io::VideoReader(dir / "ok.mp4"));
 }

@@ -16,7 +16,7 @@ namespace {
 
 class VideoSource : public FrameSource {
  public:
-  VideoSource(const std::string& path, GreyMode grey) : reader_(path), path_(path) {
+  VideoSource(const std::string& path, GreyMode grey, double fps) : reader_(path, fps), path_(path) {
     reader_.set_grey_mode(grey);
   }
   bool next(Frame& f) override {
@@ -30,9 +30,12 @@ class VideoSource : public FrameSource {
   double fps() const override { return reader_.info().fps; }
   std::int64_t size_hint() const override { return reader_.info().frame_count; }
   std::string description() const override {
-    return fmt::format("{} ({}x{}, {} fps, {} frames, codec {})", path_, reader_.info().width,
-                       reader_.info().height, reader_.info().fps, reader_.info().frame_count,
-                       reader_.info().codec);
+    return fmt::format("{} ({}x{}, {} fps{}, {} frames, codec {})", path_, reader_.info().width,
+                       reader_.info().height, reader_.info().fps,
+                       reader_.timed_by_index() ? " (--fps: frames timed index / fps, the container's time stamps "
+                                                  "unused)"
+                                                : "",
+                       reader_.info().frame_count, reader_.info().codec);
   }
 
  private:
@@ -89,11 +92,11 @@ std::vector<std::string> expand_glob(const std::string& pattern) {
 }
 
 std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
-                                         GreyMode grey) {
+                                         GreyMode grey, double video_fps) {
   if (inputs.empty()) throw ConfigError("no input frames given");
   if (inputs.size() == 1 && (is_video_extension(inputs[0]) ||
                              (!is_readable_image_extension(inputs[0]) && looks_like_video(inputs[0]))))
-    return std::make_unique<VideoSource>(inputs[0], grey);
+    return std::make_unique<VideoSource>(inputs[0], grey, video_fps);
   if (!(fps > 0) || !std::isfinite(fps))
     throw ConfigError(fmt::format("fps = {}: must be > 0 for an image sequence", fps));
   std::vector<std::string> paths;

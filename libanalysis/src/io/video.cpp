@@ -6,6 +6,10 @@
 #include <atomic>
 #include <cstdarg>
 #include <fstream>
+#include <optional>
+#include <tuple>
+#include <utility>
+#include <vector>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -53,6 +57,110 @@ void count_ffmpeg_log(void*, int level, const char*, va_list) {
   if (level <= AV_LOG_ERROR) g_ffmpeg_errors.fetch_add(1, std::memory_order_relaxed);
 }
 
+/// The clock of an MP4/MOV's first video track, as its tables state it: the sample
+/// count (stsz), the media time scale and duration (mdhd) and the sample deltas (stts).
+struct Mp4Clock {
+  std::uint64_t samples = 0, timescale = 0, duration = 0, stts_sum = 0;
+  std::uint64_t zero_deltas = 0;  ///< samples (but the last) whose time does not advance
+};
+
+std::uint64_t be(const std::string& b, std::size_t at, int bytes) {
+  std::uint64_t v = 0;
+  for (int k = 0; k < bytes; ++k) v = (v << 8) | static_cast<unsigned char>(b[at + static_cast<std::size_t>(k)]);
+  return v;
+}
+
+/// The boxes of b[from, to): (type, payload start, payload end); stops at a malformed box.
+std::vector<std::tuple<std::string, std::size_t, std::size_t>> boxes(const std::string& b, std::size_t from,
+                                                                     std::size_t to) {
+  std::vector<std::tuple<std::string, std::size_t, std::size_t>> out;
+  while (from + 8 <= to) {
+    std::uint64_t size = be(b, from, 4);
+    std::size_t head = 8;
+    if (size == 1) {
+      if (from + 16 > to) break;
+      size = be(b, from + 8, 8);
+      head = 16;
+    } else if (size == 0) {
+      size = to - from;
+    }
+    if (size < head || size > to - from) break;
+    out.emplace_back(b.substr(from + 4, 4), from + head, from + static_cast<std::size_t>(size));
+    from += static_cast<std::size_t>(size);
+  }
+  return out;
+}
+
+/// The first video track's clock of an MP4/MOV (ISO base media) file; nullopt for other
+/// containers, a fragmented file (no sample table) or tables it cannot read.
+std::optional<Mp4Clock> read_mp4_clock(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  // The top-level boxes: find moov (at the start or the end), at most 64 MiB of it.
+  std::uint64_t at = 0;
+  std::string moov;
+  for (int guard = 0; guard < 1024 && in; ++guard) {
+    char h[16];
+    in.seekg(static_cast<std::streamoff>(at));
+    if (!in.read(h, 8)) break;
+    const std::string hs(h, 8);
+    std::uint64_t size = be(hs, 0, 4);
+    if (size == 1) {
+      if (!in.read(h + 8, 8)) break;
+      size = be(std::string(h, 16), 8, 8);
+    }
+    if (size < 8) break;  // 0 (to the end of file) or malformed: no moov after it
+    if (hs.compare(4, 4, "moov") == 0) {
+      if (size > (64U << 20)) return std::nullopt;
+      moov.resize(static_cast<std::size_t>(size));
+      in.seekg(static_cast<std::streamoff>(at));
+      if (!in.read(moov.data(), static_cast<std::streamsize>(size))) return std::nullopt;
+      break;
+    }
+    at += size;
+  }
+  if (moov.empty()) return std::nullopt;
+  auto child = [&](std::size_t from, std::size_t to, const char* type) -> std::optional<std::pair<std::size_t, std::size_t>> {
+    for (const auto& [t, a, b] : boxes(moov, from, to))
+      if (t == type) return std::pair{a, b};
+    return std::nullopt;
+  };
+  for (const auto& [type, ta, tb] : boxes(moov, 8, moov.size())) {
+    if (type != "trak") continue;
+    const auto mdia = child(ta, tb, "mdia");
+    if (!mdia) continue;
+    const auto hdlr = child(mdia->first, mdia->second, "hdlr");
+    if (!hdlr || hdlr->second - hdlr->first < 12 || moov.compare(hdlr->first + 8, 4, "vide") != 0) continue;
+    const auto mdhd = child(mdia->first, mdia->second, "mdhd");
+    const auto minf = child(mdia->first, mdia->second, "minf");
+    if (!mdhd || !minf) return std::nullopt;
+    const auto stbl = child(minf->first, minf->second, "stbl");
+    if (!stbl) return std::nullopt;
+    const auto stts = child(stbl->first, stbl->second, "stts");
+    const auto stsz = child(stbl->first, stbl->second, "stsz");
+    if (!stts || !stsz) return std::nullopt;
+    Mp4Clock c;
+    const std::size_t m = mdhd->first;
+    const bool v1 = moov[m] == 1;
+    if (mdhd->second - m < (v1 ? 32U : 20U)) return std::nullopt;
+    c.timescale = be(moov, m + (v1 ? 20 : 12), 4);
+    c.duration = be(moov, m + (v1 ? 24 : 16), v1 ? 8 : 4);
+    if (stsz->second - stsz->first < 12) return std::nullopt;
+    c.samples = be(moov, stsz->first + 8, 4);
+    const std::uint64_t entries = be(moov, stts->first + 4, 4);
+    if (stts->second - stts->first < 8 + 8 * entries) return std::nullopt;
+    std::uint64_t seen = 0;
+    for (std::uint64_t e = 0; e < entries; ++e) {
+      const std::uint64_t count = be(moov, stts->first + 8 + 8 * e, 4), delta = be(moov, stts->first + 12 + 8 * e, 4);
+      c.stts_sum += count * delta;
+      if (delta == 0) c.zero_deltas += (e + 1 == entries) ? count - 1 : count;  // the last sample may end at 0
+      seen += count;
+    }
+    if (c.samples == 0 || seen != c.samples || c.timescale == 0) return std::nullopt;  // fragmented or odd
+    return c;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 bool looks_like_video(const std::filesystem::path& path) {
@@ -66,7 +174,8 @@ bool looks_like_video(const std::filesystem::path& path) {
          (u(0) == 0x1A && u(1) == 0x45 && u(2) == 0xDF && u(3) == 0xA3);
 }
 
-VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string()) {
+VideoReader::VideoReader(const std::filesystem::path& path, double fps_override) : path_(path.string()) {
+  fps_override_ = fps_override;
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw InputError(fmt::format("{}: no such file", path_));
   cap_ = std::make_unique<cv::VideoCapture>();
@@ -91,6 +200,28 @@ VideoReader::VideoReader(const std::filesystem::path& path) : path_(path.string(
   if (info_.width <= 0 || info_.height <= 0)
     throw InputError(fmt::format("{}: video has no frames of a known size", path_));
   check_image_size(info_.width, info_.height, path_);
+  if (fps_override > 0) {
+    info_.fps = fps_override;  // frames timed index / fps; the container's clocks unused
+    return;
+  }
+  // An MP4/MOV states its clock three times: the time stamps (stts, what FFmpeg reports
+  // per frame), the track's duration (mdhd) and the stream's rate. A muxer that wrote
+  // stamps which stall or wrap gives dt many times off; they must agree within 10 %.
+  if (const auto c = read_mp4_clock(path_)) {
+    const double n = static_cast<double>(c->samples), ts = static_cast<double>(c->timescale);
+    const double stamped = c->stts_sum > 0 ? n * ts / static_cast<double>(c->stts_sum) : HUGE_VAL;
+    const double lasting = c->duration > 0 ? n * ts / static_cast<double>(c->duration) : info_.fps;
+    auto agree = [](double a, double b) { return std::abs(a - b) <= 0.1 * std::min(a, b); };
+    if (c->zero_deltas > 0 || !agree(stamped, lasting) || !agree(stamped, info_.fps) || !agree(lasting, info_.fps))
+      throw InputError(fmt::format(
+          "{}: the container's clocks disagree: its time stamps give {} ({} frames in {:.6g} s{}), its duration "
+          "{:.6g} fps, its stream {:.6g} fps; expected one frame rate (within 10 %): give --fps with the camera's "
+          "frame rate (frames are then timed index / fps)",
+          path_, c->stts_sum > 0 ? fmt::format("{:.6g} fps", stamped) : std::string("no rate"), c->samples,
+          static_cast<double>(c->stts_sum) / ts,
+          c->zero_deltas > 0 ? fmt::format(", {} of them at the time of the one before", c->zero_deltas) : "",
+          lasting, info_.fps));
+  }
 }
 
 VideoReader::~VideoReader() = default;
@@ -120,7 +251,7 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
   // the frames an H.264 decoder still holds at the end of the stream (B-frame delay):
   // OpenCV 4.6 reports 0 for those. A time that does not move forward is such a gap:
   // the frame follows the previous one by 1/fps.
-  t_s = cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+  t_s = fps_override_ > 0 ? static_cast<double>(next_) / fps_override_ : cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
   if (!std::isfinite(t_s) || t_s < 0) t_s = static_cast<double>(next_) / info_.fps;
   if (next_ > 0 && !(t_s > last_t_s_)) t_s = last_t_s_ + 1.0 / info_.fps;
   last_t_s_ = t_s;

@@ -197,6 +197,8 @@ class OmpThreads {
 void PivJobOptions::validate() const {
   piv.validate();
   preprocess.validate();
+  if (!(video_fps >= 0 && std::isfinite(video_fps)))
+    throw ConfigError(fmt::format("--fps {}: expected a positive finite frame rate", video_fps));
   if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
   const bool csv = io::is_field_csv(output);
   if (!csv && !io::has_extension(output, ".h5") && !io::has_extension(output, ".hdf5"))
@@ -279,7 +281,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
   o.validate();
   io::check_output_allowed(o.output, o.force);
-  auto source = io::open_frames(o.inputs, o.fps, o.grey);
+  auto source = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
   cv::Mat static_mask;
   if (!o.mask_image.empty()) {
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
@@ -288,7 +290,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // The vane angle seen in each selected frame, relative to angle0 (blade symmetry:
   // within +-pi/blades), with the frame times.
   auto measure_vane = [&](std::vector<double>& ts, std::vector<double>& phis) {
-    auto src = io::open_frames(o.inputs, o.fps, o.grey);
+    auto src = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
     const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
     const double half = std::numbers::pi / o.vane.geometry.blades;
     io::Frame fr;
@@ -344,7 +346,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // over the selected range (a first, separate read of the source).
   cv::Mat background;
   if (o.preprocess.background) {
-    auto pre = io::open_frames(o.inputs, o.fps, o.grey);
+    auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
     const std::int64_t hint = pre->size_hint();
     const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
     const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
@@ -374,7 +376,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // (preprocessed, masked).
   piv::PivOptions piv_options = o.piv;
   if (o.size_windows_to_texture) {
-    auto pre = io::open_frames(o.inputs, o.fps, o.grey);
+    auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
     io::Frame fr;
     while (pre->next(fr)) {
       if (fr.index < o.first_frame || fr.damaged) continue;

@@ -41,11 +41,13 @@ class FrameSource {
 
 /// Opens `inputs`: one video file (.mp4, .avi, .mov, .mkv); one glob pattern
 /// ("frames/*.png", expanded and sorted by name); or a list of image files, in the
-/// order given. `fps` sets the time base of image sequences (t = index / fps).
+/// order given. `fps` sets the time base of image sequences (t = index / fps);
+/// `video_fps` > 0 times a video's frames index / video_fps instead of by the
+/// container's time stamps (VideoReader).
 /// Throws InputError for a missing file, a pattern that matches nothing, or an
 /// unsupported extension; ConfigError for an empty input list.
 std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
-                                         GreyMode grey = GreyMode::kLuma);
+                                         GreyMode grey = GreyMode::kLuma, double video_fps = 0.0);
 
 /// Expands a glob pattern; the matches, sorted. Empty if nothing matches.
 std::vector<std::string> expand_glob(const std::string& pattern);

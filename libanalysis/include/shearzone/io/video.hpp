@@ -38,7 +38,10 @@ struct VideoInfo {
 
 class VideoReader {
  public:
-  explicit VideoReader(const std::filesystem::path& path);
+  /// `fps_override` > 0: frames are timed index / fps_override (the container's time
+  /// stamps and rate unused). Otherwise an MP4/MOV whose time stamps, track duration and
+  /// stream rate disagree by more than 10 % (stamps that stall or wrap) is an InputError.
+  explicit VideoReader(const std::filesystem::path& path, double fps_override = 0.0);
   ~VideoReader();
   VideoReader(const VideoReader&) = delete;
   VideoReader& operator=(const VideoReader&) = delete;
@@ -58,6 +61,8 @@ class VideoReader {
   /// (the frame holds concealed, invented pixels); and how many such frames so far.
   bool last_frame_damaged() const { return last_damaged_; }
   std::int64_t damaged_frames() const { return damaged_; }
+  /// True when frames are timed index / fps (the container's stamps unused).
+  bool timed_by_index() const { return fps_override_ > 0; }
 
  private:
   std::string path_;
@@ -65,6 +70,7 @@ class VideoReader {
   VideoInfo info_;
   std::int64_t next_ = 0;
   double last_t_s_ = 0.0;  ///< the previous frame's time
+  double fps_override_ = 0.0;  ///< > 0: frames timed index / fps_override_
   GreyMode grey_mode_ = GreyMode::kLuma;
   bool last_damaged_ = false;
   std::int64_t damaged_ = 0;

@@ -60,6 +60,9 @@ struct PivJobOptions {
   std::filesystem::path output;     ///< .csv (one pair) or .h5
   bool force = false;
   double fps = 25.0;                ///< time base of image sequences, Hz
+  /// > 0: a video's frames are timed index / video_fps, its time stamps unused (the
+  /// CLI's --fps given with a video; for a container whose stamps stall or wrap).
+  double video_fps = 0.0;
   io::GreyMode grey = io::GreyMode::kLuma;  ///< colour-to-grey conversion
   std::int64_t first_frame = 0;     ///< first source frame used
   std::int64_t last_frame = -1;     ///< last source frame used (-1: to the end)
