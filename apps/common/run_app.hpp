@@ -22,6 +22,9 @@ namespace shearzone::apps {
 struct Context {
   std::string command_line;                    ///< shell-quoted argv, for output headers
   core::LogLevel level = core::LogLevel::kNormal;
+  /// The study's option check: a subcommand converts and validates its options (its
+  /// job's validate()) and returns 0 before reading or writing any file.
+  bool check_options = false;
   /// tool, version, command line and conventions: the start of every output header.
   core::Metadata header() const { return core::standard_metadata(command_line); }
 };

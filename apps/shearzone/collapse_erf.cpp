@@ -23,6 +23,10 @@ int run_collapse_erf(CLI::App& c, CollapseErfCli& s, const Context& ctx) {
   j.input = s.input;
   j.out_dir = s.output;
   j.fit.loss = fit::parse_loss(s.loss);
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   const auto sum = pipeline::run_collapse_erf_job(j, ctx.header());
   if (ctx.level == core::LogLevel::kVerbose) std::fputs(sum.report.c_str(), stdout);
   if (ctx.level != core::LogLevel::kQuiet)

@@ -32,6 +32,10 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
     j.space = fit::parse_power_space(s.space);
     j.subtract_at = s.subtract_at;
   }
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   const auto sum = pipeline::run_fit_job(j, ctx.header());
   // Stdout: a one-line summary; the full report (parameters, intervals, diagnostics
   // per group) with -v. Every number of it is in the CSVs.

@@ -57,6 +57,10 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
     std::fputs(pipeline::inspect_laos_logs(j).c_str(), stdout);
     return kExitOk;
   }
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   require_option(c, "output");
   const auto sum = pipeline::run_laos_job(j, ctx.header());
   if (ctx.level != core::LogLevel::kQuiet) {

@@ -27,22 +27,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "Only errors on stderr; no progress, no summary");
   app.add_flag("-v,--verbose", verbose, "More detail on stderr");
 
-  std::vector<Subcommand> subs = add_bench(app, ctx);
-  for (auto& s : add_piv(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_synth(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_profile(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_width(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_fit(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_laos(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_sim(app, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_study(app, ctx)) subs.push_back(std::move(s));
-  CLI::App* collapse = app.add_subcommand(
-      "collapse",
-      "Data collapse of r_c(phi0) curves: erf (parametric, global Ceres fit) or fss "
-      "(Houdayer-Hartmann, Nelder-Mead)");
-  collapse->require_subcommand(1);
-  for (auto& s : add_collapse_erf(*collapse, ctx)) subs.push_back(std::move(s));
-  for (auto& s : add_collapse_fss(*collapse, ctx)) subs.push_back(std::move(s));
+  std::vector<Subcommand> subs = add_subcommands(app, ctx);
 
   return run_app(app, argc, argv, [&]() -> int {
     ctx.level = quiet ? shearzone::core::LogLevel::kQuiet

@@ -74,6 +74,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (c.count("--phi0-rad")) j.attributes.emplace_back("phi0_rad", fmt::format("{}", j.vane.phi0_rad));
   for (auto& kv : parse_key_values(s.attrs, "--attr")) j.attributes.push_back(std::move(kv));
 
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   core::ProgressReporter progress("piv: pairs", ctx.level);
   const auto sum = pipeline::run_piv_job(j, ctx.header(), progress.callback());
   progress.finish();

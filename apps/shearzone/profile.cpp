@@ -49,6 +49,10 @@ int run_profile(CLI::App& c, ProfileCli& s, const Context& ctx) {
     j.noise_min_m = s.noise_region[0];
     j.noise_max_m = s.noise_region[1];
   }
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   core::ProgressReporter progress("profile: pairs", ctx.level);
   const auto sum = pipeline::run_profile_job(j, ctx.header(), progress.callback());
   progress.finish();

@@ -225,6 +225,10 @@ int run_render(RenderCli& s, const Context& ctx) {
   s.job.run_dir = s.run;
   s.job.output_dir = s.output;
   apply_size(s.job, s.size);
+  if (ctx.check_options) {  // the study's option check: no file read
+    s.job.validate();
+    return kExitOk;
+  }
   core::ProgressReporter progress("sim render: frames", ctx.level);
   const auto sum = pipeline::run_sim_render(s.job, ctx.header(), progress.callback());
   progress.finish();

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
@@ -57,6 +58,51 @@ std::vector<std::string> option_names(CLI::App& root, const std::string& stage) 
 bool has_option(CLI::App& root, const std::string& stage, const std::string& key) {
   const std::vector<std::string> names = option_names(root, stage);
   return std::find(names.begin(), names.end(), key) != names.end();
+}
+
+/// `shearzone <stage> ARGS` parsed and validated by the subcommand itself, on a CLI of
+/// its own, with the inputs and outputs the study's jobs give it as placeholders; no
+/// file is read. Throws ConfigError with the subcommand's message.
+void check_stage(const std::string& stage, const std::vector<std::string>& args) {
+  // The words of the subcommand and what every job of the stage adds (docs/study.md).
+  static const std::map<std::string, std::vector<std::string>> kJob{
+      {"piv", {"piv", "clip.mp4", "-o", "fields.h5"}},
+      {"profile", {"profile", "fields.h5", "-o", "profile.csv"}},
+      {"width", {"width", "profile.csv", "-o", "width.csv"}},
+      {"laos", {"laos", "torque.csv", "-o", "laos"}},
+      {"render", {"sim", "render", "run", "-o", "video"}},
+      {"erf", {"fit", "erf", "table.csv", "-o", "erf.csv", "--x", "phi0_rad", "--y", "rc_m", "--group", "N"}},
+      {"power", {"fit", "power", "table.csv", "-o", "power.csv", "--x", "N", "--y", "rc_m"}},
+      {"collapse", {"collapse", "erf", "table.csv", "-o", "collapse", "--x", "phi0_rad", "--y", "rc_m", "--group",
+                    "N"}},
+  };
+  const auto job = kJob.find(stage);
+  if (job == kJob.end()) return;
+  CLI::App root;
+  root.name("shearzone");
+  root.require_subcommand(1);
+  root.fallthrough();
+  Context ctx;
+  ctx.check_options = true;
+  ctx.level = core::LogLevel::kQuiet;
+  std::vector<Subcommand> subs = add_subcommands(root, ctx);
+  std::vector<std::string> argv = job->second;
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::reverse(argv.begin(), argv.end());  // CLI11 parses a vector from its back
+  try {
+    root.parse(argv);
+  } catch (const CLI::ParseError& e) {
+    throw ConfigError(e.what());
+  }
+  for (auto& sub : subs)
+    if (sub.app->parsed()) {
+      try {
+        (void)sub.run();
+      } catch (const CLI::ParseError& e) {
+        throw ConfigError(e.what());
+      }
+      return;
+    }
 }
 
 /// The folder of the workflow and figure scripts: $SHEARZONE_SCRIPTS, else the source tree's.
@@ -182,7 +228,7 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   const pipeline::Study study = pipeline::load_study(
       s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); },
-      [&root](const std::string& stage) { return option_names(root, stage); });
+      [&root](const std::string& stage) { return option_names(root, stage); }, check_stage);
   const fs::path scripts = scripts_dir();
   const fs::path snakefile = scripts / "study" / "Snakefile";
   if (!fs::is_regular_file(snakefile))

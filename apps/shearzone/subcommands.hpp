@@ -16,6 +16,9 @@ struct Subcommand {
   std::function<int()> run;
 };
 
+/// Every subcommand of `shearzone` on `root` (main and the study's option check).
+std::vector<Subcommand> add_subcommands(CLI::App& root, Context& ctx);
+
 /// `shearzone bench piv`.
 std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx);
 

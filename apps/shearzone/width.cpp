@@ -26,6 +26,10 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   j.tags = parse_key_values(s.tags, "--tag");
   if (!profile::parse_estimator(s.estimator, j.width.estimator))
     throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
+  if (ctx.check_options) {  // the study's option check: no file read
+    j.validate();
+    return kExitOk;
+  }
   const auto rows = pipeline::run_width_job(j, ctx.header());
   int usable = 0;
   for (const auto& r : rows) {

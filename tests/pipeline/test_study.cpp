@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include <fstream>
+#include <tuple>
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/pipeline/study.hpp"
@@ -106,6 +107,26 @@ TEST_CASE("study: a grid value given twice, or a grid beyond 1000 points, is ref
     INFO(line);
     CHECK_THROWS_WITH(pipeline::load_study(t / "study.toml", any_option), Catch::Contains(message));
     CHECK_FALSE(std::filesystem::exists(t / "out"));
+  }
+}
+
+TEST_CASE("study: every branch's drive is checked as sim --phi0/--f-hz/--cycles checks it, before any job",
+          "[study]") {
+  const std::string cup = read_file(std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "vane_cup.toml");
+  std::string quarter = cup;  // a periodic quarter of the cup: the blade stays within pi/4
+  quarter.replace(quarter.find("[cylinder]\n"), 11, "[cylinder]\nsectors = 4\n");
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases{
+      {cup, "f_Hz = 100", "study.toml:3: key \"sim.f_Hz\": the branch at phi0 = 0.02 rad: --f-hz 100: 10 time steps"},
+      {cup, "f_Hz = 1e-9", "study.toml:3: key \"sim.f_Hz\": the branch at phi0 = 0.02 rad: --cycles 2 at --f-hz 1e-09"},
+      {cup, "cycles = 1e6", "study.toml:3: key \"sim.cycles\": the branch at phi0 = 0.02 rad: --cycles 1e+06"},
+      {quarter, "phi0_rad = [0.3, 0.9]",
+       "study.toml:3: key \"sim.phi0_rad\": the branch at phi0 = 0.9 rad: --phi0 0.9 rad: the blade would leave"}};
+  for (const auto& [scene, line, message] : cases) {
+    TempDir t("study_branch_drive");
+    write_file(t / "cup.toml", scene);
+    write_file(t / "study.toml", "[sim]\nscene = \"cup.toml\"\n" + line + "\n");
+    INFO(line);
+    CHECK_THROWS_WITH(pipeline::load_study(t / "study.toml", any_option), Catch::Contains(message));
   }
 }
 

@@ -12,6 +12,7 @@
 #include "shearzone/core/unset.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/units.hpp"
 
 namespace shearzone::pipeline {
 
@@ -64,6 +65,17 @@ void LaosJobOptions::validate() const {
   if (inputs.empty()) throw ConfigError("laos: no input log given");
   if (output.empty()) throw ConfigError("laos: no output folder given (-o)");
   analysis.validate();
+  // Unit overrides: a unit of one of the kinds the column can hold (a vendor log decides
+  // between angle/torque and strain/stress only when read).
+  const auto unit_ok = [](const std::string& unit, const char* option, io::UnitKind a, io::UnitKind b) {
+    if (unit.empty() || io::find_unit_scale(unit, a) || io::find_unit_scale(unit, b)) return;
+    throw ConfigError(fmt::format("{} \"{}\": not a unit of {} (expected {}) or {} (expected {})", option, unit,
+                                  io::unit_kind_name(a), io::accepted_units(a), io::unit_kind_name(b),
+                                  io::accepted_units(b)));
+  };
+  unit_ok(read.time_unit, "--time-unit", io::UnitKind::kTime, io::UnitKind::kTime);
+  unit_ok(read.angle_unit, "--angle-unit", io::UnitKind::kAngle, io::UnitKind::kStrain);
+  unit_ok(read.torque_unit, "--torque-unit", io::UnitKind::kTorque, io::UnitKind::kStress);
   if (!std::isnan(f_Hz) && !(f_Hz > 0 && std::isfinite(f_Hz)))
     throw ConfigError(fmt::format("laos: --f-hz {}; expected a frequency > 0", f_Hz));
   if (!std::isfinite(inertia_kg_m2) || inertia_kg_m2 < 0)

@@ -58,21 +58,9 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
       throw ConfigError("--phi0 starts an amplitude branch from a checkpoint: give --restart (the pre-sheared state)");
     if (w.rotor_count() == 0)
       throw InputError(fmt::format("{}: the checkpoint has no vane: an amplitude branch needs one", o.restart.string()));
-    if (const int k = w.options().sectors; k != 0 && !(std::abs(o.branch_phi0_rad) < std::numbers::pi / k))
-      throw ConfigError(fmt::format("--phi0 {} rad: the blade would leave the checkpoint's periodic sector of 1/{} "
-                                    "(expected |phi0| < pi/{})",
-                                    o.branch_phi0_rad, k, k));
     const double f = std::isnan(o.branch_f_Hz) ? w.rotor(0).f_Hz : o.branch_f_Hz;
-    if (!(std::abs(o.branch_phi0_rad) <= 100.0))
-      throw ConfigError(fmt::format("--phi0 {}: expected |phi0| <= 100 rad", o.branch_phi0_rad));
-    if (!(f > 0 && f <= 1000.0)) throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1000 Hz", f));
-    if (const double h = w.options().time_step; f * h > 1.0 / sim::kMinStepsPerDrivePeriod)
-      throw ConfigError(fmt::format("--f-hz {}: {:.3g} time steps of {} s per period; expected at least {} (f <= {:.4g} "
-                                    "Hz), or the vane is sampled at an alias",
-                                    f, 1.0 / (f * h), io::format_number(h), sim::kMinStepsPerDrivePeriod,
-                                    1.0 / (sim::kMinStepsPerDrivePeriod * h)));
-    const double k = std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles;
-    if (!(k > 0 && k <= 1e6)) throw ConfigError(fmt::format("--cycles {}: expected 0 < cycles <= 1e6", k));
+    sim::validate_branch(w.options().sectors, w.options().time_step, w.time(), o.branch_phi0_rad, f,
+                         std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles);
     w.set_rotor_drive(0, o.branch_phi0_rad, f, 0.0, w.time());
   } else if (!std::isnan(o.branch_f_Hz) || !std::isnan(o.branch_cycles)) {
     throw ConfigError("--f-hz and --cycles belong to an amplitude branch: give --phi0 (and --restart)");

@@ -49,6 +49,19 @@ const std::map<std::string, std::set<std::string>> kReserved{
     {"collapse", {"output", "config", "force", "x", "y", "sigma", "group", "quiet", "verbose"}},
 };
 
+/// Flags a study table may not set: they make the subcommand do something else than
+/// the analysis its job is for.
+const std::map<std::string, std::map<std::string, std::string>> kNotInStudy{
+    {"laos", {{"inspect", "only lists a log's blocks"}, {"help", "only prints its help"}}},
+    {"piv", {{"help", "only prints its help"}}},
+    {"profile", {{"help", "only prints its help"}}},
+    {"width", {{"help", "only prints its help"}}},
+    {"render", {{"help", "only prints its help"}}},
+    {"erf", {{"help", "only prints its help"}}},
+    {"power", {{"help", "only prints its help"}}},
+    {"collapse", {{"help", "only prints its help"}}},
+};
+
 bool valid_name(const std::string& s) {
   return !s.empty() && s.size() <= 100 && s.front() != '.' && s.front() != '-' &&
          std::all_of(s.begin(), s.end(), [](char c) {
@@ -58,8 +71,8 @@ bool valid_name(const std::string& s) {
 
 class Reader {
  public:
-  Reader(const io::TomlConfig& c, KnownOption known, OptionNames names = {})
-      : c_(c), known_(std::move(known)), names_(std::move(names)) {}
+  Reader(const io::TomlConfig& c, KnownOption known, OptionNames names = {}, CheckStage check = {})
+      : c_(c), known_(std::move(known)), names_(std::move(names)), check_(std::move(check)) {}
 
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
     throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", c_.source(), c_.line(key), key, what));
@@ -113,9 +126,14 @@ class Reader {
   /// `<prefix>.<option>` keys -> command-line words for `shearzone <stage>`.
   StageArgs stage_args(const std::string& prefix, const std::string& stage) const {
     StageArgs out;
+    std::vector<std::string> keys;
     for (const std::string& key : c_.keys()) {
       if (key.rfind(prefix + ".", 0) != 0) continue;
+      keys.push_back(key);
       const std::string opt = key.substr(prefix.size() + 1);
+      if (kNotInStudy.count(stage) && kNotInStudy.at(stage).count(opt))
+        fail(key, fmt::format("--{} of shearzone {} {} (expected an option of the analysis)", opt, stage_name(stage),
+                              kNotInStudy.at(stage).at(opt)));
       if (opt.find('.') != std::string::npos)
         fail(key, fmt::format("a table inside [{}] (expected options of shearzone {})", prefix, stage_name(stage)));
       if (kReserved.at(stage).count(opt))
@@ -141,6 +159,22 @@ class Reader {
       if (texts.empty()) fail(key, "an empty list");
       out.push_back(joined);
     }
+    // The values as the subcommand itself checks them, before any job exists (a value it
+    // refuses would otherwise become a refused result of every job).
+    if (check_ && !keys.empty()) {
+      try {
+        check_(stage, out);
+      } catch (const Error& e) {
+        const std::string what = e.what();
+        std::string at = keys.front();  // the key whose option the message names
+        for (const std::string& k : keys)
+          if (what.find("--" + k.substr(prefix.size() + 1)) != std::string::npos) {
+            at = k;
+            break;
+          }
+        fail(at, fmt::format("shearzone {} refuses [{}]: {}", stage_name(stage), prefix, what));
+      }
+    }
     return out;
   }
   static std::string stage_name(const std::string& stage) {
@@ -153,6 +187,7 @@ class Reader {
   const io::TomlConfig& c_;
   KnownOption known_;
   OptionNames names_;
+  CheckStage check_;
 };
 
 /// A tag pattern ("N{N}_phi{phi0_rad}"): literal text, '*' (any text) and {tag} (a
@@ -419,9 +454,10 @@ const std::vector<std::string>& study_rules() {
 
 std::string study_branch_name(double phi0_rad) { return sim::SceneProtocol::branch_folder(phi0_rad); }
 
-Study load_study(const fs::path& file, const KnownOption& known_option, const OptionNames& option_names) {
+Study load_study(const fs::path& file, const KnownOption& known_option, const OptionNames& option_names,
+                 const CheckStage& check_stage) {
   const io::TomlConfig c = io::TomlConfig::load(file);
-  const Reader r(c, known_option, option_names);
+  const Reader r(c, known_option, option_names, check_stage);
   Study s;
   s.file = fs::absolute(file).lexically_normal();
 
@@ -589,6 +625,24 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
     s.sim_f_Hz = c.has("sim.f_Hz") ? r.positive("sim.f_Hz", 1000) : p.f_Hz;
     s.sim_cycles = c.has("sim.cycles") ? r.positive("sim.cycles", 1e6) : p.cycles;
     s.sim_threads = c.has("sim.threads") ? static_cast<int>(r.integers("sim.threads", 1, 256)[0]) : 1;
+    // Every branch's drive as `sim --phi0 --f-hz --cycles` will check it, before any job.
+    for (const double a : s.sim_phi0_rad) {
+      try {
+        sim::validate_branch(checked.world->options().sectors, checked.world->options().time_step, 0.0, a,
+                             s.sim_f_Hz, s.sim_cycles);
+      } catch (const ConfigError& e) {
+        const std::string what = e.what();
+        // The key at fault: the option the message names (a branch too long: the cycles or
+        // the frequency), else the scene whose protocol gave the value.
+        const std::vector<const char*> keys = what.rfind("--phi0", 0) == 0   ? std::vector{"sim.phi0_rad"}
+                                              : what.rfind("--f-hz", 0) == 0 ? std::vector{"sim.f_Hz"}
+                                                                             : std::vector{"sim.cycles", "sim.f_Hz"};
+        std::string key = "sim.scene";
+        for (const char* k : keys)
+          if (key == "sim.scene" && c.has(k)) key = k;
+        r.fail(key, fmt::format("the branch at phi0 = {} rad: {}", io::format_number(a), what));
+      }
+    }
     // The scene's own chain values unless the study sets a grid.
     const OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
     const auto scene_number = [&](const char* table, const char* key, double def) {

@@ -863,6 +863,28 @@ std::string SceneProtocol::branch_folder(double phi0_rad) {
   return "phi0_" + (std::stod(three) == phi0_rad ? three : fmt::format("{}", phi0_rad));
 }
 
+void validate_branch(int sectors, double time_step, double start_time_s, double phi0_rad, double f_Hz,
+                     double cycles) {
+  if (sectors != 0 && !(std::abs(phi0_rad) < std::numbers::pi / sectors))
+    throw ConfigError(fmt::format("--phi0 {} rad: the blade would leave the checkpoint's periodic sector of 1/{} "
+                                  "(expected |phi0| < pi/{})",
+                                  phi0_rad, sectors, sectors));
+  if (!(std::abs(phi0_rad) <= 100.0)) throw ConfigError(fmt::format("--phi0 {}: expected |phi0| <= 100 rad", phi0_rad));
+  if (!(f_Hz > 0 && f_Hz <= 1000.0)) throw ConfigError(fmt::format("--f-hz {}: expected 0 < f <= 1000 Hz", f_Hz));
+  if (f_Hz * time_step > 1.0 / kMinStepsPerDrivePeriod)
+    throw ConfigError(fmt::format("--f-hz {}: {:.3g} time steps of {} s per period; expected at least {} (f <= {:.4g} "
+                                  "Hz), or the vane is sampled at an alias",
+                                  f_Hz, 1.0 / (f_Hz * time_step), io::format_number(time_step),
+                                  kMinStepsPerDrivePeriod, 1.0 / (kMinStepsPerDrivePeriod * time_step)));
+  if (!(cycles > 0 && cycles <= 1e6)) throw ConfigError(fmt::format("--cycles {}: expected 0 < cycles <= 1e6", cycles));
+  const double steps = (start_time_s + cycles / f_Hz) / time_step;
+  if (!(steps <= kMaxRunSteps))
+    throw ConfigError(fmt::format("--cycles {} at --f-hz {} over the time step {} s is {:.3g} steps; expected at "
+                                  "most {:.0e} (fewer cycles or a higher frequency)",
+                                  io::format_number(cycles), io::format_number(f_Hz), io::format_number(time_step),
+                                  steps, kMaxRunSteps));
+}
+
 void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, const std::filesystem::path& scene_path,
                               const std::filesystem::path& checkpoint_path) {
   const World& c = *scene.world;  // the container alone (check_only)

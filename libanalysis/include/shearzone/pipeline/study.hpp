@@ -91,10 +91,16 @@ using KnownOption = std::function<bool(const std::string& stage, const std::stri
 /// The long options of `shearzone <stage>` (for a "did you mean" when a key is unknown).
 using OptionNames = std::function<std::vector<std::string>(const std::string& stage)>;
 
+/// Checks a stage's options as `shearzone <stage>` will take them (its own parsing and
+/// validation, no file read): throws Error with the subcommand's message.
+using CheckStage = std::function<void(const std::string& stage, const std::vector<std::string>& args)>;
+
 /// Reads and checks a study file. ConfigError / InputError name the file, line and key;
-/// an unknown stage option is refused with the nearest of `option_names` (when given).
+/// an unknown stage option is refused with the nearest of `option_names` (when given),
+/// and every stage table's options are checked by `check_stage` (when given) before any
+/// job exists.
 Study load_study(const std::filesystem::path& file, const KnownOption& known_option,
-                 const OptionNames& option_names = {});
+                 const OptionNames& option_names = {}, const CheckStage& check_stage = {});
 
 /// The rules the [slurm] tables may name.
 const std::vector<std::string>& study_rules();

@@ -202,6 +202,14 @@ struct FillProgress {
 
 LoadedScene load_scene(const std::filesystem::path& scene, bool check_only, const FillProgress& progress = {});
 
+/// The drive of an amplitude branch (`sim --restart CKPT --phi0 A --f-hz F --cycles K`)
+/// on a world of `sectors` (0: the whole cup) and `time_step` s, starting at
+/// `start_time_s`: |phi0| < pi/sectors (the blade stays in its wedge) and <= 100 rad,
+/// 0 < f <= 1000 Hz with at least kMinStepsPerDrivePeriod steps per period, 0 < cycles
+/// <= 1e6, and the branch's end within kMaxRunSteps steps. Throws ConfigError naming the
+/// option at fault (--phi0, --f-hz, --cycles). A study checks its grid with it.
+void validate_branch(int sectors, double time_step, double start_time_s, double phi0_rad, double f_Hz, double cycles);
+
 /// A restart takes its world from a checkpoint while the run's outputs (surface.h5,
 /// frames.h5, the torque log) describe the scene's cup and vane: the two must be the same
 /// cup. `scene` is load_scene(.., check_only = true) (its world the container alone).
