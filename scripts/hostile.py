@@ -210,6 +210,8 @@ def cases(work):
          r"stalled.mp4: the container's clocks disagree: its time stamps give no rate \(20 frames in 0 s, 19 of them"),
         ("piv_mp4_tick_stamps", ["piv", "tick.mp4", "--windows", "32,16", "-o", "st.h5"], 2, ["st.h5"],
          r"tick.mp4: the container's clocks disagree: its time stamps give 12800 fps"),
+        ("study_generated_scene_refused", ["study", "run", "study_n10.toml", "-o", "so"], 2, ["so"],
+         r"the scene of group N10_l0.0004_a60_s1:[0-9]+: key \"cylinder.sectors\": a periodic sector with chains of 10 beads"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]
@@ -287,6 +289,8 @@ def make_inputs(bin_, work):
     w("cup.toml", cup)
     w("cup_alias.toml", cup.replace("f_Hz = 0.5 ", "f_Hz = 199 ", 1))
     w("cup_cycles.toml", cup.replace("cycles = 2", "cycles = 1e6", 1))
+    w("cup_quarter.toml", cup.replace("[cylinder]\n", "[cylinder]\nsectors = 4\n", 1))
+    w("study_n10.toml", "[sim]\nscene = \"cup_quarter.toml\"\nN = [10]\nl_max_m = [0.0004]\nmax_angle_deg = [60]\n")
     w("study_dup.toml", "[sim]\nscene = \"cup.toml\"\nl_max_m = [0.0004, 4e-4]\n")
     w("study_2000.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(2000)) + "]\n")
     w("study_big.toml", "[sim]\nscene = \"cup.toml\"\nseeds = [" + ", ".join(str(i) for i in range(100000)) + "]\n")

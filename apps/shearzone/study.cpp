@@ -245,6 +245,7 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   if (ec) self = fs::absolute(fs::path("shearzone"));
   if (fs::exists(s.output) && !fs::is_directory(s.output))
     throw ConfigError(fmt::format("{}: exists and is not a folder (expected the study's output folder)", s.output));
+  const bool new_folder = !fs::exists(s.output);
   fs::create_directories(s.output);
   // One `study run` per folder at a time: an advisory lock that the kernel drops when the
   // process (and the Snakemake it starts, which inherits it) ends, even by SIGKILL. Holding
@@ -256,7 +257,13 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   ::fcntl(lock_fd, F_SETFD, 0);  // inherited by Snakemake: the lock lasts while it runs
   if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
     throw ConfigError(fmt::format("{}: another `shearzone study run` is running on this folder", s.output));
-  pipeline::write_study_plan(study, s.output, self, python, scripts);
+  try {
+    pipeline::write_study_plan(study, s.output, self, python, scripts);
+  } catch (...) {
+    std::error_code rec;
+    if (new_folder) fs::remove_all(s.output, rec);  // a refusal leaves no folder behind
+    throw;
+  }
 
   const int jobs = s.jobs > 0 ? s.jobs : (s.slurm ? 50 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   std::vector<std::string> argv{snakemake.string(),

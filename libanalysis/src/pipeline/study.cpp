@@ -2,6 +2,7 @@
 #include "shearzone/pipeline/study.hpp"
 
 #include <glob.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -696,6 +697,31 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
                                        beads, s.sim_threads);
             s.groups.push_back(std::move(g));
           }
+    // Each generated scene as the simulator will read it, before the output folder exists
+    // (a refusal then leaves nothing behind): written to a file of its own in the system's
+    // temporary folder, loaded, removed.
+    const fs::path probe = fs::temp_directory_path() / fmt::format("shearzone-study-{}.toml", ::getpid());
+    for (const auto& g : s.groups) {
+      {
+        std::ofstream f(probe, std::ios::trunc);
+        f << g.scene_text;
+        if (!f) throw ConfigError(fmt::format("{}: cannot write a scene to check it", probe.string()));
+      }
+      try {
+        (void)sim::load_scene(probe, true);
+      } catch (const Error& e) {
+        std::error_code ec;
+        fs::remove(probe, ec);
+        std::string what = e.what();
+        if (const auto at = what.find(probe.string()); at != std::string::npos)
+          what.replace(at, probe.string().size(), "the scene of group " + g.name);
+        throw ConfigError(fmt::format("{} (generated from {} by {})", what, s.scene.string(), c.source()));
+      }
+    }
+    if (!s.groups.empty()) {
+      std::error_code ec;
+      fs::remove(probe, ec);
+    }
     s.sim_render = r.stage_args("sim.render", "render");
     s.sim_piv = r.stage_args("sim.piv", "piv");
     s.sim_profile = r.stage_args("sim.profile", "profile");
@@ -733,17 +759,8 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
 
 void write_study_plan(const Study& s, const fs::path& out, const fs::path& shearzone, const fs::path& python,
                       const fs::path& scripts) {
-  // The generated scenes, each checked as the simulator will read it.
-  for (const auto& g : s.groups) {
-    const fs::path scene = out / "sim" / g.name / "scene.toml";
-    write_if_changed(scene, g.scene_text);
-    try {
-      (void)sim::load_scene(scene, true);
-    } catch (const Error& e) {
-      throw ConfigError(fmt::format("{} (the scene generated for group {} from {})", e.what(), g.name,
-                                    s.scene.string()));
-    }
-  }
+  // The generated scenes (load_study checked each as the simulator will read it).
+  for (const auto& g : s.groups) write_if_changed(out / "sim" / g.name / "scene.toml", g.scene_text);
   std::ostringstream j;
   j << "{\n";
   j << "  \"study_file\": " << json_string(s.file.string()) << ",\n";
