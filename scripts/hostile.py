@@ -212,6 +212,10 @@ def cases(work):
          r"tick.mp4: the container's clocks disagree: its time stamps give 12800 fps"),
         ("study_generated_scene_refused", ["study", "run", "study_n10.toml", "-o", "so"], 2, ["so"],
          r"the scene of group N10_l0.0004_a60_s1:[0-9]+: key \"cylinder.sectors\": a periodic sector with chains of 10 beads"),
+        ("render_size_1e8", ["sim", "render", "cam_a", "-o", "rv", "--size", "16384,16384", "--format", "png"], 2,
+         ["rv"], r"--size 16384x16384: 2.68e\+08 pixels per frame; expected at most 1e\+08"),
+        ("render_mp4v_too_wide", ["sim", "render", "cam_a", "-o", "rv", "--size", "9000,2000"], 2, ["rv"],
+         r"--codec mp4v holds at most 8190 px each way"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
     ]

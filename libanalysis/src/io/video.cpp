@@ -266,8 +266,8 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
 }
 
 VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
-                         const std::string& codec)
-    : path_(path.string()), size_(size) {
+                         const std::string& codec, const std::filesystem::path& name)
+    : path_(path.string()), name_(name.empty() ? path.string() : name.string()), size_(size) {
   if (codec.size() != 4)
     throw ConfigError(fmt::format("video codec \"{}\": expected a four-character code such as "
                                   "mp4v, avc1 or MJPG",
@@ -284,10 +284,10 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size
     ok = false;
   }
   if (!ok)
-    throw ConfigError(fmt::format("{}: cannot open a video writer for codec \"{}\" (this "
-                                  "OpenCV/FFmpeg build may lack it; try mp4v for .mp4 or MJPG "
-                                  "for .avi)",
-                                  path_, codec));
+    throw ConfigError(fmt::format("{}: cannot open a video writer for codec \"{}\" at {}x{} px (the "
+                                  "codec may not hold frames of this size, or this OpenCV/FFmpeg build "
+                                  "lacks it; try mp4v or avc1 for .mp4, MJPG for .avi)",
+                                  name_, codec, size.width, size.height));
 }
 
 VideoWriter::~VideoWriter() = default;

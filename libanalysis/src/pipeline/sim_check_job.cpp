@@ -248,7 +248,8 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
     {
       io::AtomicOutput f(static_clip, o.force);
       {
-        io::VideoWriter w(f.temp_path(), cup.fps, cv::Size(rs.camera.width_px, rs.camera.height_px), ro.codec);
+        io::VideoWriter w(f.temp_path(), cup.fps, cv::Size(rs.camera.width_px, rs.camera.height_px), ro.codec,
+                          f.final_path());
         for (std::size_t k = 0; k < kStaticFrames; ++k)
           w.write(render_cup_frame(rs.camera, cup, rs.surface_z_m, proj[0], vane_angles[0], ro.look,
                                    kStaticSeedOffset + k));

@@ -342,6 +342,17 @@ void SimRenderOptions::validate() const {
     throw ConfigError(fmt::format("--size {}x{}: expected 16..16384 px each way", width_px, height_px));
   if (format == "mp4" && (width_px % 2 != 0 || height_px % 2 != 0))
     throw ConfigError(fmt::format("--size {}x{}: an MP4 needs even sizes", width_px, height_px));
+  // A frame piv can read back (and a render that ends in reasonable time and memory).
+  if (static_cast<double>(width_px) * height_px > io::kMaxImagePixels)
+    throw ConfigError(fmt::format("--size {}x{}: {:.3g} pixels per frame; expected at most {:.0e} (the largest frame "
+                                  "piv reads)",
+                                  width_px, height_px, static_cast<double>(width_px) * height_px,
+                                  io::kMaxImagePixels));
+  // MPEG-4 part 2 (FFmpeg's mpeg4 encoder) holds at most 8190 px each way.
+  if (format == "mp4" && codec == "mp4v" && (width_px > 8190 || height_px > 8190))
+    throw ConfigError(fmt::format("--size {}x{}: --codec mp4v holds at most 8190 px each way (expected --codec avc1 "
+                                  "or a smaller size)",
+                                  width_px, height_px));
   if (core::is_set(m_per_px) && !(m_per_px > 0 && std::isfinite(m_per_px)))
     throw ConfigError(fmt::format("--m-per-px {}: expected a finite scale > 0", m_per_px));
   if (!(height_m > 0 && std::isfinite(height_m)))
@@ -388,7 +399,8 @@ SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata&
   std::unique_ptr<io::VideoWriter> writer;
   if (o.format == "mp4") {
     auto& f = out.add(names[0]);
-    writer = std::make_unique<io::VideoWriter>(f.temp_path(), cup.fps, cv::Size(o.width_px, o.height_px), o.codec);
+    writer = std::make_unique<io::VideoWriter>(f.temp_path(), cup.fps, cv::Size(o.width_px, o.height_px), o.codec,
+                                               f.final_path());
   }
   core::Metadata meta = header;
   meta.emplace_back("run", o.run_dir.string());

@@ -72,17 +72,9 @@ SynthJobSummary run_synth_job(const SynthJobOptions& options, const core::Metada
   if (video) {
     auto& f = out.add(frame_names[0]);
     const std::string codec = options.format == "avi" ? "MJPG" : options.video_codec;
-    try {
-      writer = std::make_unique<io::VideoWriter>(f.temp_path(), so.sequence.fps,
-                                                 cv::Size(so.image.width_px, so.image.height_px),
-                                                 codec);
-    } catch (const ConfigError& e) {  // name the output the user asked for, not the temporary
-      std::string m = e.what();
-      const std::string tmp = f.temp_path().string();
-      if (const auto at = m.find(tmp); at != std::string::npos)
-        m.replace(at, tmp.size(), f.final_path().string());
-      throw ConfigError(m);
-    }
+    writer = std::make_unique<io::VideoWriter>(f.temp_path(), so.sequence.fps,
+                                               cv::Size(so.image.width_px, so.image.height_px), codec,
+                                               f.final_path());  // named in messages, not the temporary
   }
   while (!gen.done()) {
     const int k = gen.next_index();

@@ -81,8 +81,9 @@ class VideoWriter {
   /// `codec`: "mp4v", "avc1" or "MJPG" (a FourCC). `path` decides the container by
   /// its extension (.mp4, .avi). Throws ConfigError if the combination cannot be
   /// opened by this build of OpenCV/FFmpeg.
-  VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
-              const std::string& codec = "mp4v");
+  /// `name`: the file messages name (the final output, when `path` is its temporary).
+  VideoWriter(const std::filesystem::path& path, double fps, cv::Size size, const std::string& codec = "mp4v",
+              const std::filesystem::path& name = {});
   ~VideoWriter();
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;
@@ -93,6 +94,7 @@ class VideoWriter {
 
  private:
   std::string path_;
+  std::string name_;  ///< the file messages name
   cv::Size size_;
   std::unique_ptr<cv::VideoWriter> writer_;
 };
