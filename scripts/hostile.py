@@ -199,6 +199,8 @@ def cases(work):
          "--passes: it sets the passes of the --final-windows grid"),
         ("sim_existing_output_before_fill", ["sim", os.path.join(ROOT, "data-samples", "sim", "filmed_cup.toml"),
          "-o", "simdone"], 2, [], "simdone/snapshots.h5: output exists"),
+        ("sim_existing_surface_before_fill", ["sim", os.path.join(ROOT, "data-samples", "sim", "filmed_cup.toml"),
+         "-o", "simdone_surface"], 2, [], "simdone_surface/surface.h5: output exists"),
         ("sim_check_no_surface", ["sim", "check", "branch_nosurf", "-o", "co"], 2, ["co"],
          "branch_nosurf/surface.h5: no such file"),
         ("sim_restart_other_scene", ["sim", "ck_other.toml", "--restart", "ck_run/checkpoint.h5", "-o", "run"], 2,
@@ -303,6 +305,8 @@ def make_inputs(bin_, work):
     w("branch_nosurf/frames.h5", "frames of a branch whose surface.h5 is missing")
     os.makedirs(os.path.join(work, "simdone"), exist_ok=True)
     w("simdone/snapshots.h5", "a finished run's file")
+    os.makedirs(os.path.join(work, "simdone_surface"), exist_ok=True)
+    w("simdone_surface/surface.h5", "a finished run's surface field")
     w("ck.toml", sim_scene())
     subprocess.run([bin_, "sim", "ck.toml", "-q", "-o", "ck_run"], cwd=work, check=True)
     w("ck_other.toml", sim_scene(beads="diameter_m = 0.01\npositions_m = [0, 0, 0.005, 0.011, 0, 0.005]\n"))

@@ -31,11 +31,23 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   SimJobSummary sum;
   std::vector<std::int64_t> chain_ids;
   std::optional<sim::World> built;
-  // The files every run writes, refused before the fill (minutes for a large cup) rather
-  // than after it; the others (torque, surface, frames, cycles) when they are known.
-  for (const char* name : {"snapshots.h5", "snapshots.xdmf", "diagnostics.csv", "checkpoint.h5"})
-    io::check_output_allowed(o.output_dir / name, o.force);
+  // Every file this run will write, refused before the fill (minutes for a large cup)
+  // rather than after it: the scene read first without placing anything tells which.
+  const auto refuse_existing = [&](const sim::LoadedScene& sc) {
+    std::vector<std::string> names{"snapshots.h5", "snapshots.xdmf", "diagnostics.csv", "checkpoint.h5"};
+    if (sc.vane) {
+      names.emplace_back("torque.csv");
+      if (!std::isnan(o.branch_phi0_rad) || sc.vane_f_Hz > 0) names.emplace_back("cycles.csv");
+    }
+    if (sc.camera) {
+      names.emplace_back("surface.h5");
+      if (sc.camera->frames && o.camera_frames) names.emplace_back("frames.h5");
+    }
+    for (const std::string& name : names) io::check_output_allowed(o.output_dir / name, o.force);
+  };
+  if (o.restart.empty()) refuse_existing(sim::load_scene(o.scene, true));
   sim::LoadedScene scene = sim::load_scene(o.scene, !o.restart.empty(), fill_progress);
+  if (!o.restart.empty()) refuse_existing(scene);
   const sim::SceneCadence cad = scene.cadence;
   if (o.restart.empty()) {
     built.emplace(std::move(*scene.world));

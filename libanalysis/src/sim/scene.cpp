@@ -739,6 +739,7 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
   out.torque_every_rad = b.vane_torque_every;
   out.stop_change = b.vane_stop_change;
   out.vane = !b.vane.empty();
+  out.vane_f_Hz = b.vane_f;
   out.beads_per_chain = b.chains.beads_per_chain;
   out.bead_diameter_m = b.diameter;
   out.mobile_beads = static_cast<std::int64_t>(b.mobile.size()) +

@@ -179,6 +179,7 @@ struct LoadedScene {
   std::optional<SceneCamera> camera;  ///< the scene has a [camera]
   SceneCadence cadence;
   bool vane = false;               ///< the scene has a [vane] (rotor 0 of the world)
+  double vane_f_Hz = 0.0;          ///< its drive's frequency (a protocol: the pre-shear's)
   double torque_every_rad = 1e-3;  ///< torque log sampling: a row per this change of phi (0: every step)
   /// Stop once the vane's torque amplitude changed by less than this fraction over 3
   /// consecutive whole cycles (0: run the whole duration); the pre-shear's early stop.
