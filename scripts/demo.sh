@@ -77,8 +77,8 @@ T=data-samples/widths/rc_phi0_synthetic.csv
 F="$OUT/fits"
 mkdir -p "$F"
 "$SZ" fit erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/erf.csv" -q --force
-"$SZ" fit power "$F/erf_wide.csv" --x group --y W --sigma W_se -o "$F/W_power.csv" --force
-"$SZ" fit power "$F/erf_wide.csv" --x group --y rcinf --sigma rcinf_se --subtract-at 1 \
+"$SZ" fit power "$F/erf_wide.csv" --x group --y W_rad --sigma W_se_rad -o "$F/W_power.csv" --force
+"$SZ" fit power "$F/erf_wide.csv" --x group --y rcinf_m --sigma rcinf_se_m --subtract-at 1 \
     -o "$F/rcinf_power.csv" -q --force
 "$SZ" collapse erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/collapse_erf" -q --force
 "$SZ" collapse fss "$F/collapse_erf/collapsed.csv" --x phi0_rad --y r_tilde --dy r_tilde_sigma \

@@ -27,7 +27,7 @@ import sys
 import numpy as np
 
 import szplot
-from szcsv import header, num, read_csv
+from szcsv import header, num, param, read_csv
 
 plt = szplot.plt
 from matplotlib.lines import Line2D  # noqa: E402
@@ -85,14 +85,37 @@ def profiles(a):
         sl = slice(ok[0], ok[-1] + 1) if ok.size else slice(0, 0)
         r, v, e = r[sl], v[sl], e[sl]
         label = "mean |v|"
-        if len(a.inputs) > 1 or "N" in meta:
-            label = rf"$N$ = {meta.get('N', '?')}, $\varphi_0$ = {num(meta.get('phi0_rad')):.3g} rad"
+        # Several profiles of one N (a study's panel): N goes to the legend's title and each
+        # entry names its amplitude and r_c (one entry per profile, not two).
+        one_n = len(a.inputs) > 1 and len({header(q).get("N") for q in a.inputs}) == 1
+        amp = rf"$\varphi_0$ = {num(meta.get('phi0_rad')):.3g} rad"
+        if one_n:
+            label = amp
+        elif len(a.inputs) > 1 or "N" in meta:
+            label = rf"$N$ = {meta.get('N', '?')}, " + amp
         st = szplot.series(i, line=True)
         st["linestyle"] = "-"
+        w = widths_row(widths, p, meta, len(a.inputs))
+        rc_txt = None
+        if w is not None and math.isfinite(num(w.get("rc_m"))):
+            rc = num(w["rc_m"]) * 1e3
+            lo, hi = num(w.get("rc_ci_low_m")) * 1e3, num(w.get("rc_ci_high_m")) * 1e3
+            ok_ci = math.isfinite(lo) and math.isfinite(hi)
+            # enough decimals to tell the interval's ends apart
+            dec = min(4, max(1, math.ceil(-math.log10(hi - lo)) + 1)) if ok_ci and hi > lo else 1
+            rc_txt = rf"$r_c$ = {rc:.{dec}f} mm" + (f" [{lo:.{dec}f}, {hi:.{dec}f}]" if ok_ci else "")
+            if (w.get("rc_status", "ok") or "ok") != "ok":
+                rc_txt += f" ({w.get('rc_status')})"
+            if w.get("estimator") == "lockin":
+                rc_txt += " lock-in"
+        if one_n and rc_txt:
+            label += ": " + rc_txt
         ax.errorbar(r, v, yerr=[np.fmin(e, 0.9 * v), e], ms=3, lw=0.9, elinewidth=0.7, label=label, **st)
         rn, vn = szplot.finite(column(rows, "r_m"), column(rows, "v_noise_m_per_s"))
         if len(vn) and i == 0:
-            ax.plot(rn * 1e3, vn * 1e3, color="0.55", ls="-.", lw=0.8, label="PIV noise level")
+            # each clip has its own noise level: the one drawn is the first profile's
+            ax.plot(rn * 1e3, vn * 1e3, color="0.55", ls="-.", lw=0.8,
+                    label="PIV noise level" + (f" ({amp}; each clip has its own)" if len(a.inputs) > 1 else ""))
         # The lock-in estimate (the mean |v_theta| of the phase-locked waveform) and its
         # floor, where the profile has them: dashed, same colour.
         if "v_abs_lockin_m_per_s" in rows[0]:
@@ -106,23 +129,10 @@ def profiles(a):
         for key in ("Rv_m", "R_m"):
             if math.isfinite(num(meta.get(key))):
                 radii.add((key, num(meta[key]) * 1e3))
-        w = widths_row(widths, p, meta, len(a.inputs))
-        if w is not None and math.isfinite(num(w.get("rc_m"))):
-            rc = num(w["rc_m"]) * 1e3
-            lo, hi = num(w.get("rc_ci_low_m")) * 1e3, num(w.get("rc_ci_high_m")) * 1e3
-            status = w.get("rc_status", "ok") or "ok"
-            ok_ci = math.isfinite(lo) and math.isfinite(hi)
-            # enough decimals to tell the interval's ends apart
-            dec = min(4, max(1, math.ceil(-math.log10(hi - lo)) + 1)) if ok_ci and hi > lo else 1
-            txt = rf"$r_c$ = {rc:.{dec}f} mm"
+        if rc_txt is not None:
             if ok_ci:
                 ax.axvspan(lo, hi, color=st["color"], alpha=0.15, lw=0, zorder=0)
-                txt += f" [{lo:.{dec}f}, {hi:.{dec}f}]"
-            if status != "ok":
-                txt += f" ({status})"
-            if w.get("estimator") == "lockin":
-                txt += " lock-in"
-            ax.axvline(rc, color=st["color"], ls=":", lw=1.0, zorder=1, label=txt)
+            ax.axvline(rc, color=st["color"], ls=":", lw=1.0, zorder=1, label=None if one_n else rc_txt)
             if i == 0:
                 mark_radius(ax, rc, r"$r_c$", color=st["color"], ls=":")
     for key, x in sorted(radii):
@@ -136,12 +146,15 @@ def profiles(a):
     ax.xaxis.set_major_locator(MaxNLocator(6, steps=[1, 2, 5, 10]))
     ax.set_xlabel(r"radius $r$ (mm)")
     ax.set_ylabel(r"mean bead speed $|v|$ (mm/s)")
-    ax.set_title("Fig. 2A  Radial velocity profile $v(r)$", pad=14)
+    ax.set_title("Fig. 2A  Radial velocity profile $v(r)$", pad=22)  # above the r_c marks
     h, lab = ax.get_legend_handles_labels()
-    order = sorted(range(len(h)), key=lambda j: (not lab[j].startswith(("mean", "$N$", "lock-in mean")),
+    order = sorted(range(len(h)), key=lambda j: (not lab[j].startswith(("mean", "$N$", "lock-in mean", r"$\varphi_0$")),
                                                  lab[j].startswith(("PIV", "lock-in noise"))))
+    n_title = f"$N$ = {header(a.inputs[0]).get('N')}, " if len(a.inputs) > 1 and len(
+        {header(q).get("N") for q in a.inputs}) == 1 else ""
     ax.legend([h[j] for j in order], [lab[j] for j in order], loc="upper left", bbox_to_anchor=(1.02, 1.0),
-              borderaxespad=0.0, title="bars: standard error" + (f"\nshaded: {conf_txt} of $r_c$" if widths else ""), title_fontsize=7,
+              borderaxespad=0.0, title=n_title + "bars: standard error" + (
+                  f"\nshaded: {conf_txt} of $r_c$ (dotted line)" if widths else ""), title_fontsize=7,
               alignment="left")
     szplot.save(fig, a.out)
 
@@ -181,6 +194,7 @@ def rc(a):
     for r, lo, hi in zip(rows, elo, ehi):
         groups.setdefault(r[a.group], []).append((num(r[a.x]), num(r[a.y]), lo, hi))
     fig, ax = plt.subplots(figsize=(3.4, 2.8))
+    curves = 0
     for i, (g, pts) in enumerate(sorted(groups.items(), key=lambda kv: num(kv[0]))):
         pts = sorted(p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1]))
         if not pts:
@@ -194,15 +208,17 @@ def rc(a):
         if f is None:
             f = next((v for k, v in fits.items() if math.isclose(num(k), num(g), rel_tol=0.02)), None)
         if f is not None and (f.get("status") or "ok") == "ok":
-            p = {k: num(f[k]) for k in ("rc0", "rcinf", "phi_c", "W")}
+            p = {k: num(param(f, k)) for k in ("rc0", "rcinf", "phi_c", "W")}
             xs = np.linspace(x.min(), x.max(), 300)
             ax.plot(xs, [erf_model(p, v) * 1e3 for v in xs], "-", color=st["color"], lw=1.0, zorder=2)
+            curves += 1
     ax.set_xlabel(r"vane amplitude $\varphi_0$ (rad)")
     ax.set_ylabel(r"shear-zone width $r_c$ (mm)")
     ax.set_title("Fig. 2C  Shear-zone width against amplitude")
     h, lab = ax.get_legend_handles_labels()
-    h.append(Line2D([], [], color="k", lw=1.0))
-    lab.append("erf fit")
+    if curves:  # a legend entry only for curves drawn (a group with one point has no fit)
+        h.append(Line2D([], [], color="k", lw=1.0))
+        lab.append("erf fit")
     ax.legend(h, lab, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
               title=f"chain length $N$\nbars: {kind or 'none'}", title_fontsize=7, alignment="left")
     szplot.save(fig, a.out)
@@ -219,8 +235,9 @@ SCALING_LABELS = {  # column -> (symbol, unit, factor)
 def scaling(a):
     wide = read_csv(a.fits_wide)
     power = read_csv(a.power)
-    sym, unit, fac = SCALING_LABELS.get(a.y, (a.y, "", 1.0))
-    pts = sorted((num(x["group"]), num(x[a.y]) * fac, num(x.get(a.y + "_se")) * fac)
+    base = next((k for k in SCALING_LABELS if a.y == k or a.y.startswith(k + "_")), a.y)  # W or W_rad
+    sym, unit, fac = SCALING_LABELS.get(base, (a.y, "", 1.0))
+    pts = sorted((num(x["group"]), num(param(x, base)) * fac, num(param(x, base, se=True)) * fac)
                  for x in wide if (x.get("status") or "ok") == "ok")
     pts = [p for p in pts if math.isfinite(p[0]) and math.isfinite(p[1])]
     fig, ax = plt.subplots(figsize=(3.4, 2.8))

@@ -10,13 +10,16 @@ Per dataset D (`lab`, or `sim_l<l_max>_a<theta_max>` for each point of a simulat
                   a simulation grid: its first seed)
   fig2c_D         r_c against phi0 per N with the erf fits (plot_fig2 rc)
   fig2d_D         W(N) with its power law (plot_fig2 scaling)
-  fig2e_D         r_c_inf(N) - r_c_inf(1) with its power law and the exponent's interval
-  collapse_D      the data collapse (plot_fig2 collapse)
-  fig3a_D_<log>   elastic and viscous Lissajous curves of each torque log (plot_laos lissajous)
-  fig3d_D         tau_max against phi0 per N (plot_laos taumax); fig3d_N_D: tau_max ~ N^gamma per
-                  amplitude (plot_laos taun)
-  fig6_D          tan delta_1 against phi0 (plot_laos tandelta); fig5_harmonics_D: I3/I1;
-  fig5_chebyshev_D: e3/e1 and v3/v1
+  fig2d_rcinf_D   r_c_inf(N) - r_c_inf(1) with its power law and the exponent's interval
+  fig2e_D         the data collapse (plot_fig2 collapse)
+  fig3a_D         tau_max against phi0 per N; fig3d_D: tau_max ~ N^gamma per amplitude
+                  (plot_laos taun)
+  fig5_D_<log>    elastic and viscous Lissajous curves of each torque log (plot_laos lissajous)
+  fig6_D          tan delta_1 against phi0 (plot_laos tandelta)
+  laos_harmonics_D, laos_chebyshev_e_D, laos_chebyshev_v_D: I3/I1, e3/e1 and v3/v1 against
+                  phi0 (not panels of the paper)
+Panel names and titles follow the paper's figures (2A-2F, 3A, 3D, 5, 6), the same in the
+demo (scripts/demo.sh).
 and, when the grid has several l_max or theta_max, fig2f_phi_c: the erf's Phi_c against
 l_max and theta_max per N. A panel whose table is missing, refused (`# refused:`, a
 meaningless fit) or empty is left out; FIGDIR/figures.csv lists every panel as made or
@@ -38,7 +41,7 @@ import numpy as np  # noqa: E402
 import plot_fig2  # noqa: E402
 import plot_laos  # noqa: E402
 import szplot  # noqa: E402
-from szcsv import header, num, read_csv  # noqa: E402
+from szcsv import header, num, param, read_csv  # noqa: E402
 
 plt = szplot.plt
 
@@ -108,8 +111,9 @@ def rcinf_difference(a):
     ref = [r for r in wide if num(r["group"]) == 1]
     if not ref:
         raise ValueError("no usable N = 1 erf fit")
-    r1, s1 = num(ref[0]["rcinf"]), num(ref[0].get("rcinf_se"))
-    pts = sorted((num(r["group"]), (num(r["rcinf"]) - r1) * 1e3, math.hypot(num(r.get("rcinf_se")), s1) * 1e3)
+    r1, s1 = num(param(ref[0], "rcinf")), num(param(ref[0], "rcinf", se=True))
+    pts = sorted((num(r["group"]), (num(param(r, "rcinf")) - r1) * 1e3,
+                  math.hypot(num(param(r, "rcinf", se=True)), s1) * 1e3)
                  for r in wide if num(r["group"]) != 1)
     pts = [p for p in pts if math.isfinite(p[1]) and p[1] > 0]
     if not pts:
@@ -130,7 +134,7 @@ def rcinf_difference(a):
     ax.set_yscale("log")
     ax.set_xlabel(r"chain length $N$ (beads)")
     ax.set_ylabel(r"$r_{c\infty}(N) - r_{c\infty}(1)$ (mm)")
-    ax.set_title(r"Fig. 2E  $r_{c\infty}(N) - r_{c\infty}(1)$")
+    ax.set_title(r"Fig. 2D  $r_{c\infty}(N) - r_{c\infty}(1)$")
     conf = num(header(a.power).get("confidence"))
     ctext = f"{conf * 100:g} % CI" if math.isfinite(conf) else "confidence interval"
     ax.legend(loc="upper left", fontsize=7, title=f"interval: {ctext} of the exponent", title_fontsize=6.5)
@@ -222,40 +226,40 @@ def main():
                    status_col="rc_status")
             F.make(f"fig2d_{d}", plot_fig2.scaling, [f"{R}/erf_wide.csv", f"{R}/W_power.csv"],
                    fits_wide=F.path(f"{R}/erf_wide.csv"), power=F.path(f"{R}/W_power.csv"), y="W")
-            F.make(f"fig2e_{d}", rcinf_difference, [f"{R}/erf_wide.csv", f"{R}/rcinf_power.csv"],
+            F.make(f"fig2d_rcinf_{d}", rcinf_difference, [f"{R}/erf_wide.csv", f"{R}/rcinf_power.csv"],
                    fits_wide=F.path(f"{R}/erf_wide.csv"), power=F.path(f"{R}/rcinf_power.csv"))
-            F.make(f"collapse_{d}", plot_fig2.collapse, [f"{R}/collapse_erf", f"{R}/collapse_erf/collapsed.csv"],
+            F.make(f"fig2e_{d}", plot_fig2.collapse, [f"{R}/collapse_erf", f"{R}/collapse_erf/collapsed.csv"],
                    points=F.path(f"{R}/collapse_erf/collapsed.csv"), master=F.path(f"{R}/collapse_erf/master.csv"))
             if ds["sim"] and F.usable(f"{R}/erf_wide.csv") is None:
                 g0 = next(g for g in plan["groups"].values() if g["dataset"] == d)
                 for r in read_csv(F.path(f"{R}/erf_wide.csv")):
                     if (r.get("status") or "ok") == "ok":
-                        grid.append((g0["l_max_m"], g0["max_angle_deg"], int(num(r["group"])), num(r["phi_c"]),
-                                     num(r.get("phi_c_se"))))
+                        grid.append((g0["l_max_m"], g0["max_angle_deg"], int(num(r["group"])), num(param(r, "phi_c")),
+                                     num(param(r, "phi_c", se=True))))
         if ds["laos"]:
             S = f"{R}/laos_summary.csv"
             for lao in ds["laos"] if not ds["sim"] else ds["laos"][-1:]:
                 parts = lao.strip("/").split("/")  # lab/logs/NAME or sim/GROUP/BRANCH/laos
                 name = parts[2] if parts[0] == "lab" else f"{parts[1]}_{parts[2]}"
-                F.make(f"fig3a_{d}_{name}", plot_laos.lissajous, [lao], outdir=F.path(lao), N=None)
-            F.make(f"fig3d_{d}", lambda a: plot_laos.per_n_plot(
-                a, "tau_max_N_m", r"max. torque $\tau_{\max}$ (mN m)", "Fig. 3D  Maximum torque against amplitude",
+                F.make(f"fig5_{d}_{name}", plot_laos.lissajous, [lao], outdir=F.path(lao), N=None)
+            F.make(f"fig3a_{d}", lambda a: plot_laos.per_n_plot(
+                a, "tau_max_N_m", r"max. torque $\tau_{\max}$ (mN m)", "Fig. 3A  Maximum torque against amplitude",
                 scale=1e3), [S], check=lambda: laos_rows_for(F.path(S), "tau_max_N_m"), summary=F.path(S))
-            F.make(f"fig3d_N_{d}", plot_laos.taun, [S, f"{R}/tau_power.csv"],
+            F.make(f"fig3d_{d}", plot_laos.taun, [S, f"{R}/tau_power.csv"],
                    check=lambda: laos_rows_for(F.path(S), "tau_max_N_m"), summary=F.path(S),
                    power=F.path(f"{R}/tau_power.csv"), offset=2.0)
             F.make(f"fig6_{d}", lambda a: plot_laos.per_n_plot(
                 a, "tan_delta_1", r"loss tangent $\tan\delta_1$ (dimensionless)",
                 r"Fig. 6  Loss tangent $\tan\delta_1 = K_1''/K_1'$", hline=(1.0, r"$\tan\delta_1 = 1$")),
                 [S], check=lambda: laos_rows_for(F.path(S), "tan_delta_1"), summary=F.path(S))
-            F.make(f"fig5_harmonics_{d}", lambda a: plot_laos.per_n_plot(
-                a, "I3_over_I1", r"third harmonic $I_3/I_1$ (dimensionless)", "Fig. 5  Relative third harmonic"),
+            F.make(f"laos_harmonics_{d}", lambda a: plot_laos.per_n_plot(
+                a, "I3_over_I1", r"third harmonic $I_3/I_1$ (dimensionless)", "LAOS  Relative third harmonic"),
                 [S], check=lambda: laos_rows_for(F.path(S), "I3_over_I1"), summary=F.path(S))
-            F.make(f"fig5_chebyshev_e_{d}", lambda a: ratio_plot(
-                a, "e3_over_e1", r"elastic Chebyshev ratio $e_3/e_1$ (dimensionless)", "Fig. 5  Elastic nonlinearity"),
+            F.make(f"laos_chebyshev_e_{d}", lambda a: ratio_plot(
+                a, "e3_over_e1", "elastic Chebyshev ratio\n$e_3/e_1$ (dimensionless)", "LAOS  Elastic nonlinearity"),
                 [S], check=lambda: laos_rows_for(F.path(S), "e3_over_e1"), summary=F.path(S))
-            F.make(f"fig5_chebyshev_v_{d}", lambda a: ratio_plot(
-                a, "v3_over_v1", r"viscous Chebyshev ratio $v_3/v_1$ (dimensionless)", "Fig. 5  Viscous nonlinearity"),
+            F.make(f"laos_chebyshev_v_{d}", lambda a: ratio_plot(
+                a, "v3_over_v1", "viscous Chebyshev ratio\n$v_3/v_1$ (dimensionless)", "LAOS  Viscous nonlinearity"),
                 [S], check=lambda: laos_rows_for(F.path(S), "v3_over_v1"), summary=F.path(S))
     if len({(p[0], p[1]) for p in grid}) >= 2:
         F.make("fig2f_phi_c", phi_c_grid, [], points=grid)

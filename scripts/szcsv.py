@@ -31,3 +31,16 @@ def num(x):
         return float(x)
     except (TypeError, ValueError):
         return float("nan")
+
+
+def param(row, name, se=False):
+    """A parameter of a `fit erf|power` wide table (one row per group): the column `name`
+    (or its standard error, `name_se`) with or without its unit suffix (rcinf_m,
+    W_se_rad). None when the row has no such column."""
+    key = name + "_se" if se else name
+    if key in row:
+        return row[key]
+    for k, v in row.items():
+        if k.startswith(key + "_") and (se or not k.startswith(name + "_se")):
+            return v
+    return None

@@ -12,6 +12,8 @@ Every log axis gets at least three labelled ticks: decades when the data span se
 range 1e-3..1e4 and a x 10^n beyond.
 """
 import math
+import os
+import sys
 
 import matplotlib
 
@@ -153,11 +155,100 @@ def tight(fig, **kw):
     fig.tight_layout(**kw)
 
 
+def _texts(fig):
+    """(description, Text) of every visible, non-empty text of the figure: titles, axis
+    labels, tick labels, legend entries, annotations, figure texts."""
+    out, seen = [], set()
+
+    def add(what, t):
+        if t is not None and id(t) not in seen and t.get_visible() and t.get_text().strip():
+            seen.add(id(t))
+            out.append((what, t))
+
+    for i, ax in enumerate(fig.axes):
+        if not ax.get_visible():
+            continue
+        name = f"axes {i}" + (f" ({ax.get_title()!r})" if ax.get_title() else "")
+        for loc in ("title", "_left_title", "_right_title"):
+            add(f"{name} title", getattr(ax, loc, None))
+        for axis, which in ((ax.xaxis, "x"), (ax.yaxis, "y")):
+            if not axis.get_visible():
+                continue
+            add(f"{name} {which}-label", axis.label)
+            add(f"{name} {which} offset", axis.get_offset_text())
+            # the ticks matplotlib draws: those inside the view (private, matplotlib 3.6)
+            for tick in axis._update_ticks():
+                if tick.get_visible():
+                    for lab in (tick.label1, tick.label2):
+                        add(f"{name} {which} tick {lab.get_text()!r}", lab)
+        legend = ax.get_legend()
+        if legend is not None and legend.get_visible():
+            for t in legend.get_texts():
+                add(f"{name} legend {t.get_text()!r}", t)
+            add(f"{name} legend title", legend.get_title())
+        for t in ax.texts:
+            add(f"{name} text {t.get_text()!r}", t)
+    if getattr(fig, "_suptitle", None) is not None:
+        add("suptitle", fig._suptitle)
+    for t in fig.texts:
+        add(f"figure text {t.get_text()!r}", t)
+    for legend in fig.legends:
+        for t in legend.get_texts():
+            add(f"figure legend {t.get_text()!r}", t)
+    return out
+
+
+def layout_problems(fig):
+    """Text that is cut (by the saved area or by the axes that clip it) or that overprints
+    other text, as a list of sentences (empty when the figure reads cleanly). Bounding
+    boxes come from matplotlib's renderer, in display pixels; a pair of texts overprints
+    when their boxes overlap by more than 1 px both ways."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    saved = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)  # inches -> px
+    items = []
+    for what, t in _texts(fig):
+        bb = t.get_window_extent(renderer)
+        if bb.width <= 0 or bb.height <= 0:
+            continue
+        items.append((what, t, bb))
+    problems = []
+    pad = 1.0
+    for what, t, bb in items:
+        if bb.x0 < saved.x0 - pad or bb.y0 < saved.y0 - pad or bb.x1 > saved.x1 + pad or bb.y1 > saved.y1 + pad:
+            problems.append(f"{what} is cut by the saved area")
+        clip = t.get_clip_box() if t.get_clip_on() else None
+        if clip is not None and (bb.x0 < clip.x0 - pad or bb.x1 > clip.x1 + pad or bb.y0 < clip.y0 - pad
+                                 or bb.y1 > clip.y1 + pad):
+            problems.append(f"{what} is cut by its axes")
+    for i in range(len(items)):
+        for j in range(i + 1, len(items)):
+            a, b = items[i][2], items[j][2]
+            dx = min(a.x1, b.x1) - max(a.x0, b.x0)
+            dy = min(a.y1, b.y1) - max(a.y0, b.y0)
+            if dx > pad and dy > pad:
+                problems.append(f"{items[i][0]} overprints {items[j][0]}")
+    return problems
+
+
 def save(fig, out):
-    """Fix the ticks of every log axis, then write a PNG at DPI, cropped to its content."""
+    """Fix the ticks of every log axis, then write a PNG at DPI, cropped to its content.
+    With SHEARZONE_CHECK_LAYOUT=1 (scripts/test_figures.sh) a figure whose text is cut
+    or overprints (layout_problems) is still written, then named on stderr, and
+    LayoutError is raised."""
     fix_log_axes(fig)
+    problems = layout_problems(fig) if os.environ.get("SHEARZONE_CHECK_LAYOUT") == "1" else []
     fig.savefig(out, dpi=DPI, bbox_inches="tight", pad_inches=0.04)
     plt.close(fig)
+    if problems:
+        for p in problems[:20]:
+            print(f"figure layout: {out}: {p}", file=sys.stderr)
+        raise LayoutError(f"{out}: {len(problems)} text(s) cut or overprinting")
+
+
+class LayoutError(RuntimeError):
+    """A figure whose text is cut or overprints (save with SHEARZONE_CHECK_LAYOUT=1): not a
+    panel the data cannot fill, so plot_study.py does not skip it."""
 
 
 def finite(*cols):

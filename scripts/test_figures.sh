@@ -21,6 +21,8 @@ OUT="$(cd "$2" && pwd)/figures"
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$ROOT"
 PY=/usr/bin/python3
+# Every figure is checked for text that is cut or overprints (scripts/szplot.py, save)
+export SHEARZONE_CHECK_LAYOUT=1
 [ -x "$PY" ] || PY=python3
 D=data-samples
 rm -rf "$OUT"
@@ -40,7 +42,7 @@ T=$D/widths/rc_phi0_synthetic.csv
 F="$OUT/fits"
 mkdir -p "$F"
 "$SZ" fit erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/erf.csv" -q
-"$SZ" fit power "$F/erf_wide.csv" --x group --y W --sigma W_se -o "$F/W_power.csv" -q
+"$SZ" fit power "$F/erf_wide.csv" --x group --y W_rad --sigma W_se_rad -o "$F/W_power.csv" -q
 "$SZ" collapse erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/collapse_erf" -q
 L="$OUT/laos"
 "$SZ" laos $D/laos/vane_N1.csv $D/laos/vane_N9.csv $D/laos/vane_N45.csv --interval-col interval -o "$L" -q

@@ -41,6 +41,15 @@ void refuse_nan_everywhere(CLI::App& app) {
 
 }  // namespace
 
+void parse_words(CLI::App& app, const std::vector<std::string>& words) {
+  // argc/argv, as main gives them (the vector overload of CLI11 2.1 trips a GCC 12 -O3
+  // null-dereference false positive)
+  std::vector<std::string> copy = words;
+  std::vector<char*> argv;
+  for (std::string& w : copy) argv.push_back(w.data());
+  app.parse(static_cast<int>(argv.size()), argv.data());
+}
+
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch) {
   refuse_nan_everywhere(app);
   try {

@@ -34,6 +34,10 @@ struct Context {
 /// -> 2, NoResultError -> 3, anything else -> 4.
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch);
 
+/// Parses `words` (the program name first, as argv) with `app`: CLI::ParseError as
+/// app.parse(argc, argv) throws it.
+void parse_words(CLI::App& app, const std::vector<std::string>& words);
+
 /// Applies a TOML config file to the options of `sub`: each key is a long option
 /// name without the dashes ("width", "U0", "vane-angle0-deg"); arrays give several
 /// values. Options given on the command line win over the file. Unknown keys and

@@ -86,11 +86,11 @@ void check_stage(const std::string& stage, const std::vector<std::string>& args)
   ctx.check_options = true;
   ctx.level = core::LogLevel::kQuiet;
   std::vector<Subcommand> subs = add_subcommands(root, ctx);
-  std::vector<std::string> argv = job->second;
-  argv.insert(argv.end(), args.begin(), args.end());
-  std::reverse(argv.begin(), argv.end());  // CLI11 parses a vector from its back
+  std::vector<std::string> words{"shearzone"};
+  words.insert(words.end(), job->second.begin(), job->second.end());
+  words.insert(words.end(), args.begin(), args.end());
   try {
-    root.parse(argv);
+    parse_words(root, words);
   } catch (const CLI::ParseError& e) {
     throw ConfigError(e.what());
   }

@@ -13,6 +13,9 @@
 #     an uninterrupted run.
 set -euo pipefail
 SZ=$1 SRC=$2 WORK=$3
+# Every figure the workflow draws is checked for text that is cut or overprints
+# (scripts/szplot.py, save): a figure that fails fails its job and the study.
+export SHEARZONE_CHECK_LAYOUT=1
 rm -rf "$WORK"
 mkdir -p "$WORK/logs"
 cd "$WORK"

@@ -1,6 +1,7 @@
 #include "shearzone/pipeline/fit_job.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <map>
 
@@ -286,11 +287,21 @@ FitJobSummary run_fit_job(const FitJobOptions& o, const core::Metadata& header) 
   {
     core::Metadata wm = meta;
     std::vector<std::string> cols = {"group"};
+    // Units in the column names (rcinf_m, phi_c_rad, W_se_rad) where the parameter's unit
+    // is the suffix of an input column; a dimensionless or unknown unit leaves the bare
+    // name (k, or rc0 of a y column without a unit suffix). The `# unit_<col>:` lines say it.
+    auto suffix = [](const std::string& u) {
+      const bool plain = !u.empty() && u != "1" && std::all_of(u.begin(), u.end(), [](char ch) {
+        return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_';
+      });
+      return plain ? "_" + u : std::string();
+    };
     for (std::size_t k = 0; k < names.size(); ++k) {
-      cols.push_back(names[k]);
-      cols.push_back(names[k] + "_se");
-      wm.emplace_back("unit_" + names[k], units[k]);
-      wm.emplace_back("unit_" + names[k] + "_se", units[k]);
+      const std::string value = names[k] + suffix(units[k]), se = names[k] + "_se" + suffix(units[k]);
+      cols.push_back(value);
+      cols.push_back(se);
+      wm.emplace_back("unit_" + value, units[k]);
+      wm.emplace_back("unit_" + se, units[k]);
     }
     cols.push_back("status");
     io::CsvWriter w(out_wide.stream(), wm, cols);
