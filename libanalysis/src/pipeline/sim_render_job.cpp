@@ -20,6 +20,7 @@
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/io/image.hpp"
+#include "shearzone/io/json.hpp"
 #include "shearzone/io/video.hpp"
 
 namespace shearzone::pipeline {
@@ -428,41 +429,43 @@ SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata&
   {
     std::string j = "{\n";
     auto add = [&j](const std::string& k, const std::string& v) { j += "  \"" + k + "\": " + v + ",\n"; };
-    auto str = [](const std::string& s) { return "\"" + s + "\""; };
+    auto str = [](const std::string& s) { return io::json_string(s); };  // escaped: any folder name
+    // every digit of a double; a value JSON cannot hold (NaN) as null
+    auto jnum = [](double v) { return std::isfinite(v) ? fmt::format("{:.17g}", v) : std::string("null"); };
     add("source", str("shearzone sim render"));
     add("run", str(o.run_dir.generic_string()));
     add("video", str(o.format == "mp4" ? "video.mp4" : "frame_%06d.png"));
     add("frames", std::to_string(count));
-    add("fps", num(cup.fps));
-    add("t0_sim_s", num(t_first));
+    add("fps", jnum(cup.fps));
+    add("t0_sim_s", jnum(t_first));
     add("projection", str(cam.projection_name()));
     add("width_px", std::to_string(cam.width_px));
     add("height_px", std::to_string(cam.height_px));
-    add("m_per_px", num(cam.m_per_px));
-    add("m_per_px_plane_z_m", num(sum.surface_z_m));
+    add("m_per_px", jnum(cam.m_per_px));
+    add("m_per_px_plane_z_m", jnum(sum.surface_z_m));
     if (!cam.orthographic) {
-      add("pinhole_height_m", num(cam.height_m));
-      add("focal_px", num(cam.focal_px()));
+      add("pinhole_height_m", jnum(cam.height_m));
+      add("focal_px", jnum(cam.focal_px()));
     }
-    add("centre_x_px", num(im.centre_x_px));
-    add("centre_y_px", num(im.centre_y_px));
-    add("cup_radius_px", num(im.cup_radius_px));
-    add("rim_radius_px", num(im.rim_radius_px));
-    add("rim_line_radius_px", num(im.rim_radius_px + 0.5 * o.look.rim_width_px));
-    add("vane_radius_px", num(im.vane_surface_radius_px));
-    add("vane_drawn_radius_px", num(im.vane_radius_px));
+    add("centre_x_px", jnum(im.centre_x_px));
+    add("centre_y_px", jnum(im.centre_y_px));
+    add("cup_radius_px", jnum(im.cup_radius_px));
+    add("rim_radius_px", jnum(im.rim_radius_px));
+    add("rim_line_radius_px", jnum(im.rim_radius_px + 0.5 * o.look.rim_width_px));
+    add("vane_radius_px", jnum(im.vane_surface_radius_px));
+    add("vane_drawn_radius_px", jnum(im.vane_radius_px));
     add("vane_blades", std::to_string(cup.vane_blades));
-    add("vane_half_width_px", num(im.vane_half_width_px));
-    add("bead_diameter_m", num(cup.bead_diameter_m));
-    add("bead_diameter_px", num(cup.bead_diameter_m * cam.px_per_m(sum.surface_z_m)));
-    add("cup_radius_m", num(cup.cup_radius_m));
+    add("vane_half_width_px", jnum(im.vane_half_width_px));
+    add("bead_diameter_m", jnum(cup.bead_diameter_m));
+    add("bead_diameter_px", jnum(cup.bead_diameter_m * cam.px_per_m(sum.surface_z_m)));
+    add("cup_radius_m", jnum(cup.cup_radius_m));
     add("N", std::to_string(cup.N));
-    add("f_Hz", num(cup.f_Hz));
-    add("phi0_rad", num(cup.phi0_rad));
-    add("vane_phase_rad", num(phase_video));
+    add("f_Hz", jnum(cup.f_Hz));
+    add("phi0_rad", jnum(cup.phi0_rad));
+    add("vane_phase_rad", jnum(phase_video));
     add("angle_log", str("vane_angle.csv"));
-    add("noise", num(o.look.noise));
-    add("blur_px", num(o.look.blur_px));
+    add("noise", jnum(o.look.noise));
+    add("blur_px", jnum(o.look.blur_px));
     add("jpeg_quality", std::to_string(o.look.jpeg_quality));
     add("seed", std::to_string(o.look.seed));
     j += "  \"conventions\": \"pixel centres at integers; x right along world +X, y down along world -Y (seen from "

@@ -22,6 +22,7 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/json.hpp"
 #include "shearzone/io/toml_config.hpp"
 #include "shearzone/sim/scene.hpp"
 
@@ -389,27 +390,9 @@ void check_clip_tags(const Reader& r, const std::string& key, const std::string&
     r.fail(key, fmt::format("{}: f_Hz = {} (expected 0 < f <= 1000)", what, io::format_number(f)));
 }
 
-std::string json_string(const std::string& s) {
-  std::string o = "\"";
-  for (const char c : s) {
-    switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '\t': o += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) o += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
-        else o += c;
-    }
-  }
-  return o + "\"";
-}
-std::string json_list(const std::vector<std::string>& v) {
-  std::string o = "[";
-  for (std::size_t i = 0; i < v.size(); ++i) o += (i ? ", " : "") + json_string(v[i]);
-  return o + "]";
-}
-std::string json_number(double v) { return io::format_number(v); }
+using io::json_list;
+using io::json_number;
+using io::json_string;
 
 /// Writes `text` to `path` unless it already holds exactly that (keeps its time stamp,
 /// so the workflow sees nothing new).
