@@ -16,12 +16,12 @@
 
 #include <fmt/format.h>
 
-#include "angle_log.hpp"
 
 #include "shearzone/core/conventions.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/core/version.hpp"
+#include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
@@ -44,7 +44,7 @@ class VaneAngle {
  public:
   explicit VaneAngle(const VaneMaskOptions& o) : o_(o) {
     if (o.log_path.empty()) return;
-    AngleLog log = read_angle_log(o.log_path, 2);
+    io::AngleLog log = io::read_angle_log(o.log_path, 2);
     time_ = std::move(log.time_s);
     angle_ = std::move(log.angle_rad);
   }

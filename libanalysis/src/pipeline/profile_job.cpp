@@ -12,6 +12,7 @@
 #include "shearzone/core/stats.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
@@ -22,7 +23,6 @@
 #include "shearzone/profile/width.hpp"
 #include "shearzone/piv/vane_angle.hpp"
 
-#include "angle_log.hpp"
 
 namespace shearzone::pipeline {
 
@@ -72,7 +72,7 @@ double drive_rss(const std::vector<double>& t, const std::vector<double>& y, dou
 /// The drive sinusoid of an angle log (columns time_s, angle_rad), the frequency refined
 /// around f_hint (or found from the log's upward zero crossings when f_hint is unset).
 DriveFit fit_drive_log(const std::string& path, double f_hint) {
-  const AngleLog log = read_angle_log(path, 8);
+  const io::AngleLog log = io::read_angle_log(path, 8);
   const std::vector<double>& t = log.time_s;
   const std::vector<double>& y = log.angle_rad;
   const double span = t.back() - t.front();
