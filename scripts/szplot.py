@@ -231,12 +231,35 @@ def layout_problems(fig):
     return problems
 
 
+def thin_ticks(fig):
+    """Fewer ticks on a linear axis whose tick labels would overprint each other (labels
+    with many digits, as timings that all lie within milliseconds give): halve the
+    ticks until they fit, at most three times."""
+    for _ in range(3):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        changed = False
+        for ax in fig.axes:
+            for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
+                if scale != "linear":
+                    continue
+                boxes = [lab.get_window_extent(renderer) for t in axis._update_ticks() for lab in (t.label1,)
+                         if lab.get_visible() and lab.get_text().strip()]
+                if any(min(a.x1, b.x1) - max(a.x0, b.x0) > 1 and min(a.y1, b.y1) - max(a.y0, b.y0) > 1
+                       for a, b in zip(boxes, boxes[1:])):
+                    axis.set_major_locator(MaxNLocator(max(2, len(boxes) // 2)))
+                    changed = True
+        if not changed:
+            return
+
+
 def save(fig, out):
     """Fix the ticks of every log axis, then write a PNG at DPI, cropped to its content.
     With SHEARZONE_CHECK_LAYOUT=1 (scripts/test_figures.sh) a figure whose text is cut
     or overprints (layout_problems) is still written, then named on stderr, and
     LayoutError is raised."""
     fix_log_axes(fig)
+    thin_ticks(fig)
     problems = layout_problems(fig) if os.environ.get("SHEARZONE_CHECK_LAYOUT") == "1" else []
     fig.savefig(out, dpi=DPI, bbox_inches="tight", pad_inches=0.04)
     plt.close(fig)

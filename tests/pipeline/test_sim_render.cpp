@@ -34,8 +34,8 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 /// The data-samples cup: radius 24 mm, 4 mm beads, a four-blade vane of radius 10 mm.
-pipeline::RenderedCup small_cup() {
-  pipeline::RenderedCup c;
+sim::FilmedCup small_cup() {
+  sim::FilmedCup c;
   c.bead_diameter_m = 0.004;
   c.cup_radius_m = 0.024;
   c.cup_height_m = 0.02;
@@ -47,8 +47,8 @@ pipeline::RenderedCup small_cup() {
 
 /// A hexagonal layer of beads at height z in the annulus between the vane and the wall,
 /// over a floor layer one diameter below, turned by `angle` about the axis.
-pipeline::FrameBodies packing(const pipeline::RenderedCup& c, double z, double angle) {
-  pipeline::FrameBodies f;
+sim::FrameBodies packing(const sim::FilmedCup& c, double z, double angle) {
+  sim::FrameBodies f;
   const double d = c.bead_diameter_m, a = 1.02 * d;
   std::int64_t id = 0;
   for (const double zl : {z - d, z}) {
@@ -121,7 +121,7 @@ std::string read_bytes(const std::filesystem::path& p) { return testing::read_fi
 
 TEST_CASE("sim render: a bead appears at the pixel the pinhole and orthographic formulas give",
           "[pipeline][sim][render]") {
-  pipeline::RenderedCup cup = small_cup();
+  sim::FilmedCup cup = small_cup();
   cup.vane_blades = 0;
   const double z_s = 0.006;  // the bead surface
   pipeline::CupLook look;
@@ -142,7 +142,7 @@ TEST_CASE("sim render: a bead appears at the pixel the pinhole and orthographic 
       ex = 639.5 + f * X / (z_s + 0.3 - Z);
       ey = 359.5 - f * Y / (z_s + 0.3 - Z);
     }
-    pipeline::FrameBodies one;
+    sim::FrameBodies one;
     one.x = {X};
     one.y = {Y};
     one.z = {Z};
@@ -165,7 +165,7 @@ TEST_CASE("sim render: a bead appears at the pixel the pinhole and orthographic 
 
 TEST_CASE("sim render: the rim's top face is the circle that --detect-cup fits, within 1 px",
           "[pipeline][sim][render]") {
-  const pipeline::RenderedCup cup = small_cup();
+  const sim::FilmedCup cup = small_cup();
   const double z_s = 0.006;
   for (const bool ortho : {false, true}) {
     const synth::DownCamera cam = pipeline::cup_camera(cup, z_s, ortho, 1280, 720, core::kUnset, 0.5);
@@ -190,7 +190,7 @@ TEST_CASE("sim render: a rigid rotation of packing and vane, filmed and measured
   // A cup of 15 bead diameters filmed at 12 px per bead, the size at which the PIV's
   // 16 px final window resolves beads (at 54 px per bead it reads a uniform 2 px shift
   // as 1.72 px: docs/sim.md, "Closed loop").
-  pipeline::RenderedCup cup = small_cup();
+  sim::FilmedCup cup = small_cup();
   cup.cup_radius_m = 0.06;
   cup.vane_radius_m = 0.025;
   const double z_s = 0.006, dtheta = 0.01;  // rad per frame: 1.1 px at the vane, 1.8 px at the wall
@@ -252,7 +252,7 @@ TEST_CASE("sim render: a filmed run renders to the same bytes twice; camera.json
   TempDir dir("sim_render");
   film_run(dir);
   REQUIRE(std::filesystem::exists(dir / "run" / "frames.h5"));
-  const pipeline::FramesFile frames(dir / "run" / "frames.h5");
+  const sim::FramesFile frames(dir / "run" / "frames.h5");
   CHECK(frames.size() == 5);  // frames 0..4 of 0.16 s at 25 fps
   CHECK(frames.cup().vane_blades == 4);
   CHECK(frames.cup().phi0_rad == 0.3);
@@ -405,9 +405,9 @@ TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four
   so.scene = dir / "s.toml";
   so.output_dir = dir / "run";
   const auto sum = pipeline::run_sim_job(so, core::standard_metadata("test"));
-  const pipeline::FramesFile frames(dir / "run" / "frames.h5");
+  const sim::FramesFile frames(dir / "run" / "frames.h5");
   CHECK(frames.cup().sectors == 4);
-  const pipeline::FrameBodies b = frames.frame(0);
+  const sim::FrameBodies b = frames.frame(0);
   CHECK(b.x.size() == 4u * static_cast<std::size_t>(sum.bodies - sum.kinematic_bodies));
   // Image j of a bead is the bead turned by j quarter turns about the axis.
   const double r0 = std::hypot(b.x[0], b.y[0]);

@@ -161,8 +161,8 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
     say(fmt::format("{}: render", name));
     const SimRenderSummary rs = run_sim_render(ro, header);
     const double render_s = since(t);
-    const FramesFile frames(dir / "frames.h5");
-    const RenderedCup& cup = frames.cup();
+    const sim::FramesFile frames(dir / "frames.h5");
+    const sim::FilmedCup& cup = frames.cup();
     const double d = cup.bead_diameter_m;
     const CupImage& im = rs.image;
     const double phase_video = cup.vane_phase_rad + 2.0 * std::numbers::pi * cup.f_Hz * frames.time(0 + ro.first_frame);
@@ -174,7 +174,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
     std::vector<ProjectedBeads> proj;
     std::vector<double> vane_angles;
     for (std::size_t k = 0; k < rs.frames; ++k) {
-      const FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
+      const sim::FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
       proj.push_back(project_beads(rs.camera, cup, b, rs.surface_z_m, ro.look));
       vane_angles.push_back(cup.vane_angle(b.t_s));
     }

@@ -2,11 +2,7 @@
 // of a simulated cup, drawn from the run's frames.h5 (written by a run whose scene has
 // a [camera]; sim_job.hpp).
 //
-// What RUN/frames.h5 holds (the snapshot layout of sim/sim_io.hpp, one record per
-// camera frame, record k = frame k of surface.h5) plus the scene as root attributes:
-// camera_fps, bead_diameter_m, N, cup_centre_x_m, cup_centre_y_m, cup_radius_m,
-// cup_height_m, sectors, vane_blades, vane_radius_m, vane_height_m, and for a driven
-// vane f_Hz, phi0_rad, vane_phase_rad (phi(t) = phi0 sin(2 pi f t + vane_phase_rad)).
+// RUN/frames.h5 is read by sim::FramesFile (sim/frames_file.hpp: its layout).
 //
 // What OUT/ receives (all or nothing, io/atomic_output.hpp):
 //   video.mp4 (or frame_000000.png ...)  8-bit grey frames at camera_fps, frame 0 at
@@ -40,66 +36,15 @@
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/sim/frames_file.hpp"
 #include "shearzone/synth/camera.hpp"
 #include "shearzone/synth/render.hpp"
 
-namespace shearzone::io {
-class H5File;
-}  // namespace shearzone::io
-
 namespace shearzone::pipeline {
 
-/// The cup that frames.h5 describes (SI units).
-struct RenderedCup {
-  double fps = 25.0;
-  double bead_diameter_m = 0.0;
-  int N = 1;
-  double cup_cx_m = 0.0, cup_cy_m = 0.0, cup_radius_m = 0.0, cup_height_m = 0.0;
-  int sectors = 0;                      ///< periodic 1/k of the cup (drawn whole), 0: whole
-  int vane_blades = 0;                  ///< 0: no vane
-  double vane_radius_m = 0.0, vane_height_m = 0.0;
-  double f_Hz = 0.0, phi0_rad = 0.0, vane_phase_rad = 0.0;
-  /// phi(t) = phi0 sin(2 pi f t + vane_phase_rad).
-  [[nodiscard]] double vane_angle(double t_s) const;
-};
-
-/// The bodies of one frame that the camera sees (mobile and fixed beads; the vane is
-/// drawn from its drive). A periodic sector's bodies appear in every image, rotated by
-/// 2 pi j / sectors; id = body index * max(1, sectors) + j names a bead across frames.
-struct FrameBodies {
-  double t_s = 0.0;  ///< simulated time
-  std::vector<double> x, y, z;
-  std::vector<std::int64_t> id;
-  std::vector<bool> mobile;
-};
-
-/// Reads frames.h5 (InputError naming the file and what is wrong).
-class FramesFile {
- public:
-  explicit FramesFile(const std::filesystem::path& path);
-  ~FramesFile();
-  FramesFile(const FramesFile&) = delete;
-  FramesFile& operator=(const FramesFile&) = delete;
-  [[nodiscard]] const RenderedCup& cup() const { return cup_; }
-  [[nodiscard]] std::size_t size() const { return times_.size(); }
-  [[nodiscard]] double time(std::size_t k) const { return times_.at(k); }
-  [[nodiscard]] FrameBodies frame(std::size_t k) const;
-  /// The bead surface's height: the 90th percentile of the mobile beads' centre heights
-  /// in frame 0 (the plane PIV measures on).
-  [[nodiscard]] double surface_z_m() const { return surface_z_; }
-  [[nodiscard]] const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-  std::unique_ptr<io::H5File> file_;  ///< open for the frames' reads (one thread)
-  RenderedCup cup_;
-  std::vector<double> times_;
-  std::vector<std::uint8_t> kind_;
-  double surface_z_ = 0.0;
-};
 
 /// Beads as the camera projects them: px centres, tops (px, for depth order: higher
-/// hides lower), diameters (px) and albedos, with the id of FrameBodies.
+/// hides lower), diameters (px) and albedos, with the id of sim::FrameBodies.
 struct ProjectedBeads {
   std::vector<double> x, y, top, diameter, albedo;
   std::vector<std::int64_t> id;
@@ -123,7 +68,7 @@ struct CupLook {
 };
 
 /// Projects the beads of a frame (beads beyond the image are dropped).
-ProjectedBeads project_beads(const synth::DownCamera& camera, const RenderedCup& cup, const FrameBodies& bodies,
+ProjectedBeads project_beads(const synth::DownCamera& camera, const sim::FilmedCup& cup, const sim::FrameBodies& bodies,
                              double surface_z_m, const CupLook& look);
 
 /// The image of the vane's blades and the cup's rim as drawn (px).
@@ -134,11 +79,11 @@ struct CupImage {
   double vane_radius_px = 0, vane_half_width_px = 0;  ///< the blades as drawn (at the vane's top)
   double vane_surface_radius_px = 0;  ///< the vane's radius on the bead surface (the profile's R_v)
 };
-CupImage cup_image(const synth::DownCamera& camera, const RenderedCup& cup, double surface_z_m);
+CupImage cup_image(const synth::DownCamera& camera, const sim::FilmedCup& cup, double surface_z_m);
 
 /// One 8-bit frame: beads, rim, vane at angle `vane_angle_rad`, blur, noise (seeded by
 /// look.seed and `frame`), compression.
-cv::Mat render_cup_frame(const synth::DownCamera& camera, const RenderedCup& cup, double surface_z_m,
+cv::Mat render_cup_frame(const synth::DownCamera& camera, const sim::FilmedCup& cup, double surface_z_m,
                          const ProjectedBeads& beads, double vane_angle_rad, const CupLook& look,
                          std::uint64_t frame);
 
@@ -155,7 +100,7 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
 
 /// The camera over a cup: the axis at the image centre; m_per_px unset: the rim's
 /// diameter fills 90 % of the image's shorter side.
-synth::DownCamera cup_camera(const RenderedCup& cup, double surface_z_m, bool orthographic, int width_px,
+synth::DownCamera cup_camera(const sim::FilmedCup& cup, double surface_z_m, bool orthographic, int width_px,
                              int height_px, double m_per_px, double height_m);
 
 struct SimRenderOptions {
