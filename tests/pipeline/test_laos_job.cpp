@@ -35,14 +35,20 @@ std::string sweep_csv(double K, double C) {
   s << i / (per * f) << ",0," << C * 0.15 * w << "\n";  // closes the last cycle
   return s.str();
 }
-}  // namespace
 
-TEST_CASE("laos job: a two-amplitude CSV log gives two summary rows and all files", "[laos]") {
-  TempDir dir("laos-job");
+/// The job on the two-amplitude sweep (K' = 2, K'' = 0.3 omega) written into `dir`.
+pipeline::LaosJobOptions sweep_job(const TempDir& dir) {
   testing::write_file(dir / "sweep.csv", sweep_csv(2.0, 0.3));
   pipeline::LaosJobOptions o;
   o.inputs = {dir / "sweep.csv"};
   o.output = dir / "out";
+  return o;
+}
+}  // namespace
+
+TEST_CASE("laos job: a two-amplitude CSV log gives two summary rows and all files", "[laos]") {
+  TempDir dir("laos-job");
+  pipeline::LaosJobOptions o = sweep_job(dir);
   const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
   REQUIRE(sum.rows.size() == 2);
   const auto t = io::read_csv(dir / "out" / "summary.csv");
@@ -72,10 +78,7 @@ TEST_CASE("laos job: a two-amplitude CSV log gives two summary rows and all file
 
 TEST_CASE("laos job: vane constants give stress/strain columns, G = K Cs/Cg", "[laos]") {
   TempDir dir("laos-job-ss");
-  testing::write_file(dir / "sweep.csv", sweep_csv(2.0, 0.3));
-  pipeline::LaosJobOptions o;
-  o.inputs = {dir / "sweep.csv"};
-  o.output = dir / "out";
+  pipeline::LaosJobOptions o = sweep_job(dir);
   o.stress_constant_Pa_per_N_m = 1000;
   o.strain_constant_per_rad = 4;
   o.tags = {{"N", "12"}, {"run", "a"}};
