@@ -311,9 +311,8 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
     else
       what = fmt::format("the workflow stopped (snakemake exit {}): {}", rc,
                          failure.message.empty() ? failure.last_line : failure.message);
-    std::fprintf(stderr, "shearzone: error: %s: %s; the full log: %s; the same command resumes it\n",
-                 s.output.c_str(), what.c_str(), log_path.c_str());
-    return kExitNoResult;
+    throw NoResultError(fmt::format("{}: {}; the full log: {}; the same command resumes it", s.output, what,
+                                    log_path.string()));
   }
   if (ctx.level != core::LogLevel::kQuiet && !s.dry_run) {
     std::string what = fmt::format("{} clip{}, {} torque log{}", study.clips.size(), study.clips.size() == 1 ? "" : "s",

@@ -51,7 +51,7 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
     std::printf("width: %zu profile%s, %d ok -> %s\n", rows.size(), rows.size() == 1 ? "" : "s",
                 usable, j.output.string().c_str());
   if (usable == 0) {
-    // Exit 3 with one line: the statuses, and the advice of the first noise-limited row.
+    // Exit 3 with one line (run_app): the statuses, and the advice of the first noise-limited row.
     std::string why;
     for (const auto& r : rows) why += fmt::format("{}{}: {}", why.empty() ? "" : ", ", r.label, profile::width_status_name(r.status));
     for (const auto& r : rows)
@@ -59,9 +59,8 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
         why += "; " + r.advice;
         break;
       }
-    std::fprintf(stderr, "shearzone: error: %s: no profile gave a usable r_c (%s)\n",
-                 j.output.string().c_str(), why.c_str());
-    return kExitNoResult;
+    // The table is written (every row with its status); the run has no usable result.
+    throw NoResultError(fmt::format("{}: no profile gave a usable r_c ({})", j.output.string(), why));
   }
   for (const auto& r : rows)
     if (!r.advice.empty()) std::fprintf(stderr, "shearzone: warning: %s\n", r.advice.c_str());
