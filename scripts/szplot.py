@@ -253,6 +253,33 @@ def thin_ticks(fig):
             return
 
 
+def separate_labels(fig):
+    """Point labels (annotations placed by an offset in points) that overprint each other
+    move apart, the later one down by the overlap, until none overlaps (at most 20
+    rounds): labels at data points whose positions depend on timings cannot be placed
+    by hand."""
+    from matplotlib.text import Annotation
+
+    for _ in range(20):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        moved = False
+        for ax in fig.axes:
+            anns = [t for t in ax.texts if isinstance(t, Annotation) and t.get_visible() and t.anncoords == "offset points"]
+            boxes = [t.get_window_extent(renderer) for t in anns]
+            for i in range(len(anns)):
+                for j in range(i + 1, len(anns)):
+                    a, b = boxes[i], boxes[j]
+                    dx = min(a.x1, b.x1) - max(a.x0, b.x0)
+                    dy = min(a.y1, b.y1) - max(a.y0, b.y0)
+                    if dx > 1 and dy > 1:
+                        x, y = anns[j].xyann
+                        anns[j].xyann = (x, y - (dy + 2) * 72.0 / fig.dpi)
+                        moved = True
+        if not moved:
+            return
+
+
 def save(fig, out):
     """Fix the ticks of every log axis, then write a PNG at DPI, cropped to its content.
     With SHEARZONE_CHECK_LAYOUT=1 (scripts/test_figures.sh) a figure whose text is cut
@@ -260,6 +287,7 @@ def save(fig, out):
     LayoutError is raised."""
     fix_log_axes(fig)
     thin_ticks(fig)
+    separate_labels(fig)
     problems = layout_problems(fig) if os.environ.get("SHEARZONE_CHECK_LAYOUT") == "1" else []
     fig.savefig(out, dpi=DPI, bbox_inches="tight", pad_inches=0.04)
     plt.close(fig)

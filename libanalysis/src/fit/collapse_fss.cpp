@@ -12,6 +12,7 @@
 #include <gsl/gsl_multimin.h>
 #include <gsl/gsl_vector.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/unset.hpp"
 
@@ -267,9 +268,8 @@ const char* fss_param_name(std::size_t k) {
 }
 
 FssBootstrapMode fss_bootstrap_mode_from_name(const std::string& name) {
-  if (name == "points") return FssBootstrapMode::kPoints;
-  if (name == "curves") return FssBootstrapMode::kCurves;
-  throw ConfigError(fmt::format("unknown bootstrap mode \"{}\": expected points or curves", name));
+  return core::enum_from_name(name, {FssBootstrapMode::kPoints, FssBootstrapMode::kCurves}, fss_bootstrap_mode_name,
+                              "bootstrap mode");
 }
 
 const char* fss_bootstrap_mode_name(FssBootstrapMode m) {

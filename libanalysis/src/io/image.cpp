@@ -18,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
@@ -258,10 +259,9 @@ bool looks_like_image(const std::filesystem::path& path) {
 const char* decoded_image_formats() { return kDecodedFormats; }
 
 GreyMode grey_mode_from_name(const std::string& name) {
-  for (GreyMode m : {GreyMode::kLuma, GreyMode::kMean, GreyMode::kRed, GreyMode::kGreen, GreyMode::kBlue})
-    if (name == grey_mode_name(m)) return m;
-  throw ConfigError(fmt::format(
-      "unknown grey conversion \"{}\"; expected one of: luma, mean, red, green, blue", name));
+  return core::enum_from_name(
+      name, {GreyMode::kLuma, GreyMode::kMean, GreyMode::kRed, GreyMode::kGreen, GreyMode::kBlue}, grey_mode_name,
+      "grey conversion");
 }
 
 const char* grey_mode_name(GreyMode mode) {

@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/file.hpp"
@@ -67,12 +68,10 @@ const char* log_format_name(LogFormat f) {
 }
 
 LogFormat log_format_from_name(const std::string& name) {
-  for (LogFormat f : {LogFormat::kAuto, LogFormat::kCsv, LogFormat::kAntonPaar, LogFormat::kTrios,
-                      LogFormat::kRepTate, LogFormat::kMalvern})
-    if (name == log_format_name(f)) return f;
-  throw ConfigError(fmt::format("unknown log format \"{}\"; expected one of: auto, csv, "
-                                "anton-paar, trios, reptate, malvern",
-                                name));
+  return core::enum_from_name(name,
+                              {LogFormat::kAuto, LogFormat::kCsv, LogFormat::kAntonPaar, LogFormat::kTrios,
+                               LogFormat::kRepTate, LogFormat::kMalvern},
+                              log_format_name, "log format");
 }
 
 std::string decode_text(const std::string& bytes, const std::string& source) {

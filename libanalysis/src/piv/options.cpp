@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
 
@@ -23,29 +24,21 @@ const char* interpolation_name(Interpolation i) {
 }
 
 Interpolation interpolation_from_name(const std::string& name) {
-  for (auto i : {Interpolation::kBilinear, Interpolation::kBicubic, Interpolation::kBSpline,
-                 Interpolation::kBSpline5})
-    if (name == interpolation_name(i)) return i;
-  throw ConfigError(fmt::format(
-      "unknown interpolation \"{}\"; expected one of: bilinear, bicubic, bspline, bspline5", name));
+  return core::enum_from_name(
+      name, {Interpolation::kBilinear, Interpolation::kBicubic, Interpolation::kBSpline, Interpolation::kBSpline5},
+      interpolation_name, "interpolation");
 }
 
 const char* subpixel_name(Subpixel s) { return s == Subpixel::kGauss3 ? "gauss3" : "gauss2d"; }
 
 Subpixel subpixel_from_name(const std::string& name) {
-  if (name == "gauss3") return Subpixel::kGauss3;
-  if (name == "gauss2d") return Subpixel::kGauss2D;
-  throw ConfigError(
-      fmt::format("unknown sub-pixel method \"{}\"; expected one of: gauss3, gauss2d", name));
+  return core::enum_from_name(name, {Subpixel::kGauss3, Subpixel::kGauss2D}, subpixel_name, "sub-pixel method");
 }
 
 const char* residual_name(Residual r) { return r == Residual::kPeak ? "peak" : "gradient"; }
 
 Residual residual_from_name(const std::string& name) {
-  if (name == "peak") return Residual::kPeak;
-  if (name == "gradient") return Residual::kGradient;
-  throw ConfigError(
-      fmt::format("unknown residual estimator \"{}\"; expected one of: peak, gradient", name));
+  return core::enum_from_name(name, {Residual::kPeak, Residual::kGradient}, residual_name, "residual estimator");
 }
 
 int PivOptions::step_px(std::size_t pass) const {

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/unset.hpp"
 
@@ -25,13 +26,10 @@ const char* grouping_name(Grouping g) {
 }
 
 bool parse_grouping(const std::string& name, Grouping& g) {
-  for (Grouping c : {Grouping::kCycles, Grouping::kPairsPhaseDetrended, Grouping::kPairs,
-                     Grouping::kNone})
-    if (name == grouping_name(c)) {
-      g = c;
-      return true;
-    }
-  return false;
+  const auto c = core::enum_named(
+      name, {Grouping::kCycles, Grouping::kPairsPhaseDetrended, Grouping::kPairs, Grouping::kNone}, grouping_name);
+  if (c) g = *c;
+  return c.has_value();
 }
 
 std::size_t PairSeries::add_pair(int c, double ph, double span) {

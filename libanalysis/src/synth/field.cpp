@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
 
@@ -28,10 +29,8 @@ const char* field_kind_name(FieldKind kind) {
 std::vector<std::string> field_kind_names() { return {"uniform", "rotation", "shear-zone"}; }
 
 FieldKind field_kind_from_name(const std::string& name) {
-  for (FieldKind k : {FieldKind::kUniform, FieldKind::kRotation, FieldKind::kShearZone})
-    if (name == field_kind_name(k)) return k;
-  throw ConfigError(
-      fmt::format("unknown field \"{}\"; expected one of: uniform, rotation, shear-zone", name));
+  return core::enum_from_name(name, {FieldKind::kUniform, FieldKind::kRotation, FieldKind::kShearZone},
+                              field_kind_name, "field");
 }
 
 void FieldOptions::validate() const {
