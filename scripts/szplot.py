@@ -223,12 +223,14 @@ def layout_problems(fig):
             problems.append(f"{what} is cut by its axes")
     for i in range(len(items)):
         for j in range(i + 1, len(items)):
-            a, b = items[i][2], items[j][2]
-            dx = min(a.x1, b.x1) - max(a.x0, b.x0)
-            dy = min(a.y1, b.y1) - max(a.y0, b.y0)
-            if dx > pad and dy > pad:
+            if _overprint(items[i][2], items[j][2], pad):
                 problems.append(f"{items[i][0]} overprints {items[j][0]}")
     return problems
+
+
+def _overprint(a, b, pad=1.0):
+    """Two display boxes overlap by more than `pad` px both ways."""
+    return min(a.x1, b.x1) - max(a.x0, b.x0) > pad and min(a.y1, b.y1) - max(a.y0, b.y0) > pad
 
 
 def thin_ticks(fig):
@@ -245,8 +247,7 @@ def thin_ticks(fig):
                     continue
                 boxes = [lab.get_window_extent(renderer) for t in axis._update_ticks() for lab in (t.label1,)
                          if lab.get_visible() and lab.get_text().strip()]
-                if any(min(a.x1, b.x1) - max(a.x0, b.x0) > 1 and min(a.y1, b.y1) - max(a.y0, b.y0) > 1
-                       for a, b in zip(boxes, boxes[1:])):
+                if any(_overprint(a, b) for a, b in zip(boxes, boxes[1:])):
                     axis.set_major_locator(MaxNLocator(max(2, len(boxes) // 2)))
                     changed = True
         if not changed:
@@ -260,20 +261,21 @@ def separate_labels(fig):
     by hand."""
     from matplotlib.text import Annotation
 
-    for _ in range(20):
+    per_axes = [[t for t in ax.texts if isinstance(t, Annotation) and t.get_visible() and t.anncoords == "offset points"]
+                for ax in fig.axes]
+    per_axes = [anns for anns in per_axes if len(anns) > 1]
+    for _ in range(20 if per_axes else 0):  # no drawing for figures without such labels
         fig.canvas.draw()
         renderer = fig.canvas.get_renderer()
         moved = False
-        for ax in fig.axes:
-            anns = [t for t in ax.texts if isinstance(t, Annotation) and t.get_visible() and t.anncoords == "offset points"]
+        for anns in per_axes:
             boxes = [t.get_window_extent(renderer) for t in anns]
             for i in range(len(anns)):
                 for j in range(i + 1, len(anns)):
                     a, b = boxes[i], boxes[j]
-                    dx = min(a.x1, b.x1) - max(a.x0, b.x0)
-                    dy = min(a.y1, b.y1) - max(a.y0, b.y0)
-                    if dx > 1 and dy > 1:
+                    if _overprint(a, b):
                         x, y = anns[j].xyann
+                        dy = min(a.y1, b.y1) - max(a.y0, b.y0)
                         anns[j].xyann = (x, y - (dy + 2) * 72.0 / fig.dpi)
                         moved = True
         if not moved:

@@ -2,7 +2,6 @@
 #include "shearzone/pipeline/sim_job.hpp"
 
 #include <algorithm>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -16,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/hash.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
@@ -94,17 +94,11 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   const double branch_end_s =
       branch ? w.time() + (std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles) / w.rotor(0).f_Hz : 0.0;
   const double steps = (branch ? branch_end_s : cad.duration_s) / h;
-  if (!(steps <= kMaxSteps)) {
-    if (branch)  // the branch's own length: its cycles at its frequency
-      throw ConfigError(fmt::format("--cycles {} at --f-hz {} over the time step {} s is {:.3g} steps; expected at "
-                                    "most {:.0e} (fewer cycles or a higher frequency)",
-                                    io::format_number(std::isnan(o.branch_cycles) ? 3.0 : o.branch_cycles),
-                                    io::format_number(w.rotor(0).f_Hz), io::format_number(h), steps, kMaxSteps));
+  if (!branch && !(steps <= kMaxSteps))  // a branch's length: sim::validate_branch above
     throw ConfigError(fmt::format("{}: sim.duration_s = {} s over sim.time_step_s = {} s is {:.3g} steps; "
                                   "expected at most {:.0e} (a longer time step or a shorter run)",
                                   o.scene.string(), io::format_number(cad.duration_s),
                                   io::format_number(h), steps, kMaxSteps));
-  }
   const auto end_step = static_cast<std::int64_t>(std::llround(steps));
   const std::int64_t todo = std::max<std::int64_t>(0, end_step - w.steps_done());
 
@@ -121,20 +115,16 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   }
   // One id for every file of this run (frames.h5 and surface.h5 carry it: sim check
   // refuses a pair from two runs): the starting state, the drive and the step range,
-  // hashed (FNV-1a), so a rerun writes the same bytes.
+  // hashed (core::Fnv1a), so a rerun writes the same bytes.
   {
-    std::uint64_t id = 1469598103934665603ULL;
-    auto mix = [&id](std::uint64_t v) {
-      for (int b = 0; b < 8; ++b) id = (id ^ ((v >> (8 * b)) & 0xffU)) * 1099511628211ULL;
-    };
-    auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v); };
-    mix(w.state_hash());
-    mix(static_cast<std::uint64_t>(end_step));
+    core::Fnv1a id;
+    id.u(w.state_hash());
+    id.u(static_cast<std::uint64_t>(end_step));
     if (w.rotor_count() > 0) {
       const sim::Rotor& r = w.rotor(0);
-      for (const double v : {r.phi0, r.f_Hz, r.phase, r.t_start}) mix(bits(v));
+      for (const double v : {r.phi0, r.f_Hz, r.phase, r.t_start}) id.d(v);
     }
-    meta.emplace_back("run_id", fmt::format("{:016x}", id));
+    meta.emplace_back("run_id", fmt::format("{:016x}", id.h));
   }
   meta.emplace_back("time_step_s", io::format_number(h));
   meta.emplace_back("threads", std::to_string(w.options().threads));

@@ -18,6 +18,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/hash.hpp"
 #include "local_solve.hpp"
 #include "solver_rows.hpp"
 
@@ -43,22 +44,12 @@ std::uint64_t wall_key(int w, int j) {
 constexpr double kAngleGuard = 1e-12;
 
 
-struct Fnv {
-  std::uint64_t h = 1469598103934665603ULL;
-  void bytes(const void* p, std::size_t n) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (std::size_t k = 0; k < n; ++k) {
-      h ^= c[k];
-      h *= 1099511628211ULL;
-    }
-  }
-  void d(double a) { bytes(&a, sizeof a); }
+struct Fnv : core::Fnv1a {
   void v(const Vec3& a) {
     d(a.x());
     d(a.y());
     d(a.z());
   }
-  void u(std::uint64_t a) { bytes(&a, sizeof a); }
 };
 
 /// The row with the largest positive violation `excess(row)` (nullptr and 0 when none
