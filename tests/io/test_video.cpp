@@ -1,3 +1,5 @@
+#include <sched.h>
+
 #include <fstream>
 
 #include <catch2/catch.hpp>
@@ -152,4 +154,47 @@ TEST_CASE("an MP4 whose time stamps stall or run at another rate than its durati
   // A healthy clip, H.264 included, passes the cross-check.
   write_clip(dir / "ok.mp4", 20, 29.97, "mp4v");
   CHECK_NOTHROW(io::VideoReader(dir / "ok.mp4"));
+}
+
+TEST_CASE("an encoded clip has the same bytes whatever CPUs the process may use (the encoder "
+          "opens with one thread)",
+          "[io][video]") {
+  testing::TempDir dir("video");
+  // Texture that x264 has work for: moving noise, 320x240, 12 frames.
+  cv::Mat noise(240, 320, CV_8U);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
+  const auto write = [&](const std::filesystem::path& path, const std::string& codec) {
+    io::VideoWriter w(path, 25.0, noise.size(), codec);
+    cv::Mat shifted;
+    for (int k = 0; k < 12; ++k) {
+      const cv::Mat m = (cv::Mat_<double>(2, 3) << 1, 0, 1.5 * k, 0, 1, -0.7 * k);
+      cv::warpAffine(noise, shifted, m, noise.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+      w.write(shifted);
+    }
+    w.close();
+  };
+  cpu_set_t all;
+  CPU_ZERO(&all);
+  REQUIRE(sched_getaffinity(0, sizeof(all), &all) == 0);
+  int first = 0;
+  while (!CPU_ISSET(first, &all)) ++first;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(first, &one);
+  for (const std::string codec : {"avc1", "mp4v"}) {
+    write(dir / ("all_" + codec + ".mp4"), codec);
+    cpu_set_t after;
+    CPU_ZERO(&after);
+    REQUIRE(sched_getaffinity(0, sizeof(after), &after) == 0);
+    CHECK(CPU_EQUAL(&after, &all));  // the writer gave the caller its CPUs back
+    REQUIRE(sched_setaffinity(0, sizeof(one), &one) == 0);
+    write(dir / ("one_" + codec + ".mp4"), codec);
+    REQUIRE(sched_setaffinity(0, sizeof(all), &all) == 0);
+    const std::string on_all = testing::read_file(dir / ("all_" + codec + ".mp4"));
+    const std::string on_one = testing::read_file(dir / ("one_" + codec + ".mp4"));
+    INFO(codec << ": " << on_all.size() << " bytes on " << CPU_COUNT(&all) << " CPUs, " << on_one.size() << " on one");
+    CHECK(on_all.size() == on_one.size());
+    CHECK((on_all == on_one));
+  }
 }

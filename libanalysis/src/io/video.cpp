@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include <fmt/format.h>
+#include <sched.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -265,6 +266,41 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
   return true;
 }
 
+namespace {
+
+/// The encoder's bytes must not depend on the machine. FFmpeg's H.264 (x264) and MPEG-4
+/// encoders choose their number of threads from the CPUs the opening thread may run on,
+/// and the stream they write depends on that number; OpenCV 4.6 passes no option that
+/// sets it. While the writer opens, the calling thread may run on one CPU only (the
+/// first it was allowed), so every machine encodes with one thread and writes the same
+/// bytes; the encoder's threads keep that CPU, the caller gets its own set back.
+class OneCpuWhileOpening {
+ public:
+  OneCpuWhileOpening() {
+    CPU_ZERO(&saved_);
+    if (sched_getaffinity(0, sizeof(saved_), &saved_) != 0) return;
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu)
+      if (CPU_ISSET(cpu, &saved_)) {
+        CPU_SET(cpu, &one);
+        break;
+      }
+    restore_ = sched_setaffinity(0, sizeof(one), &one) == 0;
+  }
+  ~OneCpuWhileOpening() {
+    if (restore_) sched_setaffinity(0, sizeof(saved_), &saved_);
+  }
+  OneCpuWhileOpening(const OneCpuWhileOpening&) = delete;
+  OneCpuWhileOpening& operator=(const OneCpuWhileOpening&) = delete;
+
+ private:
+  cpu_set_t saved_;
+  bool restore_ = false;
+};
+
+}  // namespace
+
 VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
                          const std::string& codec, const std::filesystem::path& name)
     : path_(path.string()), name_(name.empty() ? path.string() : name.string()), size_(size) {
@@ -279,6 +315,7 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size
   try {
     // OpenCV prints "FFMPEG: tag ... is not found" straight to stderr: our line says it.
     const detail::StderrSilencer quiet;
+    const OneCpuWhileOpening same_bytes_everywhere;
     ok = writer_->open(path_, cv::CAP_FFMPEG, fourcc, fps, size, false);
   } catch (const cv::Exception& e) {
     ok = false;
