@@ -220,6 +220,8 @@ def cases(work):
          r"--codec mp4v holds at most 8190 px each way"),
         ("output_dangling_link", ["width", "profile.csv", "-o", "dangling.csv"], 2, [],
          "output is a symbolic link to a missing"),
+        ("width_vector_radii_negative_sd", ["width", "profile_bad_radii.csv", "-o", "w.csv"], 2, ["w.csv"],
+         r"profile_bad_radii.csv:[0-9]+: column \"r_vectors_sd_m\": -0.001; expected a standard deviation >= 0"),
     ]
     return c
 
@@ -238,6 +240,14 @@ def make_inputs(bin_, work):
     subprocess.run([bin_, "piv", "clip/frame_*.png", "--windows", "32,16", "--centre", "64,48", "-q", "-o", "fields.h5"], cwd=work, check=True)
     subprocess.run([bin_, "profile", "fields.h5", "--radii-px", "0,40", "--m-per-px", "1e-4", "--noise-region-m", "0.0005,0.002", "-q", "-o", "profile.csv"],
                    cwd=work, check=True)
+    # A profile whose vectors' spread in one bin is negative (a hand-edited file).
+    lines = open(os.path.join(work, "profile.csv")).read().split("\n")
+    header = next(i for i, l in enumerate(lines) if l.startswith("r_m,"))
+    row = next(i for i in range(header + 1, len(lines)) if lines[i] and lines[i].split(",")[-1])
+    cells = lines[row].split(",")
+    cells[-1] = "-0.001"
+    lines[row] = ",".join(cells)
+    open(os.path.join(work, "profile_bad_radii.csv"), "w").write("\n".join(lines))
     shutil.copy(os.path.join(work, "fields.h5"), os.path.join(work, "fields_nan.h5"))
     import h5py  # python3-h5py (scripts/setup.sh)
     with h5py.File(os.path.join(work, "fields_nan.h5"), "r+") as f:

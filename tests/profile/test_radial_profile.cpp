@@ -71,6 +71,11 @@ TEST_CASE("a solid rotation gives v(r) = omega r in m/s, v_r = 0", "[profile]") 
     CHECK(b.v_theta == Approx(b.v_abs).epsilon(1e-6));
     CHECK(std::abs(b.v_r) < 1e-6 * expect);
     CHECK(b.v_abs_rms >= b.v_abs);
+    // ... exactly: the mean radius of the vectors averaged is that radius, and their
+    // spread about it is near a bin evenly filled (w / sqrt(12) = 2.9 px).
+    CHECK(b.v_abs == Approx(omega * (b.r_vectors_mean_m / kMPerPx) * scale).epsilon(1e-6));
+    CHECK(std::abs(b.r_vectors_mean_m - b.r_m) <= kRadiusTolPx * kMPerPx);
+    CHECK(b.r_vectors_sd_m / kMPerPx == Approx(10.0 / std::sqrt(12.0)).epsilon(0.05));
     CHECK(b.n_masked == 0);
     CHECK(b.n_invalid == 0);
   }

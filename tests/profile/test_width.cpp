@@ -43,6 +43,62 @@ TEST_CASE("r_c interpolates ln v between the bracketing bins, exact for bin mean
   CHECK(bound == Approx(bin_bias).margin(1e-12));
 }
 
+TEST_CASE("r_c from the vectors' radii: a grid that fills the bins unevenly reads no bias",
+          "[profile][width]") {
+  // Vectors on a 8 px grid about a centre, bins of 12 px from r = 30 px (the whole-chain
+  // clips of docs/profile-width.md): a bin's vectors lie up to 2.3 px off its centre, and
+  // scanned at the centres r_c read 0.85 px low. At the vectors' mean radii, each bin's
+  // spread taken off, it reads within 0.01 px, the bound still holding it.
+  constexpr double kLambda = 10.0, kC = 79.5, kBin = 12.0, kV0 = 1.2568, kVc = 0.1;
+  const double truth = 30.0 + kLambda * std::log(kV0 / kVc);
+  const std::size_t nb = 3;  // 30..66 px
+  std::vector<double> s(nb, 0.0), s_r(nb, 0.0), s_r2(nb, 0.0), count(nb, 0.0);
+  for (double x = 7.5; x < 160; x += 8)
+    for (double y = 7.5; y < 160; y += 8) {
+      const double r = std::hypot(x - kC, y - kC);
+      if (r < 30.0 || r >= 30.0 + nb * kBin) continue;
+      const auto b = static_cast<std::size_t>((r - 30.0) / kBin);
+      s[b] += kV0 * std::exp(-(r - 30.0) / kLambda);
+      s_r[b] += r;
+      s_r2[b] += r * r;
+      count[b] += 1;
+    }
+  std::vector<double> centres, v;
+  VectorRadii radii;
+  for (std::size_t b = 0; b < nb; ++b) {
+    REQUIRE(count[b] > 0);
+    centres.push_back(30.0 + (b + 0.5) * kBin);
+    v.push_back(s[b] / count[b]);
+    const double m = s_r[b] / count[b];
+    radii.mean_m.push_back(m);
+    radii.sd_m.push_back(std::sqrt(s_r2[b] / count[b] - m * m));
+  }
+  WidthStatus st;
+  double bound = -1;
+  const double at_centres = scan_rc(centres, v, ones(nb), kVc, 100.0, st);
+  CHECK(std::abs(at_centres - truth) > 0.5);  // the former reading (0.85 px low)
+  const double rc = scan_rc(centres, v, ones(nb), kVc, 100.0, st, &bound, radii);
+  CHECK(st == WidthStatus::kOk);
+  CHECK(rc == Approx(truth).margin(0.01));
+  CHECK(std::abs(rc - truth) <= bound + 1e-3);
+  CHECK(bound < 0.05);
+  // Bins evenly filled (a uniform spread over width D: mean at the centre, s^2 = D^2 / 12)
+  // agree with the centres' exact ln(sinh(x) / x) correction to the next order.
+  const double x = 0.5 * kBin / kLambda;
+  std::vector<double> even;
+  VectorRadii uniform;
+  for (double c : centres) {
+    even.push_back(kV0 * std::exp(-(c - 30.0) / kLambda) * std::sinh(x) / x);
+    uniform.mean_m.push_back(c);
+    uniform.sd_m.push_back(kBin / std::sqrt(12.0));
+  }
+  double even_bound = -1;
+  const double rc_even = scan_rc(centres, even, ones(nb), kVc, 100.0, st, &even_bound, uniform);
+  CHECK(scan_rc(centres, even, ones(nb), kVc, 100.0, st) == Approx(truth).margin(1e-9));
+  CHECK(std::abs(rc_even - truth) <= even_bound);
+  CHECK(std::abs(rc_even - truth) > 0.0);
+}
+
 TEST_CASE("r_c: statuses, empty bins and the linear fallback", "[profile][width]") {
   const std::vector<double> r = {1, 2, 3, 4}, v = {10, 8, 4, 1};
   WidthStatus st;
@@ -305,4 +361,53 @@ TEST_CASE("the bootstrap is deterministic for a seed", "[profile][width]") {
   CHECK(a.ci_high_m == b.ci_high_m);
   CHECK(a.ci_low_m < a.rc_m);
   CHECK(a.rc_m < a.ci_high_m);
+}
+
+TEST_CASE("the footprint a velocity averages lowers the interval's low end by var / (2 lambda), "
+          "nothing else",
+          "[profile][width]") {
+  // A window average of exp(-r / lambda) over a footprint of variance var reads
+  // exp(var / (2 lambda^2)) high: r_c var / (2 lambda) out, always outwards.
+  CHECK(resolution_bound_m(0.0, 2.0) == 0.0);
+  CHECK(resolution_bound_m(1.0, 0.0) == 0.0);
+  CHECK(resolution_bound_m(0.5, 2.0) == Approx(0.125));
+  // The second-order bound holds the exact shift of a Gaussian footprint (equal) and of
+  // a box of width W (var W^2 / 12, shift lambda ln(sinh(x) / x) <= var / (2 lambda)).
+  for (double W : {0.5, 1.0, 2.0, 4.0}) {
+    const double lambda = 1.0, x = 0.5 * W / lambda;
+    CHECK(lambda * std::log(std::sinh(x) / x) <= resolution_bound_m(W * W / 12.0, lambda));
+  }
+  WidthInput in;
+  in.r_m = {1, 2, 3, 4};
+  in.R_m = 5;
+  in.v_abs = {10, 6, 3, 1};
+  in.n_vectors = ones(4);
+  in.v_noise = {0, 0, 0, 0};
+  in.pairs.n_bins = 4;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> z(0.0, 1.0);
+  for (int k = 0; k < 12; ++k) {
+    const std::size_t p = in.pairs.add_pair(PairSeries::kNoCycle, kNoValue);
+    for (std::size_t b = 0; b < 4; ++b) {
+      in.pairs.v_abs[p * 4 + b] = in.v_abs[b] * (1 + 0.2 * z(rng));
+      in.pairs.n_vectors[p * 4 + b] = 1;
+    }
+  }
+  in.grouping = choose_grouping(in.pairs);
+  WidthOptions o;
+  o.v_c_m_per_s = 4;
+  const auto plain = shear_zone_width(in, o);
+  in.footprint_var_m2 = 0.3;
+  const auto wide = shear_zone_width(in, o);
+  WidthStatus st;
+  double lambda = 0;
+  scan_rc(in.r_m, in.v_abs, in.n_vectors, 4, 5, st, nullptr, {}, &lambda);
+  REQUIRE(lambda > 0);
+  const double m = 0.3 / (2 * lambda);
+  CHECK(plain.resolution_bound_m == 0.0);
+  CHECK(wide.resolution_bound_m == Approx(m));
+  CHECK(wide.rc_m == plain.rc_m);
+  CHECK(wide.ci_high_m == plain.ci_high_m);
+  const double lo = plain.rc_m - plain.ci_low_m;
+  CHECK(wide.rc_m - wide.ci_low_m == Approx(std::sqrt(lo * lo + m * m)));
 }

@@ -28,7 +28,7 @@ void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const 
               {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s", "v_abs_sem_m_per_s",
                "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid", "v_theta_amp_m_per_s",
                "v_theta_amp_se_m_per_s", "v_theta_lag_deg", "v_theta_inphase_m_per_s", "v_abs_lockin_m_per_s",
-               "v_abs_lockin_se_m_per_s", "v_noise_lockin_m_per_s", "lockin_n_eff"});
+               "v_abs_lockin_se_m_per_s", "v_noise_lockin_m_per_s", "lockin_n_eff", "r_vectors_mean_m", "r_vectors_sd_m"});
   for (const auto& b : rows) {
     const bool have = b.n_vectors > 0;
     auto cell = [&](double v) { return have ? format_number_or_empty(v) : std::string(); };
@@ -37,7 +37,8 @@ void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const 
                                    std::to_string(b.n_vectors), std::to_string(b.n_masked),
                                    std::to_string(b.n_invalid), cell(b.amp), cell(b.amp_se), cell(b.lag_deg),
                                    cell(b.in_phase), cell(b.v_abs_lockin), cell(b.v_abs_lockin_se),
-                                   cell(b.v_noise_lockin), cell(b.n_eff)});
+                                   cell(b.v_noise_lockin), cell(b.n_eff), cell(b.r_vectors_mean),
+                                   cell(b.r_vectors_sd)});
   }
 }
 
@@ -83,6 +84,24 @@ ProfileCsv read_profile_csv(const std::filesystem::path& path) {
   for (std::size_t k = 0; k < t.num_rows(); ++k)
     p.rows[k].v_abs = p.rows[k].n_vectors == 0 && t.cell_empty(k, cv) ? core::kUnset
                                                                        : t.number(k, cv);
+  // The vectors' radii: optional (files written before the columns existed); both or
+  // neither in a bin with vectors.
+  if (t.has_column("r_vectors_mean_m") && t.has_column("r_vectors_sd_m")) {
+    const std::size_t cm = t.column_index("r_vectors_mean_m"), cs = t.column_index("r_vectors_sd_m");
+    for (std::size_t k = 0; k < t.num_rows(); ++k) {
+      if (p.rows[k].n_vectors == 0) continue;
+      if (t.cell_empty(k, cm) || t.cell_empty(k, cs))
+        throw InputError(fmt::format("{}:{}: columns \"r_vectors_mean_m\", \"r_vectors_sd_m\": empty in a bin with "
+                                     "vectors; expected both",
+                                     path.string(), t.row_lines[k]));
+      p.rows[k].r_vectors_mean = t.number(k, cm);
+      p.rows[k].r_vectors_sd = t.number(k, cs);
+      if (!(p.rows[k].r_vectors_sd >= 0))
+        throw InputError(fmt::format("{}:{}: column \"r_vectors_sd_m\": {}; expected a standard deviation >= 0",
+                                     path.string(), t.row_lines[k], format_number(p.rows[k].r_vectors_sd)));
+    }
+    p.has_vector_radii = true;
+  }
   // Lock-in columns: optional (profiles written without a known drive phase, or by an
   // older version, have them empty or absent); a value needs its floor.
   if (t.has_column("v_abs_lockin_m_per_s") && t.has_column("v_noise_lockin_m_per_s")) {

@@ -372,10 +372,11 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                                                o.vane.margin_px));
     return m;
   };
-  // Windows sized to the texture: measured on the first frame used, as PIV sees it
-  // (preprocessed, masked).
+  // The texture's size, measured on the first frame used as PIV sees it (preprocessed,
+  // masked): the windows are sized to it (unless given), and `profile` bounds how far
+  // the footprint a vector averages over moves r_c.
   piv::PivOptions piv_options = o.piv;
-  if (o.size_windows_to_texture) {
+  {
     auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
     io::Frame fr;
     while (pre->next(fr)) {
@@ -384,7 +385,8 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       if (!static_mask.empty() && static_mask.size() != fr.gray.size()) break;  // refused below
       const cv::Mat img = o.preprocess.any() ? piv::preprocess(fr.gray, o.preprocess, background) : fr.gray;
       sum.texture_half_width_px = piv::texture_half_width_px(img, frame_mask(fr));
-      piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
+      if (o.size_windows_to_texture)
+        piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
       break;
     }
   }
@@ -414,6 +416,10 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                           fmt::join(o.piv.windows_px, ",")));
   else
     meta.emplace_back("piv_windows_rule", "as given");
+  // What a vector is a mean over: `profile` reads these (root attributes of .h5 fields).
+  meta.emplace_back("piv_final_window_px", std::to_string(piv_options.windows_px.back()));
+  if (std::isfinite(sum.texture_half_width_px))
+    meta.emplace_back("texture_size_px", fmt::format("{:.4g}", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth));
   for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",
                                          o.pair_spacing, o.stride, o.first_frame,
@@ -555,6 +561,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
     fields.set_attribute("conventions", conv);
     fields.set_attribute("shearzone_version", kVersion);
+    fields.set_attribute("piv_final_window_px", static_cast<double>(piv_options.windows_px.back()));
+    if (std::isfinite(sum.texture_half_width_px))
+      fields.set_attribute("texture_size_px", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth);
     fields.set_attribute("duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
     fields.set_attribute("damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
     {

@@ -419,6 +419,20 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   const double fps = src->attribute("fps");
   if (set(fps)) meta.emplace_back("fps", format_number(fps));
   meta.emplace_back("noise_method", noise_method);
+  // The footprint each velocity is a mean over, from piv's attributes: a final window of
+  // W px (variance W^2 / 12 about its centre along any direction) and a texture of d px
+  // that moves with its bead's centre, up to d / 2 away (variance <= d^2 / 4).
+  if (const double W = src->attribute("piv_final_window_px"); set(W) && W > 0 && W < 1e5) {
+    const double d = src->attribute("texture_size_px");
+    const double d_px = set(d) && d > 0 && d < 1e5 ? d : 0.0;
+    meta.emplace_back("velocity_footprint_var_m2",
+                      format_number((W * W / 12.0 + d_px * d_px / 4.0) * m_per_px * m_per_px));
+    meta.emplace_back("velocity_footprint",
+                      fmt::format("(W^2 / 12 + d^2 / 4) m_per_px^2: piv's final window W = {} px, texture d = {} px "
+                                  "({}); width bounds how far r_c reads high by it",
+                                  format_number(W), format_number(d_px),
+                                  d_px > 0 ? "texture_size_px of the field file" : "unknown: 0"));
+  }
   for (const char* tag : {"N", "phi0_rad"}) {
     const std::string v = src->text_attribute(tag);
     if (!v.empty()) meta.emplace_back(tag, v);
@@ -426,6 +440,9 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
   meta.emplace_back("v_abs_sem_m_per_s",
                     "standard deviation of 1000 bootstrap replicates of the bin mean (seed 1) under "
                     "`groups`; empty with a single pair");
+  meta.emplace_back("r_vectors_mean_m", "mean radius of the vectors averaged in the bin (a grid of vectors fills a "
+                                        "bin unevenly; width interpolates at it)");
+  meta.emplace_back("r_vectors_sd_m", "standard deviation of those radii about their mean");
   meta.emplace_back("empty_cells", "a bin without vectors (n_vectors = 0) has no velocity values");
 
   // One profile (and its groups file) per phase bin; all appear together or none.
@@ -496,6 +513,8 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
       for (const auto& b : p.bins) {
         io::ProfileCsvRow r{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise, b.n_vectors,
                             b.n_masked, b.n_invalid};
+        r.r_vectors_mean = b.r_vectors_mean_m;
+        r.r_vectors_sd = b.r_vectors_sd_m;
         if (b.lockin.ok) {
           r.amp = b.lockin.amplitude;
           r.amp_se = b.lockin.amplitude_se;

@@ -26,6 +26,10 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
     in.v_noise.push_back(row.v_noise);
     in.n_vectors.push_back(row.n_vectors);
     in.v_abs.push_back(row.v_abs);
+    if (p.has_vector_radii) {
+      in.radii.mean_m.push_back(row.r_vectors_mean);
+      in.radii.sd_m.push_back(row.r_vectors_sd);
+    }
     if (p.has_lockin) {
       in.v_abs_lockin.push_back(row.v_abs_lockin);
       in.v_noise_lockin.push_back(row.v_noise_lockin);
@@ -38,6 +42,12 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
                                    "lock-in columns",
                                    path, p.meta("lockin_harmonics")));
     in.lockin_harmonics = static_cast<int>(H);
+  }
+  if (const std::string v = p.meta("velocity_footprint_var_m2"); !v.empty()) {
+    in.footprint_var_m2 = p.meta_number("velocity_footprint_var_m2");
+    if (!(in.footprint_var_m2 >= 0 && in.footprint_var_m2 < 1e6))
+      throw InputError(fmt::format("{}: header \"velocity_footprint_var_m2: {}\": expected a variance >= 0 m^2",
+                                   path, v));
   }
   in.R_m = p.meta_number("R_m");
   if (std::isnan(in.R_m)) {
@@ -167,14 +177,22 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
                                  "implied by the phase-locked waveform of v_theta; auto takes it where mean_abs is "
                                  "noise_limited)");
   meta.emplace_back("rc_m", "first radius (outwards from the vane) where the estimator's velocity < v_c, ln v "
-                            "interpolated between the bracketing bin centres less the bin mean's lambda ln(sinh(x)/x), x = "
-                            "bin / (2 lambda) (exact for an exponential decay over evenly spread radii; linear where a "
-                            "bin is <= 0); never_below: R (a lower bound); "
+                            "interpolated between the two bracketing bins at the mean radii of their vectors "
+                            "(r_vectors_mean_m), each bin's ln v less s^2 / (2 lambda^2) for its vectors' spread s "
+                            "(exact to second order for an exponential decay; a profile without those columns: between "
+                            "the bin centres less lambda ln(sinh(x)/x), x = bin / (2 lambda), radii taken as evenly "
+                            "spread); linear where a bin is <= 0; never_below: R (a lower bound); "
                             "below_at_vane: the first bin centre (an upper bound); noise_limited: empty");
-  meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under "
-                             "rc_ci_method, widened on both sides by lambda ln(sinh(x)/x) (radii spread unevenly over "
-                             "a bin move r_c by about as much), lambda from the two bins around r_c; empty when there is no "
-                             "replicate (one pair)");
+  meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under rc_ci_method, each side "
+                             "h combined with the binning's bound b as a rectangular error, sqrt(h^2 + z^2 b^2 / 3) (b = "
+                             "max(s^4) / (20 lambda^3), the next order; without the vectors' radii b = lambda "
+                             "ln(sinh(x)/x), the correction itself); the low side also holds rc_resolution_bound_m in quadrature; empty "
+                             "when there is no replicate (one pair)");
+  meta.emplace_back("rc_resolution_bound_m",
+                    "how far r_c may read high because each velocity is a mean over a footprint (the profile's "
+                    "velocity_footprint_var_m2: the PIV's final window and the texture it follows), var / (2 "
+                    "lambda) for a decay of length lambda; the interval's low end holds it; 0: no footprint known; "
+                    "empty unless rc_status is ok");
   meta.emplace_back("rc_ci_method",
                     "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
                     "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
@@ -188,7 +206,8 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   {
     io::CsvWriter w(out.stream(), meta,
                     {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status", "estimator",
-                     "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs"});
+                     "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs",
+                     "rc_resolution_bound_m"});
     for (const auto& r : rows) {
       const bool ci = std::isfinite(r.res.ci_low_m);
       const bool lk = r.res.estimator == profile::Estimator::kLockin;
@@ -201,7 +220,8 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
           profile::width_status_name(r.res.status), profile::estimator_name(r.res.estimator), method,
           ci ? std::to_string(r.res.bootstrap_units) : "",
           ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
-          format_number(r.res.v_noise_m_per_s), r.n_pairs});
+          format_number(r.res.v_noise_m_per_s), r.n_pairs,
+          r.res.status == profile::WidthStatus::kOk ? format_number(r.res.resolution_bound_m) : ""});
     }
   }
   out.commit();

@@ -99,6 +99,9 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
       s.s_abs2 += a * a;
       s.s_theta += pc.v_theta;
       s.s_r += pc.v_r;
+      const double dr = r_m - opt_.bin_centre_m(b);
+      s.s_dr += dr;
+      s.s_dr2 += dr * dr;
       ++s.n;
       ps[b] += a;
       pst[b] += pc.v_theta;
@@ -148,6 +151,9 @@ RadialProfile ProfileAccumulator::finish_common() const {
     o.v_r = s.s_r / n;
     o.v_abs_rms = std::sqrt(s.s_abs2 / n);
     o.v_abs_sem = se[b];
+    const double dr = s.s_dr / n;
+    o.r_vectors_mean_m = o.r_m + dr;
+    o.r_vectors_sd_m = std::sqrt(std::max(0.0, s.s_dr2 / n - dr * dr));
   }
   if (opt_.lockin_harmonics > 0 && n_pairs_ > 0 && p.pairs.phase_known()) {
     const LockinFit fit(p.pairs, opt_.lockin_harmonics);

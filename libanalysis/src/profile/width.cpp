@@ -64,6 +64,8 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
     w.v_abs.push_back(b.v_abs);
     w.n_vectors.push_back(b.n_vectors);
     w.v_noise.push_back(b.v_noise);
+    w.radii.mean_m.push_back(b.r_vectors_mean_m);
+    w.radii.sd_m.push_back(b.r_vectors_sd_m);
   }
   w.R_m = R_m;
   w.pairs = p.pairs;
@@ -79,10 +81,47 @@ WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
   return w;
 }
 
+namespace {
+
+/// The crossing of v_c between two bins whose vectors lie at mean radii r0 < r1 with
+/// spreads s0, s1 and whose means v0 >= v_c > v1 > 0. For v = A exp(-r / lambda) a bin
+/// mean is A exp(-rbar / lambda) E[exp(-(r - rbar) / lambda)], the last factor
+/// exp(s^2 / (2 lambda^2)) to second order: lambda solves
+/// lambda = (r1 - r0) / (ln v0 - ln v1 - (s0^2 - s1^2) / (2 lambda^2)) (fixed point from the
+/// uncorrected slope). False when it does not settle (the two bins then fall back to
+/// the centres).
+bool crossing_from_radii(double r0, double s0, double v0, double r1, double s1, double v1, double v_c,
+                         double& rc, double& bound, double& lambda_out) {
+  if (!(r1 > r0 && s0 >= 0 && s1 >= 0)) return false;
+  double lambda = (r1 - r0) / std::log(v0 / v1);
+  double a0 = std::log(v0), a1 = std::log(v1);
+  for (int it = 0; it < 50; ++it) {
+    a0 = std::log(v0) - s0 * s0 / (2 * lambda * lambda);
+    a1 = std::log(v1) - s1 * s1 / (2 * lambda * lambda);
+    if (!(a0 > a1)) return false;
+    const double next = (r1 - r0) / (a0 - a1);
+    const bool settled = std::abs(next - lambda) <= 1e-12 * lambda;
+    lambda = next;
+    if (settled) {
+      rc = std::max(r0, r0 + lambda * (a0 - std::log(v_c)));
+      lambda_out = lambda;
+      const double s = std::max(s0, s1);
+      bound = s * s * s * s / (20 * lambda * lambda * lambda);
+      return std::isfinite(rc) && std::isfinite(bound);
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
                const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status,
-               double* bin_bound_m) {
+               double* bin_bound_m, const VectorRadii& radii, double* lambda_m) {
   if (bin_bound_m) *bin_bound_m = 0.0;
+  if (lambda_m) *lambda_m = 0.0;
+  if (radii.known() && (radii.mean_m.size() != r.size() || radii.sd_m.size() != r.size()))
+    throw InternalError("scan_rc: the vectors' radii do not match the bins");
   bool have_prev = false;
   std::size_t k_prev = 0;
   double r_prev = 0, v_prev = 0;
@@ -98,6 +137,15 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
         // Linear interpolation between (r_prev, v_prev >= v_c) and (r_k, v_k < v_c).
         return r_prev + (v_prev - v_c) / (v_prev - v[k]) * (r[k] - r_prev);
       }
+      if (radii.known()) {
+        double rc = 0, bound = 0, lambda = 0;
+        if (crossing_from_radii(radii.mean_m[k_prev], radii.sd_m[k_prev], v_prev, radii.mean_m[k], radii.sd_m[k],
+                                v[k], v_c, rc, bound, lambda)) {
+          if (bin_bound_m) *bin_bound_m = bound;
+          if (lambda_m) *lambda_m = lambda;
+          return rc;
+        }
+      }
       // |v| decays about exponentially across a shear zone's edge: interpolate ln v,
       // exact for v = A exp(-r / lambda) where the linear interpolation of v reads up
       // to dr^2 / (8 lambda) high (0.09 mm for 1.2 mm bins, lambda = 2 mm).
@@ -111,6 +159,7 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
       const double x = 0.5 * D / lambda;
       if (x > 1e-6 && x < 20) bin_bias = lambda * std::log(std::sinh(x) / x);
       if (bin_bound_m) *bin_bound_m = bin_bias;
+      if (lambda_m) *lambda_m = lambda;
       return std::max(r_prev, r_prev + lambda * std::log(v_prev / v_c) - bin_bias);
     }
     have_prev = true;
@@ -122,6 +171,10 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
   return R_m;
 }
 
+double resolution_bound_m(double footprint_var_m2, double lambda_m) {
+  return footprint_var_m2 > 0 && lambda_m > 0 ? footprint_var_m2 / (2 * lambda_m) : 0.0;
+}
+
 namespace {
 
 /// The interval factor for G clusters: t_(G-1) / z at the level's tail a.
@@ -129,19 +182,19 @@ double small_sample_factor(double a, double G) {
   return gsl_cdf_tdist_Qinv(a, G - 1.0) / gsl_cdf_ugaussian_Qinv(a);
 }
 
-/// The interval's ends from the sampling replicates and the binning's bias bound b
-/// (scan_rc). The bound is a systematic error known only to lie within +-b: it is
-/// combined with the sampling as a rectangular distribution (standard deviation
-/// b/sqrt(3)), the sampling half-width h of each side as z standard deviations
-/// (GUM, JCGM 100:2008, 4.3.7 and 5.1.2): h' = sqrt(h^2 + z^2 b^2 / 3), z the normal
-/// quantile of the level (1.96 at 95 %). Measured through the whole chain (200 seeds,
-/// docs/profile-width.md): adding b to each end instead held the truth in 100 % (mean
-/// |v|) and 97.5 % (lock-in) of the 95 % intervals.
+/// The interval's ends from the sampling replicates and the binning's bound b (scan_rc):
+/// a systematic error known only to lie within +-b, combined with the sampling half-width
+/// h of each side as a rectangular distribution (standard deviation b/sqrt(3); GUM, JCGM
+/// 100:2008, 4.3.7 and 5.1.2): h' = sqrt(h^2 + z^2 b^2 / 3), z the normal quantile of
+/// the level (1.96 at 95 %). The footprint's bias (res.resolution_bound_m) only moves r_c
+/// outwards: it is added to the low side alone, in quadrature. Through the whole chain
+/// (docs/profile-width.md, 200 clips) the intervals held the truth in all of them.
 void set_interval(WidthResult& res, const std::vector<double>& rcs, double a, double b) {
   const double z = gsl_cdf_ugaussian_Qinv(a);
   const double lo = res.rc_m - core::percentile(rcs, a), hi = core::percentile(rcs, 1.0 - a) - res.rc_m;
   const double extra = z * z * b * b / 3.0;
-  res.ci_low_m = res.rc_m - std::sqrt(std::max(lo, 0.0) * std::max(lo, 0.0) + extra);
+  const double m = res.resolution_bound_m;
+  res.ci_low_m = res.rc_m - std::sqrt(std::max(lo, 0.0) * std::max(lo, 0.0) + extra + m * m);
   res.ci_high_m = res.rc_m + std::sqrt(std::max(hi, 0.0) * std::max(hi, 0.0) + extra);
 }
 
@@ -152,8 +205,9 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   // Bins without a lock-in value are skipped like empty bins.
   std::vector<std::size_t> n(nb, 0);
   for (std::size_t k = 0; k < nb; ++k) n[k] = std::isfinite(in.v_abs_lockin[k]) ? 1 : 0;
-  double bin_bound = 0;
-  res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound);
+  double bin_bound = 0, lambda = 0;
+  res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound, in.radii, &lambda);
+  res.resolution_bound_m = resolution_bound_m(in.footprint_var_m2, lambda);
   // The floor where the decision was made.
   std::vector<std::size_t> idx;
   for (std::size_t k = 0; k < nb; ++k)
@@ -163,7 +217,7 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   else if (res.status == WidthStatus::kBelowAtVane) floor = in.v_noise_lockin[idx.front()];
   else
     for (std::size_t i = 1; i < idx.size(); ++i)
-      if (in.r_m[idx[i - 1]] <= res.rc_m && res.rc_m <= in.r_m[idx[i]]) {
+      if (in.v_abs_lockin[idx[i]] < opt.v_c_m_per_s) {  // the crossing scan_rc took
         floor = std::max(in.v_noise_lockin[idx[i - 1]], in.v_noise_lockin[idx[i]]);
         break;
       }
@@ -189,7 +243,7 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
     // Keep the profile's bins: a bin without a value stays skipped.
     for (std::size_t k = 0; k < nb; ++k)
       if (!n[k]) v[k] = kNoValue;
-    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st));
+    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st, nullptr, in.radii));
   }
   const double a = 0.5 * (1.0 - opt.confidence);
   const double f = small_sample_factor(a, static_cast<double>(res.bootstrap_units));
@@ -228,8 +282,9 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
   if (nb == 0 || in.v_abs.size() != nb || in.n_vectors.size() != nb)
     throw InputError("width: the profile has no bins");
   WidthResult res;
-  double bin_bound = 0;
-  res.rc_m = scan_rc(in.r_m, in.v_abs, in.n_vectors, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound);
+  double bin_bound = 0, lambda = 0;
+  res.rc_m = scan_rc(in.r_m, in.v_abs, in.n_vectors, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound, in.radii, &lambda);
+  res.resolution_bound_m = resolution_bound_m(in.footprint_var_m2, lambda);
   std::vector<double> noise;
   for (std::size_t k = 0; k < nb; ++k)
     if (in.n_vectors[k] > 0 && k < in.v_noise.size()) noise.push_back(in.v_noise[k]);
@@ -252,7 +307,7 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
   for (int b = 0; b < opt.bootstrap; ++b) {
     boot.draw(rng, v, nd);
     for (std::size_t k = 0; k < nb; ++k) n[k] = static_cast<std::size_t>(nd[k]);
-    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st));
+    rcs.push_back(scan_rc(in.r_m, v, n, opt.v_c_m_per_s, in.R_m, st, nullptr, in.radii));
   }
   const double a = 0.5 * (1.0 - opt.confidence);
   if (res.grouping == Grouping::kCycles) {

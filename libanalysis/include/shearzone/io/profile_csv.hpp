@@ -24,6 +24,8 @@
 //                         waveform implies, and its standard error
 //     v_noise_lockin_m_per_s  the floor of v_abs_lockin (falls like 1/sqrt(n))
 //     lockin_n_eff        effective number of independent pairs
+//     r_vectors_mean_m    mean radius of the vectors averaged (a grid fills a bin unevenly)
+//     r_vectors_sd_m      their standard deviation about it
 // A bin without vectors (n_vectors = 0) leaves every velocity cell empty.
 //
 // Groups (`<stem>_groups.csv`): one row per (pair, bin) with vectors, pair by pair:
@@ -64,6 +66,9 @@ struct ProfileCsvRow {
   double amp = core::kUnset, amp_se = core::kUnset, lag_deg = core::kUnset, in_phase = core::kUnset;
   double v_abs_lockin = core::kUnset, v_abs_lockin_se = core::kUnset, v_noise_lockin = core::kUnset;
   double n_eff = core::kUnset;
+  // The radii of the vectors averaged, m (NaN: no vector, or a file written before the
+  // columns existed).
+  double r_vectors_mean = core::kUnset, r_vectors_sd = core::kUnset;
 };
 
 /// One (pair, bin) mean of the groups file.
@@ -80,12 +85,14 @@ struct ProfileGroupRow {
 
 /// What `width` reads back from a profile: r_m, v_abs_m_per_s, v_noise_m_per_s and
 /// n_vectors of every row, v_abs_lockin_m_per_s and v_noise_lockin_m_per_s when present
-/// (`has_lockin`; the other columns are not needed and may be absent; they are left NaN
+/// (`has_lockin`), r_vectors_mean_m and r_vectors_sd_m when present (`has_vector_radii`;
+/// the other columns are not needed and may be absent; they are left NaN
 /// or 0), and the header block.
 struct ProfileCsv {
   std::filesystem::path path;
   core::Metadata metadata;
   std::vector<ProfileCsvRow> rows;
+  bool has_vector_radii = false;  ///< r_vectors_mean_m / r_vectors_sd_m present
   bool has_lockin = false;  ///< the lock-in columns exist and hold at least one value
   /// A header value, "" when absent.
   std::string meta(const std::string& key) const;

@@ -73,6 +73,10 @@ struct ProfileBin {
   double v_abs_sem = kNoValue;             ///< standard error of v_abs, m/s (NaN: none)
   double v_noise = 0;                      ///< noise floor of v_abs, m/s
   std::size_t n_vectors = 0, n_masked = 0, n_invalid = 0;
+  /// Mean and standard deviation of the radii of the vectors averaged, m (NaN: no
+  /// vector). A grid of vectors fills a bin unevenly: its mean lies up to a grid step
+  /// from the bin centre, and width interpolates at it.
+  double r_vectors_mean_m = kNoValue, r_vectors_sd_m = kNoValue;
   LockinBin lockin;                        ///< phase-locked v_theta (ok = false: none)
 };
 
@@ -122,6 +126,7 @@ class ProfileAccumulator {
  private:
   struct Sums {
     double s_abs = 0, s_abs2 = 0, s_theta = 0, s_r = 0;
+    double s_dr = 0, s_dr2 = 0;  // radius - bin centre of the vectors averaged, m
     std::size_t n = 0, masked = 0, invalid = 0;
   };
   struct NoiseSums {

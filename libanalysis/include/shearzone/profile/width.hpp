@@ -55,9 +55,17 @@ struct WidthOptions {
   /// Widen the interval by the binning's bias bound b at the crossing (scan_rc's
   /// bin_bound_m), combined with the sampling half-width h of each side as a
   /// rectangular error: sqrt(h^2 + z^2 b^2 / 3). Off: the interval holds the sampling
-  /// noise alone (against a truth scanned from the same bins).
+  /// noise (and the footprint's bound, when WidthInput knows one) alone, against a truth
+  /// scanned from the same bins.
   bool widen_by_binning = true;
   void validate() const;
+};
+
+/// Where a bin's vectors lie: the mean and standard deviation of their radii, m, per bin
+/// (empty: unknown; then each bin is taken as evenly filled about its centre).
+struct VectorRadii {
+  std::vector<double> mean_m, sd_m;
+  bool known() const { return !mean_m.empty(); }
 };
 
 /// What the width needs from a profile (a RadialProfile, or one read back from CSV).
@@ -71,6 +79,11 @@ struct WidthInput {
   // Lock-in values per bin (empty vectors: none; NaN in a bin: no value there).
   std::vector<double> v_abs_lockin, v_noise_lockin;
   int lockin_harmonics = 0;                   ///< H of the profile's fit (for the interval)
+  VectorRadii radii;                          ///< where each bin's vectors lie (may be unknown)
+  /// Radial variance of the footprint each velocity is a mean over, m^2 (0: none or
+  /// unknown): for PIV, (W^2 / 12 + d^2 / 4) m_per_px^2 for a final window of W px and a
+  /// texture of d px (the profile's header, velocity_footprint_var_m2).
+  double footprint_var_m2 = 0;
   bool has_lockin() const;
   static WidthInput from_profile(const RadialProfile& p, double R_m);
 };
@@ -84,15 +97,31 @@ struct WidthResult {
   Grouping grouping = Grouping::kNone;  ///< what the bootstrap resampled
   std::size_t bootstrap_units = 0;      ///< cycles or pairs resampled (0: none)
   double rho = 0;                       ///< AR(1) lag-1 correlation (pairs groupings)
+  /// r_c may read up to this much high (resolution_bound_m); the interval's low end
+  /// holds it. 0: none known.
+  double resolution_bound_m = 0;
 };
 
-/// The scan alone: r_c of bin means `v` at radii `r` (bins with n = 0 skipped), ln v
-/// interpolated between the bracketing bins (linear where one is <= 0). `bin_bound_m`
-/// (optional) receives the bound of the binning's bias at the crossing, lambda ln(sinh(x)/x)
-/// with x = D / (2 lambda) for neighbouring bins D apart (0 where it does not apply).
+/// The scan alone: r_c of bin means `v` (bins with n = 0 skipped), ln v interpolated
+/// between the bracketing bins (linear where one is <= 0).
+/// - `radii` known: between the mean radii of the two bins' vectors, each bin's ln v less
+///   the mean of exp over its vectors' spread, s^2 / (2 lambda^2) (exact to second order
+///   for v = A exp(-r / lambda)); `bin_bound_m` receives the next order's size,
+///   max(s^4) / (20 lambda^3).
+/// - unknown: between the bin centres `r`, less lambda ln(sinh(x)/x) with x = D / (2 lambda)
+///   for neighbouring bins D apart (radii spread evenly); `bin_bound_m` receives that
+///   correction as the bound of its error (a grid fills a bin unevenly).
+/// `bin_bound_m` is 0 where no correction applies. `lambda_m` (optional) receives the
+/// decay length between the two bins (0 where r_c was not interpolated in ln v).
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
                const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status,
-               double* bin_bound_m = nullptr);
+               double* bin_bound_m = nullptr, const VectorRadii& radii = {}, double* lambda_m = nullptr);
+
+/// How far r_c may read high because each velocity is a mean over a footprint of radial
+/// variance `footprint_var_m2` (a PIV window and the texture it follows): an exponential
+/// decay of length lambda averaged so reads exp(var / (2 lambda^2)) high to second order,
+/// r_c var / (2 lambda) out. 0 where either is unknown.
+double resolution_bound_m(double footprint_var_m2, double lambda_m);
 
 /// r_c, its bootstrap interval and its status.
 WidthResult shear_zone_width(const WidthInput& in, const WidthOptions& options);
