@@ -363,8 +363,8 @@ TEST_CASE("the bootstrap is deterministic for a seed", "[profile][width]") {
   CHECK(a.rc_m < a.ci_high_m);
 }
 
-TEST_CASE("the footprint a velocity averages lowers the interval's low end by var / (2 lambda), "
-          "nothing else",
+TEST_CASE("the footprint a velocity averages lowers the interval's low end by var / (2 lambda); a "
+          "velocity bias widens each side by its shift",
           "[profile][width]") {
   // A window average of exp(-r / lambda) over a footprint of variance var reads
   // exp(var / (2 lambda^2)) high: r_c var / (2 lambda) out, always outwards.
@@ -410,4 +410,21 @@ TEST_CASE("the footprint a velocity averages lowers the interval's low end by va
   CHECK(wide.ci_high_m == plain.ci_high_m);
   const double lo = plain.rc_m - plain.ci_low_m;
   CHECK(wide.rc_m - wide.ci_low_m == Approx(std::sqrt(lo * lo + m * m)));
+
+  // A velocity bias of at most e v_c moves r_c lambda ln(1 + e) out, -lambda ln(1 - e)
+  // in: each side holds its shift as a rectangular error (z^2 s^2 / 3 in quadrature).
+  const auto shift = velocity_bias_shift(0.4, 4.0, lambda, plain.rc_m, in.r_m.front());
+  CHECK(shift.out_m == Approx(lambda * std::log(1.1)));
+  CHECK(shift.in_m == Approx(-lambda * std::log(0.9)));
+  CHECK(velocity_bias_shift(0.0, 4.0, lambda, 2.5, 1.0).out_m == 0.0);
+  // A bias as large as v_c leaves r_c unbounded inwards: down to the first bin.
+  CHECK(velocity_bias_shift(4.0, 4.0, lambda, 2.5, 1.0).in_m == Approx(1.5));
+  in.footprint_var_m2 = 0;
+  in.velocity_bias_m_per_s = 0.4;
+  const auto biased = shear_zone_width(in, o);
+  const double z2 = 1.959963984540054 * 1.959963984540054;
+  const double hi = plain.ci_high_m - plain.rc_m;
+  CHECK(biased.rc_m == plain.rc_m);
+  CHECK(biased.ci_high_m - biased.rc_m == Approx(std::sqrt(hi * hi + z2 * shift.in_m * shift.in_m / 3)));
+  CHECK(biased.rc_m - biased.ci_low_m == Approx(std::sqrt(lo * lo + z2 * shift.out_m * shift.out_m / 3)));
 }

@@ -432,6 +432,11 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
                                   "({}); width bounds how far r_c reads high by it",
                                   format_number(W), format_number(d_px),
                                   d_px > 0 ? "texture_size_px of the field file" : "unknown: 0"));
+    meta.emplace_back("velocity_bias_bound_m_per_s", format_number(profile::kPivBiasBoundPx * m_per_px / dt_median));
+    meta.emplace_back("velocity_bias_bound",
+                      fmt::format("piv's displacement bias, at most {} px per pair (docs/piv.md), over dt = {} s; "
+                                  "width bounds how far it moves r_c",
+                                  format_number(profile::kPivBiasBoundPx), format_number(dt_median)));
   }
   for (const char* tag : {"N", "phi0_rad"}) {
     const std::string v = src->text_attribute(tag);

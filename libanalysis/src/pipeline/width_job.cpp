@@ -49,6 +49,12 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
       throw InputError(fmt::format("{}: header \"velocity_footprint_var_m2: {}\": expected a variance >= 0 m^2",
                                    path, v));
   }
+  if (const std::string v = p.meta("velocity_bias_bound_m_per_s"); !v.empty()) {
+    in.velocity_bias_m_per_s = p.meta_number("velocity_bias_bound_m_per_s");
+    if (!(in.velocity_bias_m_per_s >= 0 && in.velocity_bias_m_per_s < 1e6))
+      throw InputError(fmt::format("{}: header \"velocity_bias_bound_m_per_s: {}\": expected a speed >= 0 m/s",
+                                   path, v));
+  }
   in.R_m = p.meta_number("R_m");
   if (std::isnan(in.R_m)) {
     const double bin = p.meta_number("bin_m");
@@ -186,13 +192,19 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
   meta.emplace_back("rc_ci", "percentile bootstrap of the profile's per-pair bin means under rc_ci_method, each side "
                              "h combined with the binning's bound b as a rectangular error, sqrt(h^2 + z^2 b^2 / 3) (b = "
                              "max(s^4) / (20 lambda^3), the next order; without the vectors' radii b = lambda "
-                             "ln(sinh(x)/x), the correction itself); the low side also holds rc_resolution_bound_m in quadrature; empty "
+                             "ln(sinh(x)/x), the correction itself); the low side also holds rc_resolution_bound_m in quadrature and each side the shift of "
+                             "rc_velocity_bias_bound_m that way as a rectangular error; empty "
                              "when there is no replicate (one pair)");
   meta.emplace_back("rc_resolution_bound_m",
                     "how far r_c may read high because each velocity is a mean over a footprint (the profile's "
                     "velocity_footprint_var_m2: the PIV's final window and the texture it follows), var / (2 "
                     "lambda) for a decay of length lambda; the interval's low end holds it; 0: no footprint known; "
                     "empty unless rc_status is ok");
+  meta.emplace_back("rc_velocity_bias_bound_m",
+                    "how far the velocities' bias bound (the profile's velocity_bias_bound_m_per_s: piv reads a "
+                    "displacement within 0.01 px) moves r_c, lambda ln(1 + e) outwards, -lambda ln(1 - e) inwards, "
+                    "e = bound / v_c; the larger of the two; the interval holds each side as a rectangular error; 0: "
+                    "none known; empty unless rc_status is ok");
   meta.emplace_back("rc_ci_method",
                     "cycles: whole oscillation cycles resampled (>= 8 cycles; rc_ci_units of them); "
                     "pairs_phase_detrended: phase modulation fitted (Fourier series in the phase), "
@@ -207,10 +219,11 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
     io::CsvWriter w(out.stream(), meta,
                     {"label", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status", "estimator",
                      "rc_ci_method", "rc_ci_units", "rc_ci_rho", "v_noise_m_per_s", "n_pairs",
-                     "rc_resolution_bound_m"});
+                     "rc_resolution_bound_m", "rc_velocity_bias_bound_m"});
     for (const auto& r : rows) {
       const bool ci = std::isfinite(r.res.ci_low_m);
       const bool lk = r.res.estimator == profile::Estimator::kLockin;
+      const bool ok = r.res.status == profile::WidthStatus::kOk;
       const std::string method = !ci ? "none"
                                   : lk ? (r.res.grouping == profile::Grouping::kCycles ? "wild_cycles" : "wild_pair_blocks")
                                        : profile::grouping_name(r.res.grouping);
@@ -221,7 +234,8 @@ std::vector<WidthRow> run_width_job(const WidthJobOptions& o, const core::Metada
           ci ? std::to_string(r.res.bootstrap_units) : "",
           ci && r.res.grouping != profile::Grouping::kCycles ? fmt::format("{:.3f}", r.res.rho) : "",
           format_number(r.res.v_noise_m_per_s), r.n_pairs,
-          r.res.status == profile::WidthStatus::kOk ? format_number(r.res.resolution_bound_m) : ""});
+          ok ? format_number(r.res.resolution_bound_m) : "",
+          ok ? format_number(std::max(r.res.velocity_bias.out_m, r.res.velocity_bias.in_m)) : ""});
     }
   }
   out.commit();

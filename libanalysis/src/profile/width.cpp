@@ -171,6 +171,16 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
   return R_m;
 }
 
+BiasShift velocity_bias_shift(double bias_m_per_s, double v_c, double lambda_m, double rc_m, double r_first_m) {
+  BiasShift s;
+  if (!(bias_m_per_s > 0 && v_c > 0 && lambda_m > 0)) return s;
+  const double e = bias_m_per_s / v_c;
+  s.out_m = lambda_m * std::log1p(e);
+  s.in_m = e < 1 ? -lambda_m * std::log1p(-e) : std::max(0.0, rc_m - r_first_m);
+  s.in_m = std::min(s.in_m, std::max(0.0, rc_m - r_first_m));
+  return s;
+}
+
 double resolution_bound_m(double footprint_var_m2, double lambda_m) {
   return footprint_var_m2 > 0 && lambda_m > 0 ? footprint_var_m2 / (2 * lambda_m) : 0.0;
 }
@@ -186,16 +196,28 @@ double small_sample_factor(double a, double G) {
 /// a systematic error known only to lie within +-b, combined with the sampling half-width
 /// h of each side as a rectangular distribution (standard deviation b/sqrt(3); GUM, JCGM
 /// 100:2008, 4.3.7 and 5.1.2): h' = sqrt(h^2 + z^2 b^2 / 3), z the normal quantile of
-/// the level (1.96 at 95 %). The footprint's bias (res.resolution_bound_m) only moves r_c
-/// outwards: it is added to the low side alone, in quadrature. Through the whole chain
-/// (docs/profile-width.md, 200 clips) the intervals held the truth in all of them.
+/// the level (1.96 at 95 %). The velocities' bias bound enters the same way, each side
+/// by how far it moves r_c that way (res.velocity_bias). The footprint's bias
+/// (res.resolution_bound_m) only moves r_c outwards: it is added to the low side alone,
+/// in quadrature. Through the whole chain (docs/profile-width.md, 200 clips) the
+/// intervals held the truth in all of them.
 void set_interval(WidthResult& res, const std::vector<double>& rcs, double a, double b) {
   const double z = gsl_cdf_ugaussian_Qinv(a);
-  const double lo = res.rc_m - core::percentile(rcs, a), hi = core::percentile(rcs, 1.0 - a) - res.rc_m;
-  const double extra = z * z * b * b / 3.0;
+  const double lo = std::max(0.0, res.rc_m - core::percentile(rcs, a));
+  const double hi = std::max(0.0, core::percentile(rcs, 1.0 - a) - res.rc_m);
+  // The truth lies below r_c by what moved it outwards (a velocity read high) and above
+  // by what moved it inwards.
+  const double below = res.velocity_bias.out_m, above = res.velocity_bias.in_m;
   const double m = res.resolution_bound_m;
-  res.ci_low_m = res.rc_m - std::sqrt(std::max(lo, 0.0) * std::max(lo, 0.0) + extra + m * m);
-  res.ci_high_m = res.rc_m + std::sqrt(std::max(hi, 0.0) * std::max(hi, 0.0) + extra);
+  res.ci_low_m = res.rc_m - std::sqrt(lo * lo + z * z * (b * b + below * below) / 3.0 + m * m);
+  res.ci_high_m = res.rc_m + std::sqrt(hi * hi + z * z * (b * b + above * above) / 3.0);
+}
+
+/// The bounds of the systematic errors at the crossing (ok status only).
+void set_systematic_bounds(WidthResult& res, const WidthInput& in, double v_c, double lambda) {
+  if (res.status != WidthStatus::kOk) return;
+  res.resolution_bound_m = resolution_bound_m(in.footprint_var_m2, lambda);
+  res.velocity_bias = velocity_bias_shift(in.velocity_bias_m_per_s, v_c, lambda, res.rc_m, in.r_m.front());
 }
 
 WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
@@ -207,7 +229,7 @@ WidthResult lockin_width(const WidthInput& in, const WidthOptions& opt) {
   for (std::size_t k = 0; k < nb; ++k) n[k] = std::isfinite(in.v_abs_lockin[k]) ? 1 : 0;
   double bin_bound = 0, lambda = 0;
   res.rc_m = scan_rc(in.r_m, in.v_abs_lockin, n, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound, in.radii, &lambda);
-  res.resolution_bound_m = resolution_bound_m(in.footprint_var_m2, lambda);
+  set_systematic_bounds(res, in, opt.v_c_m_per_s, lambda);
   // The floor where the decision was made.
   std::vector<std::size_t> idx;
   for (std::size_t k = 0; k < nb; ++k)
@@ -284,7 +306,7 @@ WidthResult mean_abs_width(const WidthInput& in, const WidthOptions& opt) {
   WidthResult res;
   double bin_bound = 0, lambda = 0;
   res.rc_m = scan_rc(in.r_m, in.v_abs, in.n_vectors, opt.v_c_m_per_s, in.R_m, res.status, &bin_bound, in.radii, &lambda);
-  res.resolution_bound_m = resolution_bound_m(in.footprint_var_m2, lambda);
+  set_systematic_bounds(res, in, opt.v_c_m_per_s, lambda);
   std::vector<double> noise;
   for (std::size_t k = 0; k < nb; ++k)
     if (in.n_vectors[k] > 0 && k < in.v_noise.size()) noise.push_back(in.v_noise[k]);

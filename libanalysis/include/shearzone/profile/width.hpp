@@ -84,8 +84,16 @@ struct WidthInput {
   /// unknown): for PIV, (W^2 / 12 + d^2 / 4) m_per_px^2 for a final window of W px and a
   /// texture of d px (the profile's header, velocity_footprint_var_m2).
   double footprint_var_m2 = 0;
+  /// Bound of the velocities' systematic error, m/s (0: none known): for PIV,
+  /// kPivBiasBoundPx m_per_px / dt (the profile's header, velocity_bias_bound_m_per_s).
+  double velocity_bias_m_per_s = 0;
   bool has_lockin() const;
   static WidthInput from_profile(const RadialProfile& p, double R_m);
+};
+
+/// How far a bias moves r_c: outwards and inwards, m.
+struct BiasShift {
+  double out_m = 0, in_m = 0;
 };
 
 struct WidthResult {
@@ -100,6 +108,9 @@ struct WidthResult {
   /// r_c may read up to this much high (resolution_bound_m); the interval's low end
   /// holds it. 0: none known.
   double resolution_bound_m = 0;
+  /// How far the velocities' bias bound moves r_c either way (velocity_bias_shift); the
+  /// interval holds it as a rectangular error on each side.
+  BiasShift velocity_bias;
 };
 
 /// The scan alone: r_c of bin means `v` (bins with n = 0 skipped), ln v interpolated
@@ -116,6 +127,17 @@ struct WidthResult {
 double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
                const std::vector<std::size_t>& n, double v_c, double R_m, WidthStatus& status,
                double* bin_bound_m = nullptr, const VectorRadii& radii = {}, double* lambda_m = nullptr);
+
+/// The PIV's displacement bias, px per pair, that width's intervals allow for: uniform
+/// shifts of 0-7 px read within 0.01 px (tests/piv/test_piv.cpp); the v_theta of 12 px
+/// beads moving 0.05-0.2 px per pair read 0.0035 px low (docs/profile-width.md).
+inline constexpr double kPivBiasBoundPx = 0.01;
+
+/// How far a velocity bias of at most `bias_m_per_s` moves r_c where v crosses v_c over
+/// a decay of length lambda: lambda ln(1 + e) outwards and -lambda ln(1 - e) inwards,
+/// e = bias / v_c (inwards: down to the vane, r_c - r_first, when e >= 1). 0 where either
+/// is unknown.
+BiasShift velocity_bias_shift(double bias_m_per_s, double v_c, double lambda_m, double rc_m, double r_first_m);
 
 /// How far r_c may read high because each velocity is a mean over a footprint of radial
 /// variance `footprint_var_m2` (a PIV window and the texture it follows): an exponential
