@@ -51,7 +51,7 @@ def main():
     rms = math.sqrt(sum(e * e for e in errors) / len(errors))
     print(f"   r_c of {len(errors)} clips against the truth: RMS error {rms * 1e3:.3f} mm, "
           f"largest {max(abs(e) for e in errors) * 1e3:.3f} mm; {inside} of {len(errors)} 95 % intervals "
-          f"hold it (they hold sampling noise and the binning's bound, not the PIV's own error)")
+          f"hold it (they hold sampling noise and the bounds of the binning, the PIV's footprint and its bias)")
     if rms > MAX_RMS_M:
         failures.append(f"RMS r_c error {rms * 1e3:.3f} mm > {MAX_RMS_M * 1e3:g} mm")
 
