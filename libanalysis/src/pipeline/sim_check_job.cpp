@@ -273,30 +273,13 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       row.centres = centres;
       row.surface = surface;
       const fs::path sout = bout / st.label();
-      PivJobOptions p = o.piv;
+      PivJobOptions p = camera_piv_options(cup, im, rs.camera.m_per_px, phase_video, o.piv);
       p.inputs = {video.string()};
       p.output = sout / "fields.h5";
       p.force = o.force;
       p.piv.windows_px = st.windows_px;
       if (!st.interpolation.empty()) p.piv.interpolation = piv::interpolation_from_name(st.interpolation);
       p.pair_spacing = st.spacing;
-      p.fps = cup.fps;
-      p.centre_x_px = im.centre_x_px;
-      p.centre_y_px = im.centre_y_px;
-      p.annulus_inner_px = im.vane_surface_radius_px;
-      p.annulus_outer_px = im.cup_radius_px;
-      if (cup.vane_blades > 0) {
-        p.vane.geometry = {cup.vane_blades, im.vane_half_width_px, im.vane_radius_px};
-        p.vane.margin_px = 2.0;
-        p.vane.phi0_rad = cup.phi0_rad;
-        p.vane.f_Hz = cup.f_Hz;
-        p.vane.phase_rad = phase_video;
-      }
-      p.attributes.clear();
-      set_geometry_attributes([&](const char* n, double v) {
-        if (std::string(n) != "centre_x_px" && std::string(n) != "centre_y_px" && std::string(n) != "vane_phase_rad")
-          p.attributes.emplace_back(n, fmt::format("{:.17g}", v));
-      });
       p.validate();
       say(fmt::format("{}: piv {}", name, st.label()));
       t = Clock::now();

@@ -274,6 +274,61 @@ void SimRenderOptions::validate() const {
   look.validate();
 }
 
+PivJobOptions camera_piv_options(const sim::FilmedCup& cup, const CupImage& image, double m_per_px,
+                                 double vane_phase_video_rad, PivJobOptions base) {
+  PivJobOptions p = std::move(base);
+  p.fps = cup.fps;
+  p.centre_x_px = image.centre_x_px;
+  p.centre_y_px = image.centre_y_px;
+  // The profile's first bin edge: the vane's radius on the bead surface.
+  p.annulus_inner_px = image.vane_surface_radius_px;
+  p.annulus_outer_px = image.cup_radius_px;
+  const bool drive = cup.vane_blades > 0 && cup.f_Hz > 0;
+  if (cup.vane_blades > 0) {
+    p.vane.geometry = {cup.vane_blades, image.vane_half_width_px, image.vane_radius_px};
+    p.vane.margin_px = 2.0;
+    if (drive) {
+      p.vane.phi0_rad = cup.phi0_rad;
+      p.vane.f_Hz = cup.f_Hz;
+      p.vane.phase_rad = vane_phase_video_rad;
+    }
+  }
+  p.attributes = {{"m_per_px", num(m_per_px)}, {"N", num(cup.N)}};
+  if (drive) {
+    p.attributes.emplace_back("f_Hz", num(cup.f_Hz));
+    p.attributes.emplace_back("phi0_rad", num(cup.phi0_rad));
+  }
+  p.attributes.emplace_back("cup_radius_px", num(image.cup_radius_px));
+  p.attributes.emplace_back("vane_radius_px", num(image.vane_surface_radius_px));
+  p.attributes.emplace_back("bead_diameter_m", num(cup.bead_diameter_m));
+  return p;
+}
+
+std::string camera_piv_toml(const PivJobOptions& p) {
+  std::string t = "# `shearzone piv VIDEO --config piv.toml -o fields.h5`: written by `shearzone sim render` for "
+                  "this video\n";
+  t += fmt::format("fps = {}\n", num(p.fps));
+  t += fmt::format("centre = [{}, {}]\n", num(p.centre_x_px), num(p.centre_y_px));
+  t += fmt::format("annulus = [{}, {}]\n", num(p.annulus_inner_px), num(p.annulus_outer_px));
+  const auto& v = p.vane;
+  if (v.geometry.blades > 0) {
+    t += fmt::format("vane = [{}, {}, {}]\nvane-margin-px = {}\n", v.geometry.blades, num(v.geometry.half_width_px),
+                     num(v.geometry.radius_px), num(v.margin_px));
+    if (v.f_Hz > 0)
+      t += fmt::format("phi0-rad = {}\nf-hz = {}\nphase-rad = {}\n", num(v.phi0_rad), num(v.f_Hz), num(v.phase_rad));
+  }
+  // m_per_px and N have options of their own; f_Hz and phi0_rad come with --f-hz and
+  // --phi0-rad; the rest are --attr pairs.
+  std::string attrs;
+  for (const auto& [k, value] : p.attributes) {
+    if (k == "m_per_px") t += fmt::format("m-per-px = {}\n", value);
+    else if (k == "N") t += fmt::format("N = {}\n", value);
+    else if (k != "f_Hz" && k != "phi0_rad") attrs += fmt::format("{}\"{}={}\"", attrs.empty() ? "" : ", ", k, value);
+  }
+  if (!attrs.empty()) t += "attr = [" + attrs + "]\n";
+  return t;
+}
+
 SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata& header,
                                 const core::ProgressCallback& progress) {
   o.validate();
@@ -385,28 +440,7 @@ SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata&
     out.add("camera.json").stream() << j;
   }
   // piv.toml: the options of `shearzone piv` that this camera fixes.
-  {
-    std::string t = "# `shearzone piv VIDEO --config piv.toml -o fields.h5`: written by `shearzone sim render` for "
-                    "this video\n";
-    t += fmt::format("fps = {}\n", num(cup.fps));
-    t += fmt::format("centre = [{}, {}]\n", num(im.centre_x_px), num(im.centre_y_px));
-    // The profile's first bin edge: the vane's radius on the bead surface.
-    const double rv_surface_px = im.vane_surface_radius_px;
-    t += fmt::format("annulus = [{}, {}]\n", num(rv_surface_px), num(im.cup_radius_px));
-    if (cup.vane_blades > 0) {
-      t += fmt::format("vane = [{}, {}, {}]\n", cup.vane_blades, num(im.vane_half_width_px), num(im.vane_radius_px));
-      t += "vane-margin-px = 2\n";
-      if (cup.f_Hz > 0) {
-        t += fmt::format("phi0-rad = {}\nf-hz = {}\nphase-rad = {}\n", num(cup.phi0_rad), num(cup.f_Hz),
-                         num(phase_video));
-      }
-    }
-    t += fmt::format("m-per-px = {}\n", num(cam.m_per_px));
-    t += fmt::format("N = {}\n", cup.N);
-    t += fmt::format("attr = [\"cup_radius_px={}\", \"vane_radius_px={}\", \"bead_diameter_m={}\"]\n",
-                     num(im.cup_radius_px), num(rv_surface_px), num(cup.bead_diameter_m));
-    out.add("piv.toml").stream() << t;
-  }
+  out.add("piv.toml").stream() << camera_piv_toml(camera_piv_options(cup, im, cam.m_per_px, phase_video));
   out.commit_all();
   for (const auto& n : names) sum.files.push_back(o.output_dir / n);
   for (const char* n : {"camera.json", "piv.toml", "vane_angle.csv"}) sum.files.push_back(o.output_dir / n);

@@ -36,6 +36,7 @@
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/pipeline/piv_job.hpp"
 #include "shearzone/sim/frames_file.hpp"
 #include "shearzone/synth/camera.hpp"
 #include "shearzone/synth/render.hpp"
@@ -102,6 +103,18 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
 /// diameter fills 90 % of the image's shorter side.
 synth::DownCamera cup_camera(const sim::FilmedCup& cup, double surface_z_m, bool orthographic, int width_px,
                              int height_px, double m_per_px, double height_m);
+
+/// The options of `shearzone piv` that a rendered camera fixes, on top of `base`: the
+/// video's fps, the cup's centre, the annulus from the vane's surface radius to the
+/// cup's, the vane's mask and drive (its phase in video time), and the root attributes
+/// m_per_px, N, f_Hz, phi0_rad, cup_radius_px, vane_radius_px and bead_diameter_m (in
+/// the order and form `piv --config piv.toml` gives them). `sim render` writes it as
+/// piv.toml (camera_piv_toml), `sim check` runs it.
+PivJobOptions camera_piv_options(const sim::FilmedCup& cup, const CupImage& image, double m_per_px,
+                                 double vane_phase_video_rad, PivJobOptions base = {});
+
+/// piv.toml: the options camera_piv_options sets, by their long names.
+std::string camera_piv_toml(const PivJobOptions& options);
 
 struct SimRenderOptions {
   std::filesystem::path run_dir;      ///< a run folder holding frames.h5
