@@ -76,3 +76,13 @@ TEST_CASE("deeply nested TOML is refused before the parser recurses", "[io][toml
                              "'''\n# " + std::string(200, '[') + "\nu = [1, 2]\n";
   CHECK_NOTHROW(io::TomlConfig::parse(quoted, "ok.toml"));
 }
+
+TEST_CASE("a number list and a key's refusal come from one place", "[io][toml]") {
+  const auto c = io::TomlConfig::parse("a = [1, 2.5, -3e-2]\nb = 4\nc = [\"x\"]\nd = []\n", "t.toml");
+  CHECK(c.get_doubles("a") == std::vector<double>{1, 2.5, -3e-2});
+  CHECK(c.get_doubles("b") == std::vector<double>{4});
+  CHECK(c.get_doubles("d").empty());
+  CHECK_THROWS_WITH(c.get_doubles("c"),
+                    "t.toml:3: key \"c\": \"x\" is not a finite number (expected a number or a list of numbers)");
+  CHECK_THROWS_WITH(c.fail("b", "4 (expected 5)"), "t.toml:2: key \"b\": 4 (expected 5)");
+}

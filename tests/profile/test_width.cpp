@@ -12,6 +12,28 @@ namespace {
 
 std::vector<std::size_t> ones(std::size_t n) { return std::vector<std::size_t>(n, 1); }
 
+/// Four bins (v = 10, 6, 3, 1 at r = 1..4) and twelve pairs with 20 % noise (seed 3).
+WidthInput twelve_noisy_pairs() {
+  WidthInput in;
+  in.r_m = {1, 2, 3, 4};
+  in.R_m = 5;
+  in.v_abs = {10, 6, 3, 1};
+  in.n_vectors = ones(4);
+  in.v_noise = {0, 0, 0, 0};
+  in.pairs.n_bins = 4;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> z(0.0, 1.0);
+  for (int k = 0; k < 12; ++k) {
+    const std::size_t p = in.pairs.add_pair(PairSeries::kNoCycle, kNoValue);
+    for (std::size_t b = 0; b < 4; ++b) {
+      in.pairs.v_abs[p * 4 + b] = in.v_abs[b] * (1 + 0.2 * z(rng));
+      in.pairs.n_vectors[p * 4 + b] = 1;
+    }
+  }
+  in.grouping = choose_grouping(in.pairs);
+  return in;
+}
+
 }  // namespace
 
 TEST_CASE("r_c interpolates ln v between the bracketing bins, exact for bin means of an exponential",
@@ -336,23 +358,7 @@ TEST_CASE("a single pair gives no interval, never a narrow one", "[profile][widt
 }
 
 TEST_CASE("the bootstrap is deterministic for a seed", "[profile][width]") {
-  WidthInput in;
-  in.r_m = {1, 2, 3, 4};
-  in.R_m = 5;
-  in.v_abs = {10, 6, 3, 1};
-  in.n_vectors = ones(4);
-  in.v_noise = {0, 0, 0, 0};
-  in.pairs.n_bins = 4;
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> z(0.0, 1.0);
-  for (int k = 0; k < 12; ++k) {
-    const std::size_t p = in.pairs.add_pair(PairSeries::kNoCycle, kNoValue);
-    for (std::size_t b = 0; b < 4; ++b) {
-      in.pairs.v_abs[p * 4 + b] = in.v_abs[b] * (1 + 0.2 * z(rng));
-      in.pairs.n_vectors[p * 4 + b] = 1;
-    }
-  }
-  in.grouping = choose_grouping(in.pairs);
+  WidthInput in = twelve_noisy_pairs();
   CHECK(in.grouping == Grouping::kPairs);
   WidthOptions o;
   o.v_c_m_per_s = 4;
@@ -377,23 +383,7 @@ TEST_CASE("the footprint a velocity averages lowers the interval's low end by va
     const double lambda = 1.0, x = 0.5 * W / lambda;
     CHECK(lambda * std::log(std::sinh(x) / x) <= resolution_bound_m(W * W / 12.0, lambda));
   }
-  WidthInput in;
-  in.r_m = {1, 2, 3, 4};
-  in.R_m = 5;
-  in.v_abs = {10, 6, 3, 1};
-  in.n_vectors = ones(4);
-  in.v_noise = {0, 0, 0, 0};
-  in.pairs.n_bins = 4;
-  std::mt19937_64 rng(3);
-  std::normal_distribution<double> z(0.0, 1.0);
-  for (int k = 0; k < 12; ++k) {
-    const std::size_t p = in.pairs.add_pair(PairSeries::kNoCycle, kNoValue);
-    for (std::size_t b = 0; b < 4; ++b) {
-      in.pairs.v_abs[p * 4 + b] = in.v_abs[b] * (1 + 0.2 * z(rng));
-      in.pairs.n_vectors[p * 4 + b] = 1;
-    }
-  }
-  in.grouping = choose_grouping(in.pairs);
+  WidthInput in = twelve_noisy_pairs();
   WidthOptions o;
   o.v_c_m_per_s = 4;
   const auto plain = shear_zone_width(in, o);

@@ -1,6 +1,7 @@
 #include "shearzone/io/toml_config.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -244,6 +245,21 @@ bool TomlConfig::get_bool(const std::string& key) const {
     throw ConfigError(fmt::format("{}: {} value is not allowed; expected true or false",
                                   where(key), e.type));
   return e.texts[0] == "true";
+}
+
+std::vector<double> TomlConfig::get_doubles(const std::string& key) const {
+  std::vector<double> out;
+  for (const std::string& t : texts(key)) {
+    double v = 0;
+    if (!parse_number(t, false, v) || !std::isfinite(v))
+      fail(key, fmt::format("\"{}\" is not a finite number (expected a number or a list of numbers)", t));
+    out.push_back(v);
+  }
+  return out;
+}
+
+void TomlConfig::fail(const std::string& key, const std::string& what) const {
+  throw ConfigError(fmt::format("{}: {}", where(key), what));
 }
 
 void TomlConfig::require_known(const std::vector<std::string>& known) const {

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <functional>
@@ -76,22 +75,13 @@ class Reader {
   Reader(const io::TomlConfig& c, KnownOption known, OptionNames names = {}, CheckStage check = {})
       : c_(c), known_(std::move(known)), names_(std::move(names)), check_(std::move(check)) {}
 
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", c_.source(), c_.line(key), key, what));
-  }
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const { c_.fail(key, what); }
   bool has(const std::string& k) const { return c_.has(k); }
   std::string str(const std::string& k) const { return c_.get_string(k); }
   double number(const std::string& k) const { return c_.get_double(k); }
 
   std::vector<double> numbers(const std::string& k) const {
-    std::vector<double> out;
-    for (const std::string& t : c_.texts(k)) {
-      double v = 0;
-      const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-      if (r.ec != std::errc() || r.ptr != t.data() + t.size() || !std::isfinite(v))
-        fail(k, fmt::format("\"{}\" (expected a number or a list of numbers)", t));
-      out.push_back(v);
-    }
+    std::vector<double> out = c_.get_doubles(k);
     if (out.empty()) fail(k, "an empty list (expected at least one value)");
     return out;
   }

@@ -116,17 +116,7 @@ class Scene {
   }
   bool flag(const std::string& k, bool fallback) const { return t_.has(k) ? t_.get_bool(k) : fallback; }
   std::string text(const std::string& k) const { return t_.get_string(k); }
-  std::vector<double> numbers(const std::string& k) const {
-    std::vector<double> out;
-    if (!t_.has(k)) return out;
-    for (const std::string& s : t_.texts(k)) {
-      double v = 0.0;
-      if (!io::parse_number(s, false, v) || !std::isfinite(v))
-        fail(k, fmt::format("\"{}\" is not a finite number", s));
-      out.push_back(v);
-    }
-    return out;
-  }
+  std::vector<double> numbers(const std::string& k) const { return t_.has(k) ? t_.get_doubles(k) : std::vector<double>{}; }
   std::vector<double> fixed_size(const std::string& k, std::size_t n) const {
     std::vector<double> v = numbers(k);
     if (v.size() != n) fail(k, fmt::format("{} values (expected {})", v.size(), n));
@@ -147,8 +137,7 @@ class Scene {
   }
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
     // A length given in bead diameters is named as written.
-    const std::string k = is_length(key) && !t_.has(key) && t_.has(in_d(key)) ? in_d(key) : key;
-    throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", t_.source(), t_.line(k), k, what));
+    t_.fail(is_length(key) && !t_.has(key) && t_.has(in_d(key)) ? in_d(key) : key, what);
   }
   [[noreturn]] void fail_file(const std::string& what) const {
     throw ConfigError(fmt::format("{}: {}", t_.source(), what));

@@ -45,6 +45,11 @@ class TomlConfig {
   long long get_int(const std::string& key) const;
   std::string get_string(const std::string& key) const;
   bool get_bool(const std::string& key) const;
+  /// A number or an array of numbers, each finite (an empty array gives none).
+  std::vector<double> get_doubles(const std::string& key) const;
+
+  /// ConfigError "<file>:<line>: key "<key>": <what>", the form of every key's refusal.
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
 
   /// Throws ConfigError for the first key (in sorted order) not in `known`,
   /// suggesting the closest known key.
