@@ -90,8 +90,8 @@ TEST_CASE("sim job: a kinematic bead moves by x0 + v t and pushes a mobile bead"
   REQUIRE(st.kind.size() == 2);
   // The container's bodies (fixed, then kinematic beads) come before the explicit mobile ones.
   const std::size_t kin = 0, mob = 1;
-  CHECK(st.kind[kin] == sim::BodyKind::kinematic);
-  CHECK(st.kind[mob] == sim::BodyKind::mobile);
+  CHECK(st.kind[kin] == sim::BodyKind::kKinematic);
+  CHECK(st.kind[mob] == sim::BodyKind::kMobile);
   const Vec3 expected = Vec3(-0.0101, 0, 0.005) + 0.1 * Vec3(0.1, 0, 0);
   CHECK((st.position[kin] - expected).norm() < 1e-15);
   CHECK(st.velocity[kin] == Vec3(0.1, 0, 0));
@@ -568,9 +568,9 @@ TEST_CASE("a rough floor: a layer of touching fixed beads; the fill and the vane
   double mobile_min_z = 1.0, kinematic_min_z = 1.0, floor_max_z = -1.0;
   for (std::size_t k = 0; k < st.position.size(); ++k) {
     const double z = st.position[k].z();
-    if (st.kind[k] == sim::BodyKind::mobile) mobile_min_z = std::min(mobile_min_z, z);
-    if (st.kind[k] == sim::BodyKind::kinematic) kinematic_min_z = std::min(kinematic_min_z, z);
-    if (st.kind[k] == sim::BodyKind::fixed && z < 1e-3) floor_max_z = std::max(floor_max_z, z);
+    if (st.kind[k] == sim::BodyKind::kMobile) mobile_min_z = std::min(mobile_min_z, z);
+    if (st.kind[k] == sim::BodyKind::kKinematic) kinematic_min_z = std::min(kinematic_min_z, z);
+    if (st.kind[k] == sim::BodyKind::kFixed && z < 1e-3) floor_max_z = std::max(floor_max_z, z);
   }
   CHECK(floor_max_z == 0.0);                                  // floor bead centres on the plane
   CHECK(kinematic_min_z == Approx(0.004).epsilon(1e-12));     // the vane's first layer on the floor beads' tops

@@ -33,7 +33,7 @@ inline double add_pocket(shearzone::sim::World& w) {
   for (int k = 0; k < 3; ++k) {
     const double a = 2.0 * std::numbers::pi * k / 3.0;
     w.add_sphere(Vec3(rc * std::cos(a), rc * std::sin(a), 0.0), kD, kRho,
-                 shearzone::sim::BodyKind::fixed);
+                 shearzone::sim::BodyKind::kFixed);
   }
   return std::sqrt(kD * kD - rc * rc);
 }
@@ -44,8 +44,8 @@ inline double vertical_impulse_from_supports(const shearzone::sim::World& w) {
   double sum = 0.0;
   for (const auto& c : w.contacts()) {
     const shearzone::sim::Vec3 p = c.normal_impulse * c.normal + c.tangential_impulse;
-    const bool i_support = c.body_i < 0 || w.kind(c.body_i) != BodyKind::mobile;
-    const bool j_support = w.kind(c.body_j) != BodyKind::mobile;
+    const bool i_support = c.body_i < 0 || w.kind(c.body_i) != BodyKind::kMobile;
+    const bool j_support = w.kind(c.body_j) != BodyKind::kMobile;
     if (i_support && !j_support) sum += p.z();
     if (j_support && !i_support) sum -= p.z();
   }

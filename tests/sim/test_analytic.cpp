@@ -97,7 +97,7 @@ TEST_CASE("A sphere launched on a plane rolls at 5/7 v0 from t* = 2 v0 /(7 mu g)
     w.step();
     const auto c = w.contacts();
     REQUIRE(c.size() == 1);
-    if (c[0].status == ContactStatus::sliding) {
+    if (c[0].status == ContactStatus::kSliding) {
       // Sliding phase: v = v0 − μ g t exactly (the discrete scheme is exact here).
       worst_slide = std::max(worst_slide, std::abs(w.velocity(b).x() - (v0 - mu * kG * w.time())));
     } else if (t_stick < 0.0) {

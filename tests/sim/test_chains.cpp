@@ -27,7 +27,7 @@ TEST_CASE("A hanging chain: the rope tension at the top equals the weight below"
   o.tolerance = 1e-10;
   o.max_iterations = 20000;
   World w(o);
-  std::vector<int> beads{w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed)};
+  std::vector<int> beads{w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
   for (int k = 1; k <= n; ++k) beads.push_back(w.add_sphere(Vec3(0.0, 0.0, -k * bond), kD, kRho));
   w.add_chain(beads, bond, std::numbers::pi);
   StepDiagnostics d;
@@ -59,7 +59,7 @@ TEST_CASE("A rope pendulum keeps its length and its period", "[sim]") {
   o.time_step = h;
   o.tolerance = 1e-10;
   World w(o);
-  const int a = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed);
+  const int a = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed);
   const int b = w.add_sphere(L * Vec3(std::sin(theta0), 0.0, -std::cos(theta0)), kD, kRho);
   w.add_rope(a, b, L);
   const double v_max = std::sqrt(2.0 * kG * L * (1.0 - std::cos(theta0)));
@@ -126,8 +126,8 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
     o.tolerance = 1e-8;
     o.max_iterations = 5000;
     World w(o);
-    std::vector<int> beads{w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho, BodyKind::fixed),
-                           w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed)};
+    std::vector<int> beads{w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho, BodyKind::kFixed),
+                           w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
     for (int k = 1; k <= 6; ++k) beads.push_back(w.add_sphere(Vec3(k * bond, 0.0, 0.0), kD, kRho));
     w.add_chain(beads, bond, theta_max);
     double worst = 0.0, rate = 0.0;

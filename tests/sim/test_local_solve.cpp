@@ -33,16 +33,16 @@ TEST_CASE("Local contact solve satisfies Signorini and exact Coulomb", "[sim]") 
     REQUIRE(std::abs(r.tangential_impulse.dot(n)) <= kRoundOff);
     REQUIRE(r.tangential_impulse.norm() <= mu * r.normal_impulse * (1.0 + kRoundOff) + kRoundOff);
     switch (r.status) {
-      case ContactStatus::open:
+      case ContactStatus::kOpen:
         ++open;
         REQUIRE(r.normal_impulse == 0.0);
         REQUIRE(r.tangential_impulse.norm() == 0.0);
         break;
-      case ContactStatus::sticking:
+      case ContactStatus::kSticking:
         ++stick;
         REQUIRE(ut_plus.norm() <= kRoundOff);
         break;
-      case ContactStatus::sliding:
+      case ContactStatus::kSliding:
         ++slide;
         // On the cone, opposing the slip: P_t = −μ P_n u_t⁺/|u_t⁺|.
         REQUIRE(std::abs(r.tangential_impulse.norm() - mu * r.normal_impulse) <= kRoundOff);

@@ -26,7 +26,7 @@ std::vector<int> add_vane(World& w, double cx, double cy, double z) {
     for (int k = 0; k < 3; ++k) {
       const double r = (1.5 + k) * kD;
       beads.push_back(w.add_sphere(Vec3(cx + r * std::cos(a), cy + r * std::sin(a), z), kD, kRho,
-                                   BodyKind::kinematic));
+                                   BodyKind::kKinematic));
     }
   }
   return beads;
@@ -83,7 +83,7 @@ TEST_CASE("the motor torque of a vane holding a bead against gravity is r m g, p
   o.tolerance = 1e-12;
   World w(o);
   const double r = 3.5 * kD;
-  const int vb = w.add_sphere(Vec3(r, 0, 0), kD, kRho, BodyKind::kinematic);
+  const int vb = w.add_sphere(Vec3(r, 0, 0), kD, kRho, BodyKind::kKinematic);
   const int bead = w.add_sphere(Vec3(r, kD, 0), kD, kRho);
   const int rot = w.add_rotor(std::vector<int>{vb}, Vec3::Zero(), Vec3::UnitZ(), 0.0, 0.0);
   CHECK(w.rotor_torque(rot) == 0.0);
@@ -96,7 +96,7 @@ TEST_CASE("the motor torque of a vane holding a bead against gravity is r m g, p
   Options o2 = o;
   o2.gravity = Vec3(0, kG, 0);
   World w2(o2);
-  const int vb2 = w2.add_sphere(Vec3(r, 0, 0), kD, kRho, BodyKind::kinematic);
+  const int vb2 = w2.add_sphere(Vec3(r, 0, 0), kD, kRho, BodyKind::kKinematic);
   w2.add_sphere(Vec3(r, -kD, 0), kD, kRho);
   const int rot2 = w2.add_rotor(std::vector<int>{vb2}, Vec3::Zero(), Vec3::UnitZ(), 0.0, 0.0);
   for (int k = 0; k < 20; ++k) w2.step();

@@ -74,8 +74,8 @@ Scene build(World& w, int copies) {
                              polar(8 * kD, 56.5, 2 * kD)};
   std::vector<int> rotor;
   for (int m = 0; m < copies; ++m) {
-    if (m == 0) rotor.push_back(w.add_sphere(Vec3(0, 0, z0), kD, kRho, BodyKind::kinematic));  // the hub
-    for (int k = 2; k <= 3; ++k) rotor.push_back(w.add_sphere(turn(Vec3(k * kD, 0, z0), m), kD, kRho, BodyKind::kinematic));
+    if (m == 0) rotor.push_back(w.add_sphere(Vec3(0, 0, z0), kD, kRho, BodyKind::kKinematic));  // the hub
+    for (int k = 2; k <= 3; ++k) rotor.push_back(w.add_sphere(turn(Vec3(k * kD, 0, z0), m), kD, kRho, BodyKind::kKinematic));
   }
   for (int m = 0; m < copies; ++m) {
     // A bead of copy m at R^m x, moving with the rigid rotation; in the sector, the
@@ -210,7 +210,7 @@ TEST_CASE("A periodic sector refuses what it cannot hold", "[sim][sector]") {
   }
   World w(o);
   SECTION("a bead outside the wedge") {
-    CHECK_THROWS_AS(w.add_sphere(polar(5 * kD, 90, 0), kD, kRho, BodyKind::fixed), shearzone::ConfigError);
+    CHECK_THROWS_AS(w.add_sphere(polar(5 * kD, 90, 0), kD, kRho, BodyKind::kFixed), shearzone::ConfigError);
     CHECK_THROWS_AS(w.add_sphere(polar(5 * kD, 100, kD), kD, kRho), shearzone::ConfigError);
     CHECK_NOTHROW(w.add_sphere(polar(5 * kD, 10, kD), kD, kRho));
   }
@@ -218,12 +218,12 @@ TEST_CASE("A periodic sector refuses what it cannot hold", "[sim][sector]") {
     CHECK_THROWS_AS(w.add_wall(Wall{Vec3::Zero(), Vec3::UnitX(), 0.3}), shearzone::ConfigError);
   }
   SECTION("a rotor off the sector's axis") {
-    const int b = w.add_sphere(polar(2 * kD, 0, kD), kD, kRho, BodyKind::kinematic);
+    const int b = w.add_sphere(polar(2 * kD, 0, kD), kD, kRho, BodyKind::kKinematic);
     const std::vector<int> ids{b};
     CHECK_THROWS_AS(w.add_rotor(ids, Vec3(kD, 0, 0), Vec3::UnitZ(), 0.1, 1.0), shearzone::ConfigError);
   }
   SECTION("a vane that turns out of the wedge") {
-    const int b = w.add_sphere(polar(3 * kD, 0, kD), kD, kRho, BodyKind::kinematic);
+    const int b = w.add_sphere(polar(3 * kD, 0, kD), kD, kRho, BodyKind::kKinematic);
     const std::vector<int> ids{b};
     w.add_rotor(ids, Vec3::Zero(), Vec3::UnitZ(), 1.0, 5.0);  // 1 rad > 45°
     CHECK_THROWS_AS([&] { for (int k = 0; k < 100; ++k) w.step(); }(), shearzone::NoResultError);
@@ -249,9 +249,9 @@ TEST_CASE("A scene's periodic quarter holds one wedge of the cup", "[sim][sector
   for (int b = 0; b < w.body_count(); ++b) {
     INFO("body " << b);
     CHECK(shearzone::sim::sector_contains(w.options(), w.position(b)));
-    mobile += w.kind(b) == BodyKind::mobile ? 1 : 0;
-    vane += w.kind(b) == BodyKind::kinematic ? 1 : 0;
-    if (w.kind(b) == BodyKind::fixed && w.position(b).z() == 0.002) ++wall_ring;
+    mobile += w.kind(b) == BodyKind::kMobile ? 1 : 0;
+    vane += w.kind(b) == BodyKind::kKinematic ? 1 : 0;
+    if (w.kind(b) == BodyKind::kFixed && w.position(b).z() == 0.002) ++wall_ring;
   }
   CHECK(mobile == 30);
   // Three layers of a hub and one blade of two beads (r = d, 2d within 10 mm).

@@ -38,8 +38,8 @@ World make_scene(Solver solver = Solver::alternate) {
   w.add_wall(Wall{Vec3(half, 0, 0), -Vec3::UnitX(), 0.3});
   w.add_wall(Wall{Vec3(0, -half, 0), Vec3(0.0, 1.0, 0.001), 0.3});
   w.add_wall(Wall{Vec3(0, half, 0), -Vec3::UnitY(), 0.3});
-  w.add_sphere(Vec3(0, 0, 0.5 * kD), kD, kRho, BodyKind::fixed);
-  const int kin = w.add_sphere(Vec3(2.0 * kD, 2.0 * kD, 0.5 * kD), kD, kRho, BodyKind::kinematic);
+  w.add_sphere(Vec3(0, 0, 0.5 * kD), kD, kRho, BodyKind::kFixed);
+  const int kin = w.add_sphere(Vec3(2.0 * kD, 2.0 * kD, 0.5 * kD), kD, kRho, BodyKind::kKinematic);
   w.set_angular_velocity(kin, Vec3(0, 0, 3.0));
   for (int c = 0; c < 2; ++c) {
     std::vector<int> beads;

@@ -82,7 +82,7 @@ TEST_CASE("Too large a time step: a pendulum's rope overstretches and the trigge
   Options o;
   o.time_step = 1e-2;
   World w(o);
-  const int a = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed);
+  const int a = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed);
   const int b = w.add_sphere(Vec3(5.0 * kD, 0.0, 0.0), kD, kRho);
   w.add_rope(a, b, 5.0 * kD);
   CHECK_THROWS_WITH(
@@ -99,8 +99,8 @@ TEST_CASE("Too large a time step: a fast-turning chain exceeds its angle limit",
   o.max_rope_excess = 10.0;  // let the angle trigger speak first
   World w(o);
   const double bond = 1.1 * kD;
-  const int a = w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho, BodyKind::fixed);
-  const int b = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed);
+  const int a = w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho, BodyKind::kFixed);
+  const int b = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed);
   const int c = w.add_sphere(Vec3(bond, 0.0, 0.0), kD, kRho);
   w.add_rope(b, c, bond);
   w.add_angle_limit(a, b, c, deg(30.0));
@@ -128,7 +128,7 @@ TEST_CASE("Kinematic spheres keep their prescribed motion and push mobile ones",
   o.time_step = 1e-3;
   o.gravity = Vec3::Zero();
   World w(o);
-  const int k = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kinematic);
+  const int k = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kKinematic);
   const int m = w.add_sphere(Vec3(1.001 * kD, 0.0, 0.0), kD, kRho);
   w.set_velocity(k, Vec3(0.1, 0.0, 0.0));
   w.set_angular_velocity(k, Vec3(0.0, 0.0, 3.0));
@@ -152,7 +152,7 @@ TEST_CASE("Bad options and bodies are configuration errors", "[sim]") {
   CHECK_THROWS_AS(World(o), ConfigError);
   World w{Options{}};
   CHECK_THROWS_AS(w.add_sphere(Vec3::Zero(), -1.0, kRho), ConfigError);
-  const int f = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::fixed);
+  const int f = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed);
   CHECK_THROWS_AS(w.set_velocity(f, Vec3::UnitX()), ConfigError);
   CHECK_THROWS_AS(w.add_rope(f, 7, kD), ConfigError);
 }
@@ -247,7 +247,7 @@ TEST_CASE("Orientations follow the angular velocity", "[sim]") {
   Options o;
   o.time_step = 1e-3;
   World w(o);
-  const int k = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kinematic);
+  const int k = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kKinematic);
   const Vec3 omega = Vec3(1.0, -2.0, 3.0);
   w.set_angular_velocity(k, omega);
   for (int s = 0; s < 1000; ++s) w.step();

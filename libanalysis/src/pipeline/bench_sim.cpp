@@ -241,7 +241,7 @@ sim::LoadedScene load_cup(const std::filesystem::path& file, const std::string& 
 }
 int mobile_count(const sim::World& w) {
   int n = 0;
-  for (int b = 0; b < w.body_count(); ++b) n += w.kind(b) == sim::BodyKind::mobile ? 1 : 0;
+  for (int b = 0; b < w.body_count(); ++b) n += w.kind(b) == sim::BodyKind::kMobile ? 1 : 0;
   return n;
 }
 
@@ -272,8 +272,8 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
   for (int b = 0; b < w.body_count(); ++b) {
     const sim::Vec3 rel = w.position(b) - c;
     const double r = (rel - rel.dot(axis) * axis).norm();
-    if (w.kind(b) == sim::BodyKind::kinematic) rv = std::max(rv, r + 0.5 * w.diameter(b));
-    if (w.kind(b) != sim::BodyKind::mobile) continue;
+    if (w.kind(b) == sim::BodyKind::kKinematic) rv = std::max(rv, r + 0.5 * w.diameter(b));
+    if (w.kind(b) != sim::BodyKind::kMobile) continue;
     d = std::max(d, w.diameter(b));
     rmax = std::max(rmax, r);
     heights.push_back(rel.dot(axis));
@@ -302,7 +302,7 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
       o.rope_excess = std::max(o.rope_excess, dg.max_rope_excess);
       if (s % 10 != 0) continue;
       for (int b = 0; b < w.body_count(); ++b) {
-        if (w.kind(b) != sim::BodyKind::mobile) continue;
+        if (w.kind(b) != sim::BodyKind::kMobile) continue;
         const sim::Vec3 rel = w.position(b) - c;
         if (rel.dot(axis) < top - d) continue;
         const sim::Vec3 radial = rel - rel.dot(axis) * axis;
@@ -762,7 +762,7 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   // The rod: 1 d below the 99.5th percentile of the bead heights, at x = 3 d.
   std::vector<double> z;
   for (std::size_t b = 0; b < settled.position.size(); ++b)
-    if (settled.kind[b] == sim::BodyKind::mobile) z.push_back(settled.position[b].z());
+    if (settled.kind[b] == sim::BodyKind::kMobile) z.push_back(settled.position[b].z());
   std::sort(z.begin(), z.end());
   const double z_rod = z[static_cast<std::size_t>(0.995 * static_cast<double>(z.size() - 1))] - d;
   if (!(z_rod >= 0.5 * d))
@@ -800,7 +800,7 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   for (std::size_t b = 0; b < settled.position.size(); ++b) {
     bool hit = false;
     for (const sim::Vec3& r : rod) hit = hit || (settled.position[b] - r).norm() < d;
-    if (hit && settled.kind[b] == sim::BodyKind::mobile) ++removed;
+    if (hit && settled.kind[b] == sim::BodyKind::kMobile) ++removed;
     else keep(b);
   }
   const std::size_t template_bead = 0;
@@ -812,7 +812,7 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
     st.diameter.push_back(d);
     st.mass.push_back(settled.mass[template_bead]);
     st.inertia.push_back(settled.inertia[template_bead]);
-    st.kind.push_back(sim::BodyKind::kinematic);
+    st.kind.push_back(sim::BodyKind::kKinematic);
   }
   // Warm start: the contacts between surviving bodies, renumbered.
   st.contacts.clear();

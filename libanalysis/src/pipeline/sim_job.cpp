@@ -81,8 +81,8 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   sum.first_step = w.steps_done();
   sum.bodies = w.body_count();
   for (int k = 0; k < w.body_count(); ++k) {
-    if (w.kind(k) == sim::BodyKind::fixed) ++sum.fixed_bodies;
-    if (w.kind(k) == sim::BodyKind::kinematic) ++sum.kinematic_bodies;
+    if (w.kind(k) == sim::BodyKind::kFixed) ++sum.fixed_bodies;
+    if (w.kind(k) == sim::BodyKind::kKinematic) ++sum.kinematic_bodies;
   }
   sum.walls = static_cast<int>(w.walls().size());
   sum.ropes = w.rope_count();

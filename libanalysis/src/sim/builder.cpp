@@ -544,7 +544,7 @@ PackingMeasurement packing_fraction(const World& world, const Region& region) {
   m.region_volume = region_volume(region);
   double solid = 0.0;
   for (int b = 0; b < world.body_count(); ++b) {
-    if (world.kind(b) != BodyKind::mobile) continue;
+    if (world.kind(b) != BodyKind::kMobile) continue;
     const double v = sphere_region_volume(world.position(b), 0.5 * world.diameter(b), region);
     if (v > 0.0) {
       solid += v;

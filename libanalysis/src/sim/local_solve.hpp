@@ -22,7 +22,7 @@ namespace shearzone::sim {
 struct LocalContactResult {
   double normal_impulse = 0.0;  ///< P_n ≥ 0 (N s)
   Vec3 tangential_impulse = Vec3::Zero();  ///< P_t ⊥ n (N s)
-  ContactStatus status = ContactStatus::open;
+  ContactStatus status = ContactStatus::kOpen;
 };
 
 /// Solves one contact exactly. `u0n`, `u0t`: normal and tangential relative velocity
@@ -38,10 +38,10 @@ inline LocalContactResult solve_sphere_contact(double u0n, const Vec3& u0t, doub
   const double pt = r.tangential_impulse.norm();
   const double limit = mu * pn;
   if (pt <= limit) {
-    r.status = ContactStatus::sticking;
+    r.status = ContactStatus::kSticking;
   } else {
     r.tangential_impulse *= limit / pt;
-    r.status = ContactStatus::sliding;
+    r.status = ContactStatus::kSliding;
   }
   return r;
 }

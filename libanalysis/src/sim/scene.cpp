@@ -595,7 +595,7 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
         for (int i = -cols; i <= cols; ++i) {
           const double x = i * dw + off;
           const Vec3 p(b.cyl_cx + x, b.cyl_cy + y, 0.0);
-          if (std::hypot(x, y) <= rmax && sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::fixed);
+          if (std::hypot(x, y) <= rmax && sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::kFixed);
         }
       }
     }
@@ -610,12 +610,12 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
       for (int m = 0; m < per_ring; ++m) {
         const double a = 2.0 * std::numbers::pi * (m + offset + 0.5 * (layer % 2)) / per_ring;
         const Vec3 p(b.cyl_cx + rc * std::cos(a), b.cyl_cy + rc * std::sin(a), (0.5 + layer) * dw);
-        if (sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::fixed);
+        if (sector_contains(w.options(), p)) w.add_sphere(p, dw, b.density, BodyKind::kFixed);
       }
   }
-  for (const Vec3& x : b.fixed) w.add_sphere(x, b.diameter, b.density, BodyKind::fixed);
+  for (const Vec3& x : b.fixed) w.add_sphere(x, b.diameter, b.density, BodyKind::kFixed);
   for (const Vec3& x : b.kinematic) {
-    const int id = w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
+    const int id = w.add_sphere(x, b.diameter, b.density, BodyKind::kKinematic);
     if (moving) {
       w.set_velocity(id, b.kinematic_velocity);
       w.set_angular_velocity(id, b.kinematic_omega);
@@ -624,7 +624,7 @@ void add_container(World& w, const SceneBodies& b, bool moving) {
   // The vane's beads: kinematic, at rest until the rotor is added to the run's world (in
   // a periodic sector, the hub and the wedge's blade).
   for (const Vec3& x : b.vane)
-    if (sector_contains(w.options(), x)) w.add_sphere(x, b.diameter, b.density, BodyKind::kinematic);
+    if (sector_contains(w.options(), x)) w.add_sphere(x, b.diameter, b.density, BodyKind::kKinematic);
 }
 
 /// The vane of a built world: its beads are the container's last kinematic bodies.
@@ -769,7 +769,7 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
     st.iteration_cap_hits = 0;
     out.world.emplace(World::from_state(st));
     for (int k = 0; k < out.world->body_count(); ++k)
-      if (out.world->kind(k) == BodyKind::kinematic) {
+      if (out.world->kind(k) == BodyKind::kKinematic) {
         out.world->set_velocity(k, b.kinematic_velocity);
         out.world->set_angular_velocity(k, b.kinematic_omega);
       }
@@ -826,7 +826,7 @@ void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene)
           const auto it = grid.find(key(w.position(k), dx, dy, dz));
           if (it == grid.end()) continue;
           for (int j : it->second) {
-            if (j <= k || (w.kind(k) == BodyKind::fixed && w.kind(j) == BodyKind::fixed)) continue;
+            if (j <= k || (w.kind(k) == BodyKind::kFixed && w.kind(j) == BodyKind::kFixed)) continue;
             const double overlap = 0.5 * (w.diameter(k) + w.diameter(j)) - (w.position(k) - w.position(j)).norm();
             const double rel = overlap / std::min(w.diameter(k), w.diameter(j));
             if (rel > worst_rel) {
@@ -904,8 +904,8 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
   if (n < nc) refuse(fmt::format("the scene's cup and vane are {} beads, the checkpoint holds {} bodies", nc, n));
   int fixed = 0, kinematic = 0;
   for (int k = 0; k < nc; ++k) {
-    fixed += c.kind(k) == BodyKind::fixed ? 1 : 0;
-    kinematic += c.kind(k) == BodyKind::kinematic ? 1 : 0;
+    fixed += c.kind(k) == BodyKind::kFixed ? 1 : 0;
+    kinematic += c.kind(k) == BodyKind::kKinematic ? 1 : 0;
   }
   for (int k = 0; k < nc; ++k) {
     const auto kk = static_cast<std::size_t>(k);
@@ -916,7 +916,7 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
     if (std::abs(ck.diameter[kk] - c.diameter(k)) > tol)
       refuse(fmt::format("body {} (the cup or vane) has diameter {} m in the scene, {} m in the checkpoint", k,
                          num(c.diameter(k)), num(ck.diameter[kk])));
-    if (c.kind(k) == BodyKind::fixed && !same(ck.position[kk], c.position(k)))
+    if (c.kind(k) == BodyKind::kFixed && !same(ck.position[kk], c.position(k)))
       refuse(fmt::format("fixed bead {} (the cup) lies at {} in the scene, {} in the checkpoint", k,
                          xyz(c.position(k)), xyz(ck.position[kk])));
   }
@@ -927,7 +927,7 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
     const Rotor& r = ck.rotors[0];
     for (std::size_t j = 0; j < r.bodies.size(); ++j) {
       const int k = r.bodies[j];
-      if (k < 0 || k >= nc || c.kind(k) != BodyKind::kinematic || !same(r.reference[j], c.position(k)))
+      if (k < 0 || k >= nc || c.kind(k) != BodyKind::kKinematic || !same(r.reference[j], c.position(k)))
         refuse(fmt::format("the vane's bead {} lies at {} at phi = 0 in the checkpoint, not where the scene's vane "
                            "puts it",
                            j, xyz(r.reference[j])));
@@ -936,9 +936,9 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
   std::int64_t mobile = 0;
   for (std::int64_t k = nc; k < n; ++k) {
     const auto kk = static_cast<std::size_t>(k);
-    if (ck.kind[kk] != BodyKind::mobile)
+    if (ck.kind[kk] != BodyKind::kMobile)
       refuse(fmt::format("body {} of the checkpoint is a {} bead beyond the scene's cup and vane", k,
-                         ck.kind[kk] == BodyKind::fixed ? "fixed" : "moving"));
+                         ck.kind[kk] == BodyKind::kFixed ? "fixed" : "moving"));
     if (std::abs(ck.diameter[kk] - scene.bead_diameter_m) > tol)
       refuse(fmt::format("the scene's beads are {} m across (beads.diameter_m), the checkpoint's bead {} {} m",
                          num(scene.bead_diameter_m), k, num(ck.diameter[kk])));

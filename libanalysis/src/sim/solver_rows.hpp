@@ -25,7 +25,7 @@ struct alignas(64) ContactRow {
   int i = 0, j = 0;
   std::int32_t frozen_until = 0;
   std::uint8_t quiet = 0;
-  ContactStatus status = ContactStatus::open;
+  ContactStatus status = ContactStatus::kOpen;
   std::int8_t image = 0;   // periodic sector: 1 when j is seen as R x_j (a seam row)
   Vec3 n = Vec3::UnitZ();  // from i (or the wall) to j
   double bias = 0.0;       // gap / h
@@ -45,7 +45,7 @@ struct PreviousContact {
   std::uint64_t key = 0;
   double pn = 0.0;
   Vec3 pt = Vec3::Zero();
-  ContactStatus status = ContactStatus::open;
+  ContactStatus status = ContactStatus::kOpen;
 };
 struct RopeRow {
   int i = 0, j = 0;

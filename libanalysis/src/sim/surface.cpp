@@ -59,13 +59,13 @@ void SurfaceCamera::record(const World& w) {
   // Mobile beads in a horizontal cell grid (cell = the largest diameter).
   double dmax = 0;
   for (int b = 0; b < w.body_count(); ++b)
-    if (w.kind(b) == BodyKind::mobile) dmax = std::max(dmax, w.diameter(b));
+    if (w.kind(b) == BodyKind::kMobile) dmax = std::max(dmax, w.diameter(b));
   std::unordered_map<std::int64_t, std::vector<std::pair<int, int>>> cells;  // (bead, image)
   auto cell_key = [](std::int64_t i, std::int64_t j) { return i * 4000037 + j; };
   const double cell = dmax > 0 ? dmax : 1.0;
   std::vector<Vec3> at(static_cast<std::size_t>(w.body_count()) * static_cast<std::size_t>(images));
   for (int b = 0; b < w.body_count(); ++b) {
-    if (w.kind(b) != BodyKind::mobile) continue;
+    if (w.kind(b) != BodyKind::kMobile) continue;
     for (int m = 0; m < images; ++m) {
       const Vec3 x = image_of(opt, w.position(b), m);
       at[static_cast<std::size_t>(b) * static_cast<std::size_t>(images) + static_cast<std::size_t>(m)] = x;

@@ -153,8 +153,8 @@ int World::add_sphere(const Vec3& position, double diameter, double density, Bod
   x_.push_back(position);
   q_.push_back(Eigen::Quaterniond::Identity());
   SolverBody sb;
-  sb.inv_mass = kind == BodyKind::mobile ? 1.0 / m : 0.0;
-  sb.inv_inertia = kind == BodyKind::mobile ? 1.0 / inertia : 0.0;
+  sb.inv_mass = kind == BodyKind::kMobile ? 1.0 / m : 0.0;
+  sb.inv_inertia = kind == BodyKind::kMobile ? 1.0 / inertia : 0.0;
   body_.push_back(sb);
   radius_.push_back(0.5 * diameter);
   mass_.push_back(m);
@@ -261,7 +261,7 @@ void World::add_chain(std::span<const int> beads, double max_bond_length, double
 
 void World::set_velocity(int body, const Vec3& v) {
   check_body(body, "velocity");
-  if (kind_[static_cast<std::size_t>(body)] == BodyKind::fixed)
+  if (kind_[static_cast<std::size_t>(body)] == BodyKind::kFixed)
     throw ConfigError(fmt::format("sim body {} is fixed: its velocity is zero", body));
   if (!finite(v)) throw ConfigError(fmt::format("sim body {}: non-finite velocity", body));
   body_[static_cast<std::size_t>(body)].v = v;
@@ -269,7 +269,7 @@ void World::set_velocity(int body, const Vec3& v) {
 
 void World::set_angular_velocity(int body, const Vec3& omega) {
   check_body(body, "angular velocity");
-  if (kind_[static_cast<std::size_t>(body)] == BodyKind::fixed)
+  if (kind_[static_cast<std::size_t>(body)] == BodyKind::kFixed)
     throw ConfigError(fmt::format("sim body {} is fixed: its angular velocity is zero", body));
   if (!finite(omega)) throw ConfigError(fmt::format("sim body {}: non-finite angular velocity", body));
   body_[static_cast<std::size_t>(body)].w = omega;
@@ -349,7 +349,7 @@ void World::find_contacts(double alert) {
   std::vector<ContactRow> rows;
   std::vector<ContactInfo> infos;
   for (std::size_t i = 0; i < n; ++i) {
-    const bool mi = kind_[i] == BodyKind::mobile;
+    const bool mi = kind_[i] == BodyKind::kMobile;
     const std::size_t first = contacts_.size();
     const std::int64_t cx = coord(x_[i], 0), cy = coord(x_[i], 1), cz = coord(x_[i], 2);
     for (std::int64_t z = std::max<std::int64_t>(cz - 1, 0); z <= std::min(cz + 1, dims[2] - 1); ++z)
@@ -363,7 +363,7 @@ void World::find_contacts(double alert) {
             const int image = e < n ? 0 : 1;
             const std::size_t j = e < n ? e : static_cast<std::size_t>(ghost_of_[e - n]);
             if (image == 0 ? j <= i : j == i) continue;
-            if (!mi && kind_[j] != BodyKind::mobile) continue;
+            if (!mi && kind_[j] != BodyKind::kMobile) continue;
             const Vec3 dx = at(e) - x_[i];
             const double dist = dx.norm();
             const double gap = dist - radius_[i] - radius_[j];
@@ -399,7 +399,7 @@ void World::find_contacts(double alert) {
   for (std::size_t w = 0; w < walls_.size(); ++w) {
     const Wall& wall = walls_[w];
     for (std::size_t j = 0; j < n; ++j) {
-      if (kind_[j] != BodyKind::mobile) continue;
+      if (kind_[j] != BodyKind::kMobile) continue;
       const double gap = (x_[j] - wall.point).dot(wall.normal) - radius_[j];
       if (gap >= alert) continue;
       ContactRow r;
@@ -551,7 +551,7 @@ void World::partition_rows() {
   for (int axis = 0; axis < 3; ++axis) {
     coord.clear();
     for (std::size_t b = 0; b < n; ++b)
-      if (kind_[b] == BodyKind::mobile) coord.push_back(x_[b][axis]);
+      if (kind_[b] == BodyKind::kMobile) coord.push_back(x_[b][axis]);
     if (coord.empty())
       for (std::size_t b = 0; b < n; ++b) coord.push_back(x_[b][axis]);
     std::vector<double> cuts;
@@ -644,9 +644,9 @@ class SpinBarrier {
 inline ContactStatus radial_return(Vec3& pt, double pn, double mu) {
   const double limit = mu * pn;
   const double p2 = pt.squaredNorm();
-  if (p2 <= limit * limit) return ContactStatus::sticking;
+  if (p2 <= limit * limit) return ContactStatus::kSticking;
   pt *= limit / std::sqrt(p2);
-  return ContactStatus::sliding;
+  return ContactStatus::kSliding;
 }
 
 /// Freeze bookkeeping of a visit that left a zero-impulse row unchanged: frozen after
@@ -772,7 +772,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     const double un = u.dot(n);
     double pn = r.pn - (un + r.bias) * r.inv_wn;
     Vec3 pt;
-    ContactStatus status = ContactStatus::open;
+    ContactStatus status = ContactStatus::kOpen;
     if (!(pn > 0.0)) {
       pn = 0.0;
       pt.setZero();
@@ -993,7 +993,7 @@ void World::integrate_positions() {
   const double h = opt_.time_step;
   const std::size_t n = x_.size();
   for (std::size_t b = 0; b < n; ++b) {
-    if (kind_[b] == BodyKind::fixed) continue;
+    if (kind_[b] == BodyKind::kFixed) continue;
     const SolverBody& sb = body_[b];
     x_[b] += h * sb.v;
     const double rate = sb.w.norm();
@@ -1017,7 +1017,7 @@ void World::wrap_sector() {
   wrapped_.assign(n, 0);
   bool any = false;
   for (std::size_t b = 0; b < n; ++b) {
-    if (kind_[b] != BodyKind::mobile) continue;
+    if (kind_[b] != BodyKind::kMobile) continue;
     const int m = sec.wedges(x_[b]);
     if (m == 0) continue;
     x_[b] = sec.place(x_[b], -m);
@@ -1283,7 +1283,7 @@ double World::contact_search_distance(std::int64_t this_step) {
 void World::add_free_velocities() {
   const double h = opt_.time_step;
   for (std::size_t b = 0; b < x_.size(); ++b)
-    if (kind_[b] == BodyKind::mobile) body_[b].v += h * opt_.gravity;
+    if (kind_[b] == BodyKind::kMobile) body_[b].v += h * opt_.gravity;
 }
 
 void World::sweep_serial(detail::SweepControl& c) {
@@ -1415,7 +1415,7 @@ void World::check_state(StepDiagnostics& d) const {
   const detail::Sector sec(opt_);
   if (sec.on)  // fixed and kinematic bodies must stay inside the wedge (they have no wrap)
     for (std::size_t b = 0; b < n; ++b)
-      if (kind_[b] == BodyKind::kinematic && sec.wedges(x_[b]) != 0)
+      if (kind_[b] == BodyKind::kKinematic && sec.wedges(x_[b]) != 0)
         throw NoResultError(fmt::format("sim at step {}: kinematic body {} at ({}, {}, {}) left the periodic sector "
                                         "(azimuth [{}, {}) rad)",
                                         d.step, b, x_[b].x(), x_[b].y(), x_[b].z(), sec.start, sec.start + sec.width));
@@ -1423,7 +1423,7 @@ void World::check_state(StepDiagnostics& d) const {
     const SolverBody& sb = body_[b];
     if (!finite(x_[b]) || !finite(sb.v) || !finite(sb.w))
       throw NoResultError(fmt::format("sim diverged at step {}: non-finite state of body {}", d.step, b));
-    if (kind_[b] == BodyKind::mobile)
+    if (kind_[b] == BodyKind::kMobile)
       d.kinetic_energy += 0.5 * mass_[b] * sb.v.squaredNorm() + 0.5 * inertia_[b] * sb.w.squaredNorm();
   }
   // Contacts: status counts from the final sweep, overlaps at the new positions.
@@ -1435,7 +1435,7 @@ void World::check_state(StepDiagnostics& d) const {
     ++d.contacts;
     if (r.pn > 0.0) {
       ++d.active_contacts;
-      if (r.status == ContactStatus::sliding) ++d.sliding_contacts;
+      if (r.status == ContactStatus::kSliding) ++d.sliding_contacts;
       else ++d.sticking_contacts;
     }
     const auto j = static_cast<std::size_t>(r.j);
@@ -1516,7 +1516,7 @@ std::vector<ContactRecord> World::contacts() const {
   out.reserve(contacts_.size());
   for (std::size_t k = 0; k < contacts_.size(); ++k) {
     out.push_back(record(k));
-    if (!(contacts_[k].pn > 0.0)) out.back().status = ContactStatus::open;
+    if (!(contacts_[k].pn > 0.0)) out.back().status = ContactStatus::kOpen;
   }
   return out;
 }
@@ -1565,7 +1565,7 @@ int World::add_rotor(std::span<const int> bodies, const Vec3& centre, const Vec3
   for (int b : bodies) {
     check_body(b, "rotor");
     const auto ub = static_cast<std::size_t>(b);
-    if (kind_[ub] != BodyKind::kinematic)
+    if (kind_[ub] != BodyKind::kKinematic)
       throw ConfigError(fmt::format("sim rotor: body {} is not kinematic", b));
     if (rotor_of_[ub] != -1) throw ConfigError(fmt::format("sim rotor: body {} is already in rotor {}", b, rotor_of_[ub]));
     rotor_of_[ub] = static_cast<int>(rotors_.size());
@@ -1682,7 +1682,7 @@ World World::from_state(const WorldState& s) {
   if (s.step < 0 || s.iteration_cap_hits < 0) bad("negative step count");
   for (std::size_t b = 0; b < n; ++b) {
     const BodyKind k = s.kind[b];
-    if (k != BodyKind::mobile && k != BodyKind::fixed && k != BodyKind::kinematic)
+    if (k != BodyKind::kMobile && k != BodyKind::kFixed && k != BodyKind::kKinematic)
       bad(fmt::format("body {}: unknown kind {}", b, static_cast<int>(k)));
     if (!finite(s.position[b]) || !finite(s.velocity[b]) || !finite(s.angular_velocity[b]))
       bad(fmt::format("body {}: non-finite position or velocity", b));
@@ -1701,8 +1701,8 @@ World World::from_state(const WorldState& s) {
     SolverBody sb;
     sb.v = s.velocity[b];
     sb.w = s.angular_velocity[b];
-    sb.inv_mass = k == BodyKind::mobile ? 1.0 / s.mass[b] : 0.0;
-    sb.inv_inertia = k == BodyKind::mobile ? 1.0 / s.inertia[b] : 0.0;
+    sb.inv_mass = k == BodyKind::kMobile ? 1.0 / s.mass[b] : 0.0;
+    sb.inv_inertia = k == BodyKind::kMobile ? 1.0 / s.inertia[b] : 0.0;
     w.body_.push_back(sb);
     w.radius_.push_back(0.5 * s.diameter[b]);
     w.mass_.push_back(s.mass[b]);
@@ -1774,7 +1774,7 @@ World World::from_state(const WorldState& s) {
       bad(fmt::format("rotor {}: inconsistent arrays, a non-finite centre or a non-unit axis", ri));
     for (std::size_t k = 0; k < r.bodies.size(); ++k) {
       const int b = r.bodies[k];
-      if (b < 0 || b >= nb || s.kind[static_cast<std::size_t>(b)] != BodyKind::kinematic ||
+      if (b < 0 || b >= nb || s.kind[static_cast<std::size_t>(b)] != BodyKind::kKinematic ||
           w.rotor_of_[static_cast<std::size_t>(b)] != -1 || !finite(r.reference[k]))
         bad(fmt::format("rotor {}: body {} out of range, not kinematic, in two rotors or non-finite", ri, b));
       w.rotor_of_[static_cast<std::size_t>(b)] = static_cast<int>(ri);

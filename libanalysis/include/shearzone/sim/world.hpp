@@ -77,12 +77,12 @@ namespace shearzone::sim {
 using Vec3 = Eigen::Vector3d;
 
 /// State of a contact after its local solve (see ContactInfo).
-enum class ContactStatus : std::uint8_t { open, sticking, sliding };
+enum class ContactStatus : std::uint8_t { kOpen, kSticking, kSliding };
 
 enum class BodyKind : std::uint8_t {
-  mobile,     ///< integrated by the engine
-  fixed,      ///< never moves, v = ω = 0 (wall beads)
-  kinematic,  ///< prescribed v and ω (e.g. vane beads); moved by x ← x + h v
+  kMobile,     ///< integrated by the engine
+  kFixed,      ///< never moves, v = ω = 0 (wall beads)
+  kKinematic,  ///< prescribed v and ω (e.g. vane beads); moved by x ← x + h v
 };
 
 /// Half-space wall: spheres live on the side the unit normal points to.
@@ -191,7 +191,7 @@ struct ContactRecord {
   double gap = 0.0;             ///< at the start of the step (m)
   double normal_impulse = 0.0;  ///< P_n (N s)
   Vec3 tangential_impulse = Vec3::Zero();
-  ContactStatus status = ContactStatus::open;
+  ContactStatus status = ContactStatus::kOpen;
   /// Periodic sector: 1 when body_j is seen through its image R x_j (a seam row; normal,
   /// gap and impulses are then those of body_i's side), else 0.
   int image = 0;
@@ -257,7 +257,7 @@ class World {
   /// Adds a sphere; returns its index. Mass ρ π d³/6, moment of inertia m d²/10.
   /// Throws ConfigError for a non-finite position or a non-positive diameter/density.
   int add_sphere(const Vec3& position, double diameter, double density,
-                 BodyKind kind = BodyKind::mobile);
+                 BodyKind kind = BodyKind::kMobile);
   /// Adds a half-space wall; returns its index.
   int add_wall(const Wall& wall);
   /// Rope row: |x_j − x_i| ≤ max_length (= d + l_max), tension only, through the centres.
