@@ -166,8 +166,7 @@ int run_check(CheckCli& s, const Context& ctx) {
   j.run_dir = s.run;
   j.output_dir = s.output;
   apply_size(j.render, s.size);
-  if (!profile::parse_estimator(s.estimator, j.width.estimator))
-    throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
+  j.width.estimator = profile::estimator_from_name(s.estimator);
   if (!s.windows.empty()) j.piv.piv.windows_px = s.windows;
   // --passes shapes the --final-windows grid: checked always, and refused without it
   // (it was ignored there, out of range or not).

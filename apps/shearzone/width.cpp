@@ -24,8 +24,7 @@ int run_width(CLI::App& c, WidthCli& s, const Context& ctx) {
   j.inputs.assign(s.inputs.begin(), s.inputs.end());
   j.output = s.output;
   j.tags = parse_key_values(s.tags, "--tag");
-  if (!profile::parse_estimator(s.estimator, j.width.estimator))
-    throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", s.estimator));
+  j.width.estimator = profile::estimator_from_name(s.estimator);
   if (ctx.check_options) {  // the study's option check: no file read
     j.validate();
     return kExitOk;

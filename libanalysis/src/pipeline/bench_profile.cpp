@@ -157,7 +157,7 @@ BenchProfileSummary run_profile_bench(const BenchProfileOptions& o, const core::
     wo.output = o.out_dir / fmt::format("widths_{}.csv", est);
     wo.force = true;
     wo.width.v_c_m_per_s = kVc;
-    profile::parse_estimator(est, wo.width.estimator);
+    wo.width.estimator = profile::estimator_from_name(est);
     const auto t_w = Clock::now();
     run_width_job(wo, header);
     const double w_s = seconds_since(t_w);

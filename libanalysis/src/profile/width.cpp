@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <gsl/gsl_cdf.h>
 
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/stats.hpp"
 #include "shearzone/profile/lockin.hpp"
@@ -34,12 +35,12 @@ const char* estimator_name(Estimator e) {
   return "?";
 }
 
-bool parse_estimator(const std::string& name, Estimator& e) {
-  if (name == "mean-abs" || name == "mean_abs") e = Estimator::kMeanAbs;
-  else if (name == "lockin") e = Estimator::kLockin;
-  else if (name == "auto") e = Estimator::kAuto;
-  else return false;
-  return true;
+Estimator estimator_from_name(const std::string& name) {
+  const std::string snake = name == "mean-abs" ? "mean_abs" : name;  // the option's spelling
+  if (const auto e = core::enum_named(snake, {Estimator::kMeanAbs, Estimator::kLockin, Estimator::kAuto},
+                                      estimator_name))
+    return *e;
+  throw ConfigError(fmt::format("--estimator {}: expected mean-abs, lockin or auto", name));
 }
 
 bool WidthInput::has_lockin() const {

@@ -42,8 +42,9 @@ const char* width_status_name(WidthStatus s);
 
 enum class Estimator { kMeanAbs, kLockin, kAuto };
 const char* estimator_name(Estimator e);  ///< "mean_abs", "lockin", "auto"
-/// Parses mean-abs / mean_abs, lockin, auto; false if unknown.
-bool parse_estimator(const std::string& name, Estimator& e);
+/// mean-abs (or mean_abs), lockin, auto; ConfigError "--estimator <name>: expected
+/// mean-abs, lockin or auto" otherwise.
+Estimator estimator_from_name(const std::string& name);
 
 struct WidthOptions {
   double v_c_m_per_s = 4e-5;   ///< threshold velocity
