@@ -19,6 +19,7 @@
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
+#include "shearzone/sim/frames_file.hpp"
 #include "shearzone/sim/scene.hpp"
 #include "shearzone/sim/sim_io.hpp"
 #include "shearzone/sim/surface.hpp"
@@ -201,30 +202,8 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
   // the scene a renderer needs (pipeline/sim_render_job.hpp).
   std::optional<sim::SnapshotWriter> frames;
   if (scene.camera && scene.camera->frames && o.camera_frames) {
-    const sim::SceneCamera& sc = *scene.camera;
     core::Metadata fm = meta;
-    auto num = [](double v) { return io::format_number(v); };
-    fm.emplace_back("frames", "the bodies at the camera's frames: record k is frame k of surface.h5 (its pair k "
-                              "runs from record k to record k + 1)");
-    fm.emplace_back("camera_fps", num(sc.fps));
-    fm.emplace_back("bead_diameter_m", num(sc.bead_diameter_m));
-    fm.emplace_back("N", std::to_string(scene.beads_per_chain));
-    fm.emplace_back("cup_centre_x_m", num(sc.options.cx_m));
-    fm.emplace_back("cup_centre_y_m", num(sc.options.cy_m));
-    fm.emplace_back("cup_radius_m", num(sc.options.cup_radius_m));
-    fm.emplace_back("cup_height_m", num(sc.cup_height_m));
-    fm.emplace_back("sectors", std::to_string(w.options().sectors));
-    fm.emplace_back("vane_blades", std::to_string(w.rotor_count() > 0 ? sc.vane_blades : 0));
-    fm.emplace_back("vane_radius_m", num(sc.options.vane_radius_m));
-    fm.emplace_back("vane_height_m", num(sc.vane_height_m));
-    if (w.rotor_count() > 0) {
-      const sim::Rotor& r = w.rotor(0);
-      fm.emplace_back("f_Hz", num(r.f_Hz));
-      fm.emplace_back("phi0_rad", num(r.phi0));
-      fm.emplace_back("vane_phase_rad", num(r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start));
-      fm.emplace_back("vane_angle", "phi(t) = phi0_rad sin(2 pi f_Hz t + vane_phase_rad), t = time_s; blade j at "
-                                    "azimuth phi + 2 pi j / vane_blades, counter-clockwise seen from above (+z)");
-    }
+    sim::add_frames_metadata(fm, *scene.camera, scene.beads_per_chain, w);
     frames.emplace(out.add("frames.h5").temp_path(), w, fm, chain_ids);
     frames->append(w);
   }

@@ -9,6 +9,8 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/hdf5.hpp"
+#include "shearzone/sim/scene.hpp"
+#include "shearzone/sim/world.hpp"
 
 namespace shearzone::sim {
 namespace {
@@ -105,6 +107,31 @@ FrameBodies FramesFile::frame(std::size_t k) const {
     }
   }
   return out;
+}
+
+void add_frames_metadata(core::Metadata& m, const SceneCamera& sc, int beads_per_chain, const World& w) {
+  auto num = [](double v) { return io::format_number(v); };
+  m.emplace_back("frames", "the bodies at the camera's frames: record k is frame k of surface.h5 (its pair k "
+                           "runs from record k to record k + 1)");
+  m.emplace_back("camera_fps", num(sc.fps));
+  m.emplace_back("bead_diameter_m", num(sc.bead_diameter_m));
+  m.emplace_back("N", std::to_string(beads_per_chain));
+  m.emplace_back("cup_centre_x_m", num(sc.options.cx_m));
+  m.emplace_back("cup_centre_y_m", num(sc.options.cy_m));
+  m.emplace_back("cup_radius_m", num(sc.options.cup_radius_m));
+  m.emplace_back("cup_height_m", num(sc.cup_height_m));
+  m.emplace_back("sectors", std::to_string(w.options().sectors));
+  m.emplace_back("vane_blades", std::to_string(w.rotor_count() > 0 ? sc.vane_blades : 0));
+  m.emplace_back("vane_radius_m", num(sc.options.vane_radius_m));
+  m.emplace_back("vane_height_m", num(sc.vane_height_m));
+  if (w.rotor_count() > 0) {
+    const Rotor& r = w.rotor(0);
+    m.emplace_back("f_Hz", num(r.f_Hz));
+    m.emplace_back("phi0_rad", num(r.phi0));
+    m.emplace_back("vane_phase_rad", num(r.phase - 2.0 * std::numbers::pi * r.f_Hz * r.t_start));
+    m.emplace_back("vane_angle", "phi(t) = phi0_rad sin(2 pi f_Hz t + vane_phase_rad), t = time_s; blade j at "
+                                 "azimuth phi + 2 pi j / vane_blades, counter-clockwise seen from above (+z)");
+  }
 }
 
 }  // namespace shearzone::sim

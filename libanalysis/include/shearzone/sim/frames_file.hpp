@@ -4,7 +4,8 @@
 // camera_fps, bead_diameter_m, N, cup_centre_x_m, cup_centre_y_m, cup_radius_m,
 // cup_height_m, sectors, vane_blades, vane_radius_m, vane_height_m, and for a driven
 // vane f_Hz, phi0_rad, vane_phase_rad (phi(t) = phi0 sin(2 pi f t + vane_phase_rad)),
-// run_id. `shearzone sim render` and `sim check` read it.
+// run_id. `shearzone sim render` and `sim check` read it; add_frames_metadata writes the
+// attributes (all but run_id), so both sides name them here.
 #pragma once
 
 #include <cstddef>
@@ -14,11 +15,16 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/core/metadata.hpp"
+
 namespace shearzone::io {
 class H5File;
 }  // namespace shearzone::io
 
 namespace shearzone::sim {
+
+struct SceneCamera;
+class World;
 
 /// The cup that frames.h5 describes (SI units).
 struct FilmedCup {
@@ -43,6 +49,11 @@ struct FrameBodies {
   std::vector<std::int64_t> id;
   std::vector<bool> mobile;
 };
+
+/// frames.h5's root attributes for the camera of a scene whose chains hold
+/// `beads_per_chain` beads, in world `w` (the vane's drive from its first rotor),
+/// appended to `m`.
+void add_frames_metadata(core::Metadata& m, const SceneCamera& camera, int beads_per_chain, const World& w);
 
 /// Reads frames.h5 (InputError naming the file and what is wrong).
 class FramesFile {
