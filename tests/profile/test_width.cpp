@@ -12,8 +12,8 @@ namespace {
 
 std::vector<std::size_t> ones(std::size_t n) { return std::vector<std::size_t>(n, 1); }
 
-/// Four bins (v = 10, 6, 3, 1 at r = 1..4) and twelve pairs with 20 % noise (seed 3).
-WidthInput twelve_noisy_pairs() {
+/// Four bins, v = 10, 6, 3, 1 at r = 1..4 (R = 5), no pairs yet.
+WidthInput four_bins() {
   WidthInput in;
   in.r_m = {1, 2, 3, 4};
   in.R_m = 5;
@@ -21,6 +21,12 @@ WidthInput twelve_noisy_pairs() {
   in.n_vectors = ones(4);
   in.v_noise = {0, 0, 0, 0};
   in.pairs.n_bins = 4;
+  return in;
+}
+
+/// four_bins() and twelve pairs with 20 % noise (seed 3).
+WidthInput twelve_noisy_pairs() {
+  WidthInput in = four_bins();
   std::mt19937_64 rng(3);
   std::normal_distribution<double> z(0.0, 1.0);
   for (int k = 0; k < 12; ++k) {
@@ -336,13 +342,7 @@ TEST_CASE("bootstrap CIs of r_c of ten cycles with cycle-to-cycle scatter cover 
 }
 
 TEST_CASE("a single pair gives no interval, never a narrow one", "[profile][width]") {
-  WidthInput in;
-  in.r_m = {1, 2, 3, 4};
-  in.R_m = 5;
-  in.v_abs = {10, 6, 3, 1};
-  in.n_vectors = ones(4);
-  in.v_noise = {0, 0, 0, 0};
-  in.pairs.n_bins = 4;
+  WidthInput in = four_bins();
   in.pairs.add_pair(PairSeries::kNoCycle, kNoValue);
   in.grouping = choose_grouping(in.pairs);
   CHECK(in.grouping == Grouping::kNone);
