@@ -222,6 +222,8 @@ def cases(work):
          "output is a symbolic link to a missing"),
         ("width_footprint_negative", ["width", "profile_bad_footprint.csv", "-o", "w.csv"], 2, ["w.csv"],
          r"profile_bad_footprint.csv: header \"velocity_footprint_var_m2: -1e-08\": expected a variance >= 0 m\^2"),
+        ("width_velocity_bias_inf", ["width", "profile_bad_bias.csv", "-o", "w.csv"], 2, ["w.csv"],
+         r"profile_bad_bias.csv: header \"velocity_bias_bound_m_per_s: inf\": expected a speed >= 0 m/s"),
         ("width_vector_radii_negative_sd", ["width", "profile_bad_radii.csv", "-o", "w.csv"], 2, ["w.csv"],
          r"profile_bad_radii.csv:[0-9]+: column \"r_vectors_sd_m\": -0.001; expected a standard deviation >= 0"),
     ]
@@ -254,6 +256,9 @@ def make_inputs(bin_, work):
     text = open(os.path.join(work, "profile.csv")).read()
     text = re.sub(r"# velocity_footprint_var_m2: [^\n]*", "# velocity_footprint_var_m2: -1e-08", text)
     open(os.path.join(work, "profile_bad_footprint.csv"), "w").write(text)
+    text = open(os.path.join(work, "profile.csv")).read()
+    text = re.sub(r"# velocity_bias_bound_m_per_s: [^\n]*", "# velocity_bias_bound_m_per_s: inf", text)
+    open(os.path.join(work, "profile_bad_bias.csv"), "w").write(text)
     shutil.copy(os.path.join(work, "fields.h5"), os.path.join(work, "fields_nan.h5"))
     import h5py  # python3-h5py (scripts/setup.sh)
     with h5py.File(os.path.join(work, "fields_nan.h5"), "r+") as f:
