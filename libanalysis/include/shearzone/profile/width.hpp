@@ -56,8 +56,8 @@ struct WidthOptions {
   /// Widen the interval by the binning's bias bound b at the crossing (scan_rc's
   /// bin_bound_m), combined with the sampling half-width h of each side as a
   /// rectangular error: sqrt(h^2 + z^2 b^2 / 3). Off: the interval holds the sampling
-  /// noise (and the footprint's bound, when WidthInput knows one) alone, against a truth
-  /// scanned from the same bins.
+  /// noise and the PIV's bounds (footprint, bias; when WidthInput knows them), not the
+  /// binning's, as against a truth scanned from the same bins.
   bool widen_by_binning = true;
   void validate() const;
 };
