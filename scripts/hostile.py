@@ -252,13 +252,12 @@ def make_inputs(bin_, work):
     cells[-1] = "-0.001"
     lines[row] = ",".join(cells)
     open(os.path.join(work, "profile_bad_radii.csv"), "w").write("\n".join(lines))
-    # ... and one whose footprint variance is negative.
-    text = open(os.path.join(work, "profile.csv")).read()
-    text = re.sub(r"# velocity_footprint_var_m2: [^\n]*", "# velocity_footprint_var_m2: -1e-08", text)
-    open(os.path.join(work, "profile_bad_footprint.csv"), "w").write(text)
-    text = open(os.path.join(work, "profile.csv")).read()
-    text = re.sub(r"# velocity_bias_bound_m_per_s: [^\n]*", "# velocity_bias_bound_m_per_s: inf", text)
-    open(os.path.join(work, "profile_bad_bias.csv"), "w").write(text)
+    # ... and profiles with one header value the width must refuse.
+    for name, key, value in (("profile_bad_footprint.csv", "velocity_footprint_var_m2", "-1e-08"),
+                             ("profile_bad_bias.csv", "velocity_bias_bound_m_per_s", "inf")):
+        text = open(os.path.join(work, "profile.csv")).read()
+        text = re.sub(rf"# {key}: [^\n]*", f"# {key}: {value}", text)
+        open(os.path.join(work, name), "w").write(text)
     shutil.copy(os.path.join(work, "fields.h5"), os.path.join(work, "fields_nan.h5"))
     import h5py  # python3-h5py (scripts/setup.sh)
     with h5py.File(os.path.join(work, "fields_nan.h5"), "r+") as f:

@@ -43,18 +43,16 @@ profile::WidthInput width_input(const io::ProfileCsv& p) {
                                    path, p.meta("lockin_harmonics")));
     in.lockin_harmonics = static_cast<int>(H);
   }
-  if (const std::string v = p.meta("velocity_footprint_var_m2"); !v.empty()) {
-    in.footprint_var_m2 = p.meta_number("velocity_footprint_var_m2");
-    if (!(in.footprint_var_m2 >= 0 && in.footprint_var_m2 < 1e6))
-      throw InputError(fmt::format("{}: header \"velocity_footprint_var_m2: {}\": expected a variance >= 0 m^2",
-                                   path, v));
-  }
-  if (const std::string v = p.meta("velocity_bias_bound_m_per_s"); !v.empty()) {
-    in.velocity_bias_m_per_s = p.meta_number("velocity_bias_bound_m_per_s");
-    if (!(in.velocity_bias_m_per_s >= 0 && in.velocity_bias_m_per_s < 1e6))
-      throw InputError(fmt::format("{}: header \"velocity_bias_bound_m_per_s: {}\": expected a speed >= 0 m/s",
-                                   path, v));
-  }
+  // The PIV's bounds (absent: 0, none known): a header value >= 0.
+  auto bound = [&](const char* key, const char* expected) {
+    const std::string v = p.meta(key);
+    if (v.empty()) return 0.0;
+    const double x = p.meta_number(key);
+    if (!(x >= 0 && x < 1e6)) throw InputError(fmt::format("{}: header \"{}: {}\": expected {}", path, key, v, expected));
+    return x;
+  };
+  in.footprint_var_m2 = bound("velocity_footprint_var_m2", "a variance >= 0 m^2");
+  in.velocity_bias_m_per_s = bound("velocity_bias_bound_m_per_s", "a speed >= 0 m/s");
   in.R_m = p.meta_number("R_m");
   if (std::isnan(in.R_m)) {
     const double bin = p.meta_number("bin_m");

@@ -177,8 +177,8 @@ BiasShift velocity_bias_shift(double bias_m_per_s, double v_c, double lambda_m, 
   if (!(bias_m_per_s > 0 && v_c > 0 && lambda_m > 0)) return s;
   const double e = bias_m_per_s / v_c;
   s.out_m = lambda_m * std::log1p(e);
-  s.in_m = e < 1 ? -lambda_m * std::log1p(-e) : std::max(0.0, rc_m - r_first_m);
-  s.in_m = std::min(s.in_m, std::max(0.0, rc_m - r_first_m));
+  const double to_first_bin = std::max(0.0, rc_m - r_first_m);  // no farther in than that
+  s.in_m = e < 1 ? std::min(-lambda_m * std::log1p(-e), to_first_bin) : to_first_bin;
   return s;
 }
 
