@@ -164,19 +164,20 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
     const sim::FramesFile frames(dir / "frames.h5");
     const sim::FilmedCup& cup = frames.cup();
     const double d = cup.bead_diameter_m;
-    const CupImage& im = rs.image;
+    const synth::CupGeometry geometry = filmed_geometry(cup);
+    const synth::CupImage& im = rs.image;
     const double phase_video = cup.vane_phase_rad + 2.0 * std::numbers::pi * cup.f_Hz * frames.time(0 + ro.first_frame);
     const fs::path video = rs.files.front();
 
     // 2. The truths: the camera's (bead centres) and the simulator's surface field.
     t = Clock::now();
     say(fmt::format("{}: truth", name));
-    std::vector<ProjectedBeads> proj;
+    std::vector<synth::ProjectedBeads> proj;
     std::vector<double> vane_angles;
     for (std::size_t k = 0; k < rs.frames; ++k) {
-      const sim::FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
-      proj.push_back(project_beads(rs.camera, cup, b, rs.surface_z_m, ro.look));
+      sim::FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
       vane_angles.push_back(cup.vane_angle(b.t_s));
+      proj.push_back(synth::project_beads(rs.camera, geometry, filmed_beads(std::move(b)), rs.surface_z_m, ro.look));
     }
     auto set_geometry_attributes = [&](auto&& set) {
       set("centre_x_px", im.centre_x_px);
@@ -201,7 +202,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
       {
         io::FieldFileWriter w(f.temp_path());
         for (std::size_t k = 0; k + 1 < rs.frames; ++k)
-          w.append(visible_motion(proj[k], proj[k + 1], gx, gy, im, cup.vane_blades, vane_angles[k]),
+          w.append(synth::visible_motion(proj[k], proj[k + 1], gx, gy, im, cup.vane_blades, vane_angles[k]),
                    static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps, 1.0 / cup.fps);
         set_geometry_attributes([&](const char* n, double v) { w.set_attribute(n, v); });
         w.set_attribute("fps", cup.fps);
@@ -251,7 +252,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
         io::VideoWriter w(f.temp_path(), cup.fps, cv::Size(rs.camera.width_px, rs.camera.height_px), ro.codec,
                           f.final_path());
         for (std::size_t k = 0; k < kStaticFrames; ++k)
-          w.write(render_cup_frame(rs.camera, cup, rs.surface_z_m, proj[0], vane_angles[0], ro.look,
+          w.write(synth::render_cup_frame(rs.camera, geometry, rs.surface_z_m, proj[0], vane_angles[0], ro.look,
                                    kStaticSeedOffset + k));
         w.close();
       }
@@ -336,7 +337,7 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
         const auto a = static_cast<std::size_t>(std::llround(ta * cup.fps));
         const auto b = static_cast<std::size_t>(std::llround((ta + dt) * cup.fps));
         if (b >= proj.size()) continue;
-        const core::VectorField tr = visible_motion(proj[a], proj[b], f.x_px, f.y_px, im, cup.vane_blades,
+        const core::VectorField tr = synth::visible_motion(proj[a], proj[b], f.x_px, f.y_px, im, cup.vane_blades,
                                                     vane_angles[a]);
         for (std::size_t q = 0; q < f.size(); ++q) {
           if ((f.flag[q] != core::VectorFlag::kValid && f.flag[q] != core::VectorFlag::kReplaced) ||

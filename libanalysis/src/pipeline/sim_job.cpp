@@ -199,7 +199,7 @@ SimJobSummary run_sim_job(const SimJobOptions& o, const core::Metadata& header,
     next_frame_step = w.steps_done() + std::llround(frame_s / h);
   }
   // The bodies at every camera frame (frame k of surface.h5's pairs is record k), with
-  // the scene a renderer needs (pipeline/sim_render_job.hpp).
+  // the scene a renderer needs (pipeline/sim_render_job.hpp, synth/cup_view.hpp).
   std::optional<sim::SnapshotWriter> frames;
   if (scene.camera && scene.camera->frames && o.camera_frames) {
     core::Metadata fm = meta;
