@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/sine_fit.hpp"
 #include "shearzone/core/stats.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
@@ -21,7 +22,6 @@
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
 #include "shearzone/profile/width.hpp"
-#include "shearzone/piv/vane_angle.hpp"
 
 
 namespace shearzone::pipeline {
@@ -42,78 +42,31 @@ std::unique_ptr<io::FieldReader> open_fields(const std::filesystem::path& path, 
   return io::open_field_file(path, dt_s);
 }
 
-/// phi(t) = c + A sin(2 pi f t) + B cos(2 pi f t) fitted to an angle log.
+/// The drive's sinusoid in an angle log: phi(t) = c + amplitude sin(2 pi f (t - t0)).
 struct DriveFit {
   double f_Hz = 0, t0_s = 0, amplitude_rad = 0, r2 = 0;
 };
 
-/// Residual sum of squares of the linear fit c + A sin(2 pi f t) + B cos(2 pi f t) at
-/// frequency f (piv::fit_vane_phase, the fit the vane phase finder uses), and the fit.
-double drive_rss(const std::vector<double>& t, const std::vector<double>& y, double f, DriveFit* out) {
-  const piv::VanePhaseFit p = piv::fit_vane_phase(t, y, f);
-  const double n = static_cast<double>(y.size());
-  const double rss = p.rms_rad * p.rms_rad * n;
-  if (out) {
-    double mean = 0, tss = 0;
-    for (double v : y) mean += v;
-    mean /= n;
-    for (double v : y) tss += (v - mean) * (v - mean);
-    out->f_Hz = f;
-    out->amplitude_rad = p.amplitude_rad;
-    // R sin(w t + phase): upward zero crossing at w t = -phase.
-    const double T = 1.0 / f;
-    out->t0_s = std::fmod(-p.phase_rad / (2.0 * std::numbers::pi * f), T);
-    if (out->t0_s < 0) out->t0_s += T;
-    out->r2 = tss > 0 ? 1.0 - rss / tss : 0.0;
-  }
-  return rss;
-}
-
-/// The drive sinusoid of an angle log (columns time_s, angle_rad), the frequency refined
-/// around f_hint (or found from the log's upward zero crossings when f_hint is unset).
-DriveFit fit_drive_log(const std::string& path, double f_hint) {
+/// The drive sinusoid of an angle log (columns time_s, angle_rad): the sine fit of
+/// core/sine_fit.hpp, its frequency found in the log alone (the fields' f is then
+/// checked against it, not assumed).
+DriveFit fit_drive_log(const std::string& path) {
   const io::AngleLog log = io::read_angle_log(path, 8);
-  const std::vector<double>& t = log.time_s;
+  const core::SineFit s = core::fit_sine(log.time_s, log.angle_rad, core::kUnset, path);
   const std::vector<double>& y = log.angle_rad;
-  const double span = t.back() - t.front();
-  double f0 = f_hint;
-  if (!set(f0)) {
-    double mean = 0;
-    for (double v : y) mean += v;
-    mean /= static_cast<double>(y.size());
-    std::vector<double> up;
-    for (std::size_t i = 1; i < t.size(); ++i)
-      if (y[i - 1] - mean < 0 && y[i] - mean >= 0) up.push_back(t[i]);
-    if (up.size() < 2)
-      throw InputError(fmt::format("{}: the angle log holds fewer than two oscillation cycles; give --f-hz", path));
-    f0 = static_cast<double>(up.size() - 1) / (up.back() - up.front());
-  }
-  if (!(f0 * span >= 1.0))
-    throw InputError(fmt::format("{}: the angle log spans {} s, less than one cycle of {} Hz; expected at least one",
-                                 path, format_number(span), format_number(f0)));
-  // Golden-section search of the RSS over f0 (1 +- 2 / (f0 span)) (a band of about two
-  // spectral resolutions), then the linear fit there.
-  double lo = f0 * (1.0 - std::min(0.2, 2.0 / (f0 * span))), hi = f0 * (1.0 + std::min(0.2, 2.0 / (f0 * span)));
-  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
-  double a = hi - g * (hi - lo), b = lo + g * (hi - lo);
-  double fa = drive_rss(t, y, a, nullptr), fb = drive_rss(t, y, b, nullptr);
-  for (int it = 0; it < 80; ++it) {
-    if (fa < fb) {
-      hi = b;
-      b = a;
-      fb = fa;
-      a = hi - g * (hi - lo);
-      fa = drive_rss(t, y, a, nullptr);
-    } else {
-      lo = a;
-      a = b;
-      fa = fb;
-      b = lo + g * (hi - lo);
-      fb = drive_rss(t, y, b, nullptr);
-    }
-  }
+  const double n = static_cast<double>(y.size());
+  double mean = 0, tss = 0;
+  for (const double v : y) mean += v;
+  mean /= n;
+  for (const double v : y) tss += (v - mean) * (v - mean);
   DriveFit d;
-  drive_rss(t, y, 0.5 * (lo + hi), &d);
+  d.f_Hz = s.omega / (2.0 * std::numbers::pi);
+  d.amplitude_rad = s.x0;
+  // x0 sin(omega t + psi): an upward zero crossing at omega t = -psi.
+  const double T = 1.0 / d.f_Hz;
+  d.t0_s = std::fmod(-s.psi / s.omega, T);
+  if (d.t0_s < 0) d.t0_s += T;
+  d.r2 = tss > 0 ? 1.0 - s.rms * s.rms * n / tss : 0.0;
   if (!(d.r2 >= 0.9))
     throw InputError(fmt::format("{}: a sinusoid explains {:.3f} of the angle log's variance; expected at least 0.9 "
                                  "(the lock-in needs a sinusoidal drive)",
@@ -304,7 +257,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     throw InputError(fmt::format("{}: attribute f_Hz = {}: expected 0 < f <= 1e6 Hz", o.input.string(), f));
   double t0 = 0.0;
   if (!o.log_path.empty()) {
-    const DriveFit d = fit_drive_log(o.log_path, f);
+    const DriveFit d = fit_drive_log(o.log_path);
     if (set(f) && std::abs(d.f_Hz - f) > kScaleTolerance * f)
       throw ConfigError(fmt::format("{}: the angle log oscillates at {:.6g} Hz, the fields say f = {} Hz: the inputs "
                                     "disagree by more than 1 %",

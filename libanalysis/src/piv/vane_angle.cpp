@@ -5,9 +5,8 @@
 #include <limits>
 #include <numbers>
 
-#include <Eigen/Dense>
-
 #include "shearzone/core/check.hpp"
+#include "shearzone/core/sine_fit.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/piv/piv.hpp"
 
@@ -111,25 +110,15 @@ VanePhaseFit fit_vane_phase(const std::vector<double>& t, const std::vector<doub
     out.phase_rad = std::numeric_limits<double>::quiet_NaN();
     return out;
   }
-  const double w = 2.0 * std::numbers::pi * f_Hz;
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d r = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d x(std::sin(w * t[i]), std::cos(w * t[i]), 1.0);
-    A += x * x.transpose();
-    r += y[i] * x;
-  }
-  const Eigen::Vector3d b = A.ldlt().solve(r);
-  // A sin + B cos = R sin(w t + phase), phase = atan2(B, A).
-  out.amplitude_rad = std::hypot(b(0), b(1));
-  out.phase_rad = std::atan2(b(1), b(0));
-  out.offset_rad = b(2);
-  double ss = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double e = y[i] - (b(0) * std::sin(w * t[i]) + b(1) * std::cos(w * t[i]) + b(2));
-    ss += e * e;
-  }
-  out.rms_rad = std::sqrt(ss / static_cast<double>(n));
+  const auto first = [n](const std::vector<double>& v) {
+    return std::vector<double>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n));
+  };
+  // A sin wt + B cos wt = R sin(w t + phase), phase = atan2(B, A).
+  const core::SineAt s = core::fit_sine_at(first(t), first(y), 2.0 * std::numbers::pi * f_Hz, 0.0, false);
+  out.amplitude_rad = std::hypot(s.A, s.B);
+  out.phase_rad = std::atan2(s.B, s.A);
+  out.offset_rad = s.C;
+  out.rms_rad = std::sqrt(s.rss / static_cast<double>(n));
   return out;
 }
 

@@ -48,6 +48,7 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/core/sine_fit.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/waveform.hpp"
 #include "shearzone/laos/harmonics.hpp"
@@ -139,16 +140,9 @@ int harmonic_cap(const std::vector<double>& drive, double x0, bool timed,
 /// Phase of angle-sampled data (step 2, without time); x0 > 0.
 std::vector<double> phase_from_drive(const std::vector<double>& drive, double offset, double x0);
 
-struct SineFit {
-  double omega = 0, x0 = 0, psi = 0, offset = 0, rms = 0;
-  double drift_per_s = 0;  ///< d of the drift term (0 without `drift`)
-};
-/// 4-parameter sine fit x(t) ≈ x0 sin(ω t + ψ) + c, with `drift` a 5th parameter, a
-/// linear drift d (t − t_mid) (a creeping angle under torque control would otherwise
-/// bias ψ and x0). `omega_guess` NaN: from crossings. Throws InputError (with
-/// `context`) when ω cannot be estimated.
-SineFit fit_sine(const std::vector<double>& t, const std::vector<double>& x, double omega_guess,
-                 const std::string& context, bool drift = false);
+/// The drive's sine fit (core/sine_fit.hpp).
+using core::SineFit;
+using core::fit_sine;
 
 /// One stored period (an Anton Paar measuring point): samples k = 0..N of exactly one
 /// drive period, the last equal to the first (InputError otherwise). The drive's

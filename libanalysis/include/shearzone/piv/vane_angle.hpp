@@ -33,8 +33,8 @@ double best_log_offset(const std::vector<double>& frame_t_s, const std::vector<d
                        double step_s);
 
 /// The sinusoid A sin(2 pi f t + phase) + c fitted to measured vane angles by linear
-/// least squares (f given). phase in (-pi, pi]; NaN when the frames span less than a
-/// quarter cycle (the phase is then not determined).
+/// least squares (f given; core::fit_sine_at about t = 0). phase in (-pi, pi]; NaN when
+/// the frames span less than a quarter cycle (the phase is then not determined).
 struct VanePhaseFit {
   double phase_rad = 0, amplitude_rad = 0, offset_rad = 0, rms_rad = 0;
 };
