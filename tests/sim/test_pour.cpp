@@ -50,3 +50,40 @@ TEST_CASE("2000 beads poured into a box settle without divergence (throughput)",
   CHECK(worst_overlap < 0.01);
   CHECK(d.active_contacts > 4000);
 }
+
+TEST_CASE("a lattice pour settles into a packing at rest under the solver it will be measured with",
+          "[sim]") {
+  LatticePour lp;
+  lp.count = 60;
+  lp.diameter = kD;
+  lp.density = kRho;
+  lp.seed = 5;
+  PourSettling st;
+  st.drop_max_steps = 4000;
+  st.relax_min_steps = 20;
+  st.relax_max_steps = 2000;
+  const SettledPour p = settle_lattice_pour(lp, st, [](Options& o) {
+    o.time_step = 1e-3;
+    o.tolerance = 1e-4;
+    o.max_iterations = 200;
+    o.anderson_depth = 3;
+  });
+  CHECK(p.layout.floor_side == 4);  // ceil(cbrt(60))
+  CHECK(p.drop_steps < st.drop_max_steps);
+  CHECK(p.drop_kinetic_energy < st.drop_kinetic_energy);
+  CHECK(p.relax_steps >= st.relax_min_steps);
+  CHECK(p.relax_steps < st.relax_max_steps);
+  CHECK(p.relax_kinetic_energy < st.relax_kinetic_energy);
+  // The packing carries the relaxation's solver and counts from step 0.
+  CHECK(p.state.options.time_step == 1e-3);
+  CHECK(p.state.options.anderson_depth == 3);
+  CHECK(p.state.options.friction == lp.wall_friction);
+  CHECK(p.state.step == 0);
+  CHECK(p.state.iteration_cap_hits == 0);
+  // At rest on the floor: every bead below the drop's top, none below the floor.
+  for (std::size_t b = 0; b < p.state.position.size(); ++b) {
+    if (p.state.kind[b] != BodyKind::kMobile) continue;
+    CHECK(p.state.position[b].z() > 0.5 * kD * (1 - 1e-3));
+    CHECK(p.state.position[b].z() + 0.5 * kD <= p.height * (1 + 1e-9));
+  }
+}

@@ -55,56 +55,6 @@ std::string cpu_model() {
   return "unknown CPU";
 }
 
-struct Packing {
-  sim::WorldState state;           // after the relaxation
-  std::int64_t relax_steps = 0;
-  double relaxed_kinetic_energy = 0.0;  // ½ m v² per bead / (m g d) after the relaxation
-  int floor_side = 0;  // beads along a floor edge (full layers)
-  int layers = 0;
-  std::int64_t settle_steps = 0;
-  double kinetic_energy = 0.0;  // final ½ m v² per bead / (m g d)
-  double height = 0.0;          // top of the highest bead (m)
-};
-
-/// Jittered-lattice placement in a box sized for `count`, dropped with the cheap solver.
-Packing pour(int count, std::uint64_t seed, std::int64_t max_steps) {
-  const double d = kDiameter;
-  sim::Options o;
-  o.time_step = kSettleStep;
-  o.friction = kFriction;
-  o.tolerance = kSettleTolerance;
-  o.max_iterations = kSettleIterations;
-  sim::World w(o);
-  sim::LatticePour lp;
-  lp.count = count;
-  lp.diameter = d;
-  lp.density = kDensity;
-  lp.pitch = kPitch;
-  lp.jitter = kJitter;
-  lp.wall_friction = kFriction;
-  lp.seed = seed;
-  const sim::LatticePourLayout layout = sim::add_lattice_pour(w, lp);
-  const int n = layout.floor_side, layer = layout.layers;
-  // At least the free fall of the gaps the lattice leaves in its column, plus one d.
-  const double drop = layer * (kPitch - 1.0) * d + d;
-  const auto min_steps = static_cast<std::int64_t>(std::ceil(2.0 * std::sqrt(2.0 * drop / 9.81) / kSettleStep));
-  const double mgd = kDensity * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
-  Packing p;
-  p.floor_side = n;
-  p.layers = layer;
-  for (std::int64_t s = 1; s <= max_steps; ++s) {
-    w.step();
-    p.settle_steps = s;
-    double ke = 0.0;
-    for (int b = 0; b < w.body_count(); ++b) ke += 0.5 * w.mass(b) * w.velocity(b).squaredNorm();
-    p.kinetic_energy = ke / count / mgd;
-    if (s >= min_steps && p.kinetic_energy < kSettleEnergy) break;
-  }
-  for (int b = 0; b < w.body_count(); ++b) p.height = std::max(p.height, w.position(b).z() + 0.5 * d);
-  p.state = w.state();
-  return p;
-}
-
 /// One engine solver of BenchSimOptions::solvers.
 struct SolverChoice {
   std::string name;  // alternate, forward, anderson
@@ -126,13 +76,11 @@ std::vector<SolverChoice> solver_choices(const BenchSimOptions& o) {
   return r;
 }
 
-/// A world on the settled state with the given h, tolerance and cap; the contact
-/// impulses (P = h R) are scaled to the new time step so the warm start stays a force.
+/// A world on the settled state with the given h, tolerance, cap, threads and solver
+/// (sim::at_time_step carries the impulses over to h).
 sim::World restart(const sim::WorldState& settled, double h, double tolerance, int cap, int threads,
                    int freeze_sweeps, const SolverChoice& solver) {
-  sim::WorldState s = settled;
-  const double ratio = h / s.options.time_step;
-  s.options.time_step = h;
+  sim::WorldState s = sim::at_time_step(settled, h);
   s.options.tolerance = tolerance;
   s.options.max_iterations = cap;
   s.options.threads = threads;
@@ -140,10 +88,6 @@ sim::World restart(const sim::WorldState& settled, double h, double tolerance, i
   solver.set(s.options);
   s.step = 0;
   s.iteration_cap_hits = 0;
-  for (auto& c : s.contacts) {
-    c.normal_impulse *= ratio;
-    c.tangential_impulse *= ratio;
-  }
   return sim::World::from_state(s);
 }
 
@@ -961,38 +905,49 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   const std::size_t total =
       o.beads.size() * o.threads.size() + o.accuracy_time_steps_s.size() * o.accuracy_max_iterations.size();
   std::size_t done = 0;
-  std::map<int, Packing> packings;
-  auto packing = [&](int count) -> const Packing& {
+  std::map<int, sim::SettledPour> packings;
+  auto packing = [&](int count) -> const sim::SettledPour& {
     auto it = packings.find(count);
     if (it == packings.end()) {
-      Packing p = pour(count, o.seed, o.settle_max_steps);
-      // Relax with the measured solver (one thread): the cheap drop leaves the beads
-      // jiggling (non-converged steps act like elasticity), which is not a packing at rest.
-      sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, 1, o.freeze_sweeps, solver_choices(o).front());
-      const double d = kDiameter;
-      const double mgd = kDensity * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
-      for (std::int64_t k = 1; k <= o.relax_max_steps; ++k) {
-        const sim::StepDiagnostics sd = w.step();
-        p.relax_steps = k;
-        double ke = 0.0;
-        for (int b = 0; b < w.body_count(); ++b) ke += 0.5 * w.mass(b) * w.velocity(b).squaredNorm();
-        p.relaxed_kinetic_energy = ke / count / mgd;
-        if (k >= o.relax_min_steps && !sd.hit_iteration_cap && p.relaxed_kinetic_energy < kRelaxEnergy) break;
-      }
-      sim::WorldState st = w.state();
-      st.step = 0;
-      st.iteration_cap_hits = 0;
-      p.state = st;
-      it = packings.emplace(count, std::move(p)).first;
+      sim::LatticePour lp;
+      lp.count = count;
+      lp.diameter = kDiameter;
+      lp.density = kDensity;
+      lp.pitch = kPitch;
+      lp.jitter = kJitter;
+      lp.wall_friction = kFriction;
+      lp.seed = o.seed;
+      sim::PourSettling st;
+      st.drop_time_step = kSettleStep;
+      st.drop_tolerance = kSettleTolerance;
+      st.drop_max_iterations = kSettleIterations;
+      st.drop_kinetic_energy = kSettleEnergy;
+      st.drop_max_steps = o.settle_max_steps;
+      st.relax_min_steps = o.relax_min_steps;
+      st.relax_max_steps = o.relax_max_steps;
+      st.relax_kinetic_energy = kRelaxEnergy;
+      // Relaxed with the measured solver (one thread).
+      const SolverChoice solver = solver_choices(o).front();
+      it = packings
+               .emplace(count, sim::settle_lattice_pour(lp, st,
+                                                        [&](sim::Options& so) {
+                                                          so.time_step = o.time_step_s;
+                                                          so.tolerance = o.tolerance;
+                                                          so.max_iterations = o.max_iterations;
+                                                          so.threads = 1;
+                                                          so.freeze_sweeps = o.freeze_sweeps;
+                                                          solver.set(so);
+                                                        }))
+               .first;
     }
     return it->second;
   };
   auto describe = [&](int count) {
-    const Packing& p = packing(count);
+    const sim::SettledPour& p = packing(count);
     return fmt::format("{} beads: {}x{} floor lattice, {} layers, dropped in {} steps to ½mv²/(mgd) = "
                        "{:.2e}, relaxed in {} steps to {:.2e}, top at {:.1f} mm",
-                       count, p.floor_side, p.floor_side, p.layers, p.settle_steps, p.kinetic_energy,
-                       p.relax_steps, p.relaxed_kinetic_energy, 1e3 * p.height);
+                       count, p.layout.floor_side, p.layout.floor_side, p.layout.layers, p.drop_steps,
+                       p.drop_kinetic_energy, p.relax_steps, p.relax_kinetic_energy, 1e3 * p.height);
   };
 
   core::Metadata base = header;
@@ -1019,7 +974,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   BenchSimSummary sum;
   std::vector<std::string> packing_lines;
   for (int count : o.beads) {
-    const Packing& p = packing(count);
+    const sim::SettledPour& p = packing(count);
     for (int threads : o.threads) {
       sim::World w = restart(p.state, o.time_step_s, o.tolerance, o.max_iterations, threads, o.freeze_sweeps, solver_choices(o).front());
       if (o.warmup_steps > 0) (void)timed(w, o.warmup_steps);
@@ -1059,7 +1014,7 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
 
   // 2. Accuracy against iterations and time step.
   std::vector<std::vector<std::string>> acc_rows;
-  const Packing& ap = packing(o.accuracy_beads);
+  const sim::SettledPour& ap = packing(o.accuracy_beads);
   for (double h : o.accuracy_time_steps_s)
     for (int cap : o.accuracy_max_iterations) {
       if (!(h > 0.0) || cap < 1) throw ConfigError("bench sim: accuracy grid needs h > 0 and cap >= 1");

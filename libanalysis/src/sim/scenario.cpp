@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
+#include <utility>
 
 #include "shearzone/sim/builder.hpp"
 
@@ -52,6 +54,61 @@ LatticePourLayout add_lattice_pour(World& w, const LatticePour& o) {
   }
   add_box_walls(w, BoxRegion{Vec3::Zero(), Vec3(side, side, top + d)}, o.wall_friction);
   return {n, layer, top};
+}
+
+namespace {
+
+/// Translational ½ m v² per bead over m g d.
+double kinetic_energy_per_mgd(const World& w, int beads, const LatticePour& pour) {
+  const double d = pour.diameter;
+  const double mgd = pour.density * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
+  double ke = 0.0;
+  for (int b = 0; b < w.body_count(); ++b) ke += 0.5 * w.mass(b) * w.velocity(b).squaredNorm();
+  return ke / beads / mgd;
+}
+
+}  // namespace
+
+SettledPour settle_lattice_pour(const LatticePour& pour, const PourSettling& st,
+                                const std::function<void(Options&)>& relax_solver) {
+  const double d = pour.diameter;
+  Options o;
+  o.time_step = st.drop_time_step;
+  o.friction = pour.wall_friction;
+  o.tolerance = st.drop_tolerance;
+  o.max_iterations = st.drop_max_iterations;
+  World w(o);
+  SettledPour p;
+  p.layout = add_lattice_pour(w, pour);
+  // At least the free fall of the gaps the lattice leaves in its column, plus one d.
+  const double drop = p.layout.layers * (pour.pitch - 1.0) * d + d;
+  const auto min_steps =
+      static_cast<std::int64_t>(std::ceil(2.0 * std::sqrt(2.0 * drop / 9.81) / st.drop_time_step));
+  for (std::int64_t s = 1; s <= st.drop_max_steps; ++s) {
+    w.step();
+    p.drop_steps = s;
+    p.drop_kinetic_energy = kinetic_energy_per_mgd(w, pour.count, pour);
+    if (s >= min_steps && p.drop_kinetic_energy < st.drop_kinetic_energy) break;
+  }
+  for (int b = 0; b < w.body_count(); ++b) p.height = std::max(p.height, w.position(b).z() + 0.5 * d);
+  WorldState dropped = w.state();
+  Options relax = dropped.options;
+  relax_solver(relax);
+  dropped = at_time_step(std::move(dropped), relax.time_step);
+  dropped.options = relax;
+  dropped.step = 0;  // the relaxation counts its own steps
+  dropped.iteration_cap_hits = 0;
+  World r = World::from_state(dropped);
+  for (std::int64_t k = 1; k <= st.relax_max_steps; ++k) {
+    const StepDiagnostics sd = r.step();
+    p.relax_steps = k;
+    p.relax_kinetic_energy = kinetic_energy_per_mgd(r, pour.count, pour);
+    if (k >= st.relax_min_steps && !sd.hit_iteration_cap && p.relax_kinetic_energy < st.relax_kinetic_energy) break;
+  }
+  p.state = r.state();
+  p.state.step = 0;
+  p.state.iteration_cap_hits = 0;
+  return p;
 }
 
 }  // namespace shearzone::sim

@@ -1642,6 +1642,18 @@ void World::rotor_torques() {
   }
 }
 
+WorldState at_time_step(WorldState s, double h) {
+  const double ratio = h / s.options.time_step;
+  s.options.time_step = h;
+  for (auto& c : s.contacts) {
+    c.normal_impulse *= ratio;
+    c.tangential_impulse *= ratio;
+  }
+  for (auto& r : s.ropes) r.impulse *= ratio;
+  for (auto& a : s.angles) a.impulse *= ratio;
+  return s;
+}
+
 WorldState World::state() const {
   WorldState s;
   s.options = opt_;

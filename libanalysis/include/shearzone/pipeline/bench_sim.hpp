@@ -10,9 +10,10 @@
 // close the lattice gaps, at most settle_max_steps), then relaxed with the measured h,
 // tolerance and cap on one thread (at least relax_min_steps, until a step converges with
 // a kinetic energy per bead below 1e-5 m g d, at most relax_max_steps): the cheap drop
-// leaves the beads jiggling, and the target is a packing at rest. The relaxed state is
-// then carried (positions, velocities and the contact impulses, scaled by the new h over
-// the old) into worlds with the measured options (World::from_state).
+// leaves the beads jiggling, and the target is a packing at rest (sim::settle_lattice_pour,
+// sim/scenario.hpp). The relaxed state is then carried (positions, velocities and the
+// impulses, scaled by the new h over the old: sim::at_time_step) into worlds with the
+// measured options (World::from_state).
 //  1. Speed (sim_speed.csv): per bead count and thread count, `warmup_steps` untimed then `steps` timed
 //     steps with h, tolerance and iteration cap (warm-started); wall-clock seconds of the
 //     timed steps only. row_updates counts every row visit of the NLGS sweeps,

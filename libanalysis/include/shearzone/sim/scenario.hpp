@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 
 #include "shearzone/sim/world.hpp"
 
@@ -51,5 +52,34 @@ struct LatticePourLayout {
 };
 /// Adds the beads, then the walls, of `pour` to `world`.
 LatticePourLayout add_lattice_pour(World& world, const LatticePour& pour);
+
+/// How a lattice pour becomes a packing at rest: dropped with a cheap solver until the
+/// translational ½ m v² per bead falls below drop_kinetic_energy m g d (after at least
+/// the free fall of the lattice's gaps plus one d, at most drop_max_steps), then relaxed
+/// with the solver to be measured (the cheap drop leaves the beads jiggling: its
+/// unconverged steps act like elasticity) for at least relax_min_steps until a step
+/// converges (no iteration cap hit) with ½ m v² per bead < relax_kinetic_energy m g d
+/// (at most relax_max_steps).
+struct PourSettling {
+  double drop_time_step = 5e-4;
+  double drop_tolerance = 1e-2;
+  int drop_max_iterations = 30;
+  double drop_kinetic_energy = 1e-3;
+  std::int64_t drop_max_steps = 20000;
+  std::int64_t relax_min_steps = 0, relax_max_steps = 20000;
+  double relax_kinetic_energy = 1e-5;
+};
+struct SettledPour {
+  WorldState state;  ///< relaxed, with the relaxation's options; step 0, no cap hits
+  LatticePourLayout layout;
+  std::int64_t drop_steps = 0, relax_steps = 0;
+  double drop_kinetic_energy = 0.0, relax_kinetic_energy = 0.0;  ///< at their ends, ½ m v² per bead / (m g d)
+  double height = 0.0;  ///< top of the highest bead after the drop (m)
+};
+/// `pour` dropped (default Options but for the drop's solver and the friction
+/// pour.wall_friction, beads and walls) and relaxed as `settling` says, with the solver
+/// that `relax_solver` sets on the drop's options (at_time_step carries the impulses over).
+SettledPour settle_lattice_pour(const LatticePour& pour, const PourSettling& settling,
+                                const std::function<void(Options&)>& relax_solver);
 
 }  // namespace shearzone::sim

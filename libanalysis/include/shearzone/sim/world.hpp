@@ -229,6 +229,11 @@ struct WorldState {
   std::vector<Rotor> rotors;
 };
 
+/// `state` to be continued at the time step h (World::from_state): every stored impulse
+/// (contacts, ropes, angles; an impulse is h times a force) scaled by h over the state's
+/// step, so that the warm start stays the same forces; the options' time_step set to h.
+[[nodiscard]] WorldState at_time_step(WorldState state, double h);
+
 // The solver's rows and scratch, private to the engine (src/sim/solver_rows.hpp).
 namespace detail {
 struct SolverBody;
