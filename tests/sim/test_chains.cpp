@@ -15,21 +15,32 @@ using namespace testutil;
 namespace {
 /// The bound for the hanging-chain tension (relative; docs/sim.md, "Accuracy").
 constexpr double kTension = 1e-4;
+
+/// A chain of n beads hanging from a fixed bead, bonds of `bond` (taut), converged to
+/// 1e-10 with h = 1e-3 s; its bead indices, the fixed one first.
+std::vector<int> hanging_chain(World& w, int n, double bond) {
+  std::vector<int> beads{w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
+  for (int k = 1; k <= n; ++k) beads.push_back(w.add_sphere(Vec3(0.0, 0.0, -k * bond), kD, kRho));
+  w.add_chain(beads, bond, std::numbers::pi);
+  return beads;
+}
+Options hanging_chain_options(Solver solver) {
+  Options o;
+  set_solver(o, solver);
+  o.time_step = 1e-3;
+  o.tolerance = 1e-10;
+  o.max_iterations = 20000;
+  return o;
+}
 }  // namespace
 
 TEST_CASE("A hanging chain: the rope tension at the top equals the weight below", "[sim]") {
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const int n = 10;
   const double bond = 1.2 * kD;  // d + l_max with l_max = 0.2 d
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 1e-3;
-  o.tolerance = 1e-10;
-  o.max_iterations = 20000;
+  const Options o = hanging_chain_options(solver);
   World w(o);
-  std::vector<int> beads{w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
-  for (int k = 1; k <= n; ++k) beads.push_back(w.add_sphere(Vec3(0.0, 0.0, -k * bond), kD, kRho));
-  w.add_chain(beads, bond, std::numbers::pi);
+  const std::vector<int> beads = hanging_chain(w, n, bond);
   StepDiagnostics d;
   for (int k = 0; k < 50; ++k) d = w.step();
   const double m = w.mass(beads[1]), h = o.time_step;
@@ -173,16 +184,9 @@ TEST_CASE("A straight chain falls freely: angle rows stay inactive (W_a guard)",
 TEST_CASE("A hanging chain continued at half the time step keeps its tensions from the first step (at_time_step)",
           "[sim]") {
   const int n = 10;
-  const double bond = 1.2 * kD;
-  Options o;
-  set_solver(o, Solver::forward);
-  o.time_step = 1e-3;
-  o.tolerance = 1e-10;
-  o.max_iterations = 20000;
+  const Options o = hanging_chain_options(Solver::forward);
   World w(o);
-  std::vector<int> beads{w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
-  for (int k = 1; k <= n; ++k) beads.push_back(w.add_sphere(Vec3(0.0, 0.0, -k * bond), kD, kRho));
-  w.add_chain(beads, bond, std::numbers::pi);
+  const std::vector<int> beads = hanging_chain(w, n, 1.2 * kD);
   for (int k = 0; k < 50; ++k) (void)w.step();
   const WorldState before = w.state();
   WorldState s = at_time_step(before, 0.5 * o.time_step);

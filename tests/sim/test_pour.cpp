@@ -53,15 +53,8 @@ TEST_CASE("2000 beads poured into a box settle without divergence (throughput)",
 
 TEST_CASE("a lattice pour settles into a packing at rest under the solver it will be measured with",
           "[sim]") {
-  LatticePour lp;
-  lp.count = 60;
-  lp.diameter = kD;
-  lp.density = kRho;
-  lp.seed = 5;
-  PourSettling st;
-  st.drop_max_steps = 4000;
-  st.relax_min_steps = 20;
-  st.relax_max_steps = 2000;
+  const LatticePour lp{.count = 60, .diameter = kD, .density = kRho, .seed = 5};
+  const PourSettling st{.drop_max_steps = 4000, .relax_min_steps = 20, .relax_max_steps = 2000};
   const SettledPour p = settle_lattice_pour(lp, st, [](Options& o) {
     o.time_step = 1e-3;
     o.tolerance = 1e-4;

@@ -22,14 +22,8 @@ namespace {
 
 /// The data-samples cup: radius 24 mm, 4 mm beads, a four-blade vane of radius 10 mm.
 synth::CupGeometry small_cup() {
-  synth::CupGeometry c;
-  c.bead_diameter_m = 0.004;
-  c.radius_m = 0.024;
-  c.height_m = 0.02;
-  c.vane_blades = 4;
-  c.vane_radius_m = 0.01;
-  c.vane_height_m = 0.02;
-  return c;
+  return {.bead_diameter_m = 0.004, .radius_m = 0.024, .height_m = 0.02, .vane_blades = 4, .vane_radius_m = 0.01,
+          .vane_height_m = 0.02};
 }
 
 /// A hexagonal layer of beads at height z in the annulus between the vane and the wall,

@@ -909,23 +909,12 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   auto packing = [&](int count) -> const sim::SettledPour& {
     auto it = packings.find(count);
     if (it == packings.end()) {
-      sim::LatticePour lp;
-      lp.count = count;
-      lp.diameter = kDiameter;
-      lp.density = kDensity;
-      lp.pitch = kPitch;
-      lp.jitter = kJitter;
-      lp.wall_friction = kFriction;
-      lp.seed = o.seed;
-      sim::PourSettling st;
-      st.drop_time_step = kSettleStep;
-      st.drop_tolerance = kSettleTolerance;
-      st.drop_max_iterations = kSettleIterations;
-      st.drop_kinetic_energy = kSettleEnergy;
-      st.drop_max_steps = o.settle_max_steps;
-      st.relax_min_steps = o.relax_min_steps;
-      st.relax_max_steps = o.relax_max_steps;
-      st.relax_kinetic_energy = kRelaxEnergy;
+      const sim::LatticePour lp{.count = count, .diameter = kDiameter, .density = kDensity, .pitch = kPitch,
+                                .jitter = kJitter, .wall_friction = kFriction, .seed = o.seed};
+      const sim::PourSettling st{.drop_time_step = kSettleStep, .drop_tolerance = kSettleTolerance,
+                                 .drop_max_iterations = kSettleIterations, .drop_kinetic_energy = kSettleEnergy,
+                                 .drop_max_steps = o.settle_max_steps, .relax_min_steps = o.relax_min_steps,
+                                 .relax_max_steps = o.relax_max_steps, .relax_kinetic_energy = kRelaxEnergy};
       // Relaxed with the measured solver (one thread).
       const SolverChoice solver = solver_choices(o).front();
       it = packings

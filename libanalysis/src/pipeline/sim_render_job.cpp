@@ -28,16 +28,9 @@ std::string num(double v) { return fmt::format("{:.17g}", v); }
 }  // namespace
 
 synth::CupGeometry filmed_geometry(const sim::FilmedCup& cup) {
-  synth::CupGeometry g;
-  g.bead_diameter_m = cup.bead_diameter_m;
-  g.centre_x_m = cup.cup_cx_m;
-  g.centre_y_m = cup.cup_cy_m;
-  g.radius_m = cup.cup_radius_m;
-  g.height_m = cup.cup_height_m;
-  g.vane_blades = cup.vane_blades;
-  g.vane_radius_m = cup.vane_radius_m;
-  g.vane_height_m = cup.vane_height_m;
-  return g;
+  return {.bead_diameter_m = cup.bead_diameter_m, .centre_x_m = cup.cup_cx_m, .centre_y_m = cup.cup_cy_m,
+          .radius_m = cup.cup_radius_m, .height_m = cup.cup_height_m, .vane_blades = cup.vane_blades,
+          .vane_radius_m = cup.vane_radius_m, .vane_height_m = cup.vane_height_m};
 }
 
 synth::CupBeads filmed_beads(sim::FrameBodies&& bodies) {
