@@ -275,132 +275,127 @@ void PivJobOptions::validate() const {
     throw ConfigError("--phase-auto finds the phase of the vane's sinusoid: it needs --vane, --f-hz and no --angle-log");
 }
 
-PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
-                          const core::ProgressCallback& progress) {
-  const auto t_start = std::chrono::steady_clock::now();
-  // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
-  o.validate();
-  io::check_output_allowed(o.output, o.force);
-  auto source = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
-  cv::Mat static_mask;
-  if (!o.mask_image.empty()) {
-    cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
-  }
-  VaneAngle vane_angle(o.vane);
-  // The vane angle seen in each selected frame, relative to angle0 (blade symmetry:
-  // within +-pi/blades), with the frame times.
-  auto measure_vane = [&](std::vector<double>& ts, std::vector<double>& phis) {
-    auto src = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
-    const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
-    const double half = std::numbers::pi / o.vane.geometry.blades;
-    io::Frame fr;
-    while (src->next(fr)) {
-      if (fr.index < o.first_frame) continue;
-      if (o.last_frame >= 0 && fr.index > o.last_frame) break;
-      ts.push_back(fr.t_s);
-      phis.push_back(piv::estimate_vane_angle(fr.gray, o.centre_x_px, o.centre_y_px,
-                                              o.vane.geometry, a0 - half, a0 + half) - a0);
-    }
-    if (ts.empty()) throw InputError(fmt::format("{}: no frame to measure the vane angle in", o.inputs.front()));
-  };
-  PivJobSummary sum;
-  sum.phase_rad = o.vane.phase_rad;
-  if (o.vane.phase_auto) {
-    std::vector<double> ts, phis;
-    measure_vane(ts, phis);
-    const auto fit = piv::fit_vane_phase(ts, phis, o.vane.f_Hz);
-    if (!std::isfinite(fit.phase_rad))
-      throw InputError(fmt::format("{}: {} frames span less than a quarter cycle of {} Hz: the vane phase cannot be "
-                                   "found; give --phase-rad",
-                                   o.inputs.front(), ts.size(), format_number(o.vane.f_Hz)));
-    // The fit must see the vane the options describe: an amplitude within 25 % of phi0.
-    if (!(std::abs(fit.amplitude_rad - std::abs(o.vane.phi0_rad)) <= 0.25 * std::abs(o.vane.phi0_rad)))
-      throw InputError(fmt::format("{}: the vane angle seen in the frames oscillates with amplitude {:.4g} rad, "
-                                   "--phi0-rad says {}: expected within 25 %; check --vane, --centre and "
-                                   "--vane-angle0-deg, or give --phase-rad",
-                                   o.inputs.front(), fit.amplitude_rad, format_number(o.vane.phi0_rad)));
-    // phi0 < 0 is the same sinusoid shifted by pi.
-    sum.phase_rad = o.vane.phi0_rad < 0 ? std::remainder(fit.phase_rad + std::numbers::pi, 2 * std::numbers::pi)
-                                        : fit.phase_rad;
-    sum.phase_rms_rad = fit.rms_rad;
-    sum.phase_amplitude_rad = fit.amplitude_rad;
-    vane_angle.set_phase(sum.phase_rad);
-  }
-  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto) {
-    // Align the log with the video: the vane angle measured in each selected frame
-    // against the log at t + offset.
-    std::vector<double> ts, phis;
-    measure_vane(ts, phis);
-    const double off = piv::best_log_offset(ts, phis, vane_angle.log_times(), vane_angle.log_angles(),
-                                            0.25 / source->fps());
-    if (std::isnan(off))
-      throw InputError(fmt::format(
-          "{}: the angle log spans {} s, less than the clip's {} s; it "
-          "cannot be aligned",
-          o.vane.log_path, format_number(vane_angle.log_times().back() - vane_angle.log_times().front()),
-          format_number(ts.back() - ts.front())));
-    vane_angle.set_log_offset(off);
-  }
+namespace {
 
-  // The background for subtraction: the temporal median of frames sampled evenly
-  // over the selected range (a first, separate read of the source).
-  cv::Mat background;
-  if (o.preprocess.background) {
-    auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
-    const std::int64_t hint = pre->size_hint();
-    const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
-    const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
-    const std::int64_t every =
-        span > 0 ? std::max<std::int64_t>(1, span / o.preprocess.background_frames) : 1;
-    std::vector<cv::Mat> sample;
-    io::Frame fr;
-    while (pre->next(fr) && static_cast<int>(sample.size()) < o.preprocess.background_frames) {
-      if (fr.index < o.first_frame || (last >= 0 && fr.index > last)) continue;
-      if ((fr.index - o.first_frame) % every == 0) sample.push_back(fr.gray.clone());
-    }
-    background = piv::temporal_median(sample);
+/// The vane angle seen in each selected frame, relative to angle0 (blade symmetry:
+/// within +-pi/blades), with the frame times.
+void measure_vane(const PivJobOptions& o, std::vector<double>& ts, std::vector<double>& phis) {
+  auto src = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
+  const double half = std::numbers::pi / o.vane.geometry.blades;
+  io::Frame fr;
+  while (src->next(fr)) {
+    if (fr.index < o.first_frame) continue;
+    if (o.last_frame >= 0 && fr.index > o.last_frame) break;
+    ts.push_back(fr.t_s);
+    phis.push_back(piv::estimate_vane_angle(fr.gray, o.centre_x_px, o.centre_y_px, o.vane.geometry, a0 - half,
+                                            a0 + half) -
+                   a0);
   }
-  // The mask of a frame: static, annulus, vane at the frame's time.
-  auto frame_mask = [&](const io::Frame& fr) {
+  if (ts.empty()) throw InputError(fmt::format("{}: no frame to measure the vane angle in", o.inputs.front()));
+}
+
+/// --phase-auto: the phase of the vane's sinusoid from the angles seen in the frames.
+void find_vane_phase(const PivJobOptions& o, VaneAngle& vane_angle, PivJobSummary& sum) {
+  std::vector<double> ts, phis;
+  measure_vane(o, ts, phis);
+  const auto fit = piv::fit_vane_phase(ts, phis, o.vane.f_Hz);
+  if (!std::isfinite(fit.phase_rad))
+    throw InputError(fmt::format("{}: {} frames span less than a quarter cycle of {} Hz: the vane phase cannot be "
+                                 "found; give --phase-rad",
+                                 o.inputs.front(), ts.size(), format_number(o.vane.f_Hz)));
+  // The fit must see the vane the options describe: an amplitude within 25 % of phi0.
+  if (!(std::abs(fit.amplitude_rad - std::abs(o.vane.phi0_rad)) <= 0.25 * std::abs(o.vane.phi0_rad)))
+    throw InputError(fmt::format("{}: the vane angle seen in the frames oscillates with amplitude {:.4g} rad, "
+                                 "--phi0-rad says {}: expected within 25 %; check --vane, --centre and "
+                                 "--vane-angle0-deg, or give --phase-rad",
+                                 o.inputs.front(), fit.amplitude_rad, format_number(o.vane.phi0_rad)));
+  // phi0 < 0 is the same sinusoid shifted by pi.
+  sum.phase_rad = o.vane.phi0_rad < 0 ? std::remainder(fit.phase_rad + std::numbers::pi, 2 * std::numbers::pi)
+                                      : fit.phase_rad;
+  sum.phase_rms_rad = fit.rms_rad;
+  sum.phase_amplitude_rad = fit.amplitude_rad;
+  vane_angle.set_phase(sum.phase_rad);
+}
+
+/// The angle log aligned with the video: the vane angle measured in each selected frame
+/// against the log at t + offset.
+void align_angle_log(const PivJobOptions& o, double fps, VaneAngle& vane_angle) {
+  std::vector<double> ts, phis;
+  measure_vane(o, ts, phis);
+  const double off =
+      piv::best_log_offset(ts, phis, vane_angle.log_times(), vane_angle.log_angles(), 0.25 / fps);
+  if (std::isnan(off))
+    throw InputError(fmt::format(
+        "{}: the angle log spans {} s, less than the clip's {} s; it "
+        "cannot be aligned",
+        o.vane.log_path, format_number(vane_angle.log_times().back() - vane_angle.log_times().front()),
+        format_number(ts.back() - ts.front())));
+  vane_angle.set_log_offset(off);
+}
+
+/// The background for subtraction: the temporal median of frames sampled evenly over
+/// the selected range (a first, separate read of the source).
+cv::Mat background_image(const PivJobOptions& o) {
+  auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  const std::int64_t hint = pre->size_hint();
+  const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
+  const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
+  const std::int64_t every = span > 0 ? std::max<std::int64_t>(1, span / o.preprocess.background_frames) : 1;
+  std::vector<cv::Mat> sample;
+  io::Frame fr;
+  while (pre->next(fr) && static_cast<int>(sample.size()) < o.preprocess.background_frames) {
+    if (fr.index < o.first_frame || (last >= 0 && fr.index > last)) continue;
+    if ((fr.index - o.first_frame) % every == 0) sample.push_back(fr.gray.clone());
+  }
+  return piv::temporal_median(sample);
+}
+
+/// The masks of a frame: static, annulus, vane at the frame's time (255 = masked).
+struct FrameMasks {
+  const PivJobOptions& o;
+  cv::Mat static_mask;
+  const VaneAngle& vane_angle;
+  [[nodiscard]] cv::Mat of(const io::Frame& fr) const {
     cv::Mat m = static_mask;
     if (o.annulus_outer_px > 0)
-      m = piv::combine_masks(m, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
-                                                  o.annulus_inner_px, o.annulus_outer_px));
+      m = piv::combine_masks(m, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px, o.annulus_inner_px,
+                                                  o.annulus_outer_px));
     if (o.vane.geometry.blades > 0)
       m = piv::combine_masks(m, piv::vane_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
-                                               vane_angle.at(fr.t_s, fr.label), o.vane.geometry,
-                                               o.vane.margin_px));
+                                               vane_angle.at(fr.t_s, fr.label), o.vane.geometry, o.vane.margin_px));
     return m;
-  };
-  // The texture's size, measured on the first frame used as PIV sees it (preprocessed,
-  // masked): the windows are sized to it (unless given), and `profile` bounds how far
-  // the footprint a vector averages over moves r_c.
+  }
+};
+
+/// The texture's size, measured on the first frame used as PIV sees it (preprocessed,
+/// masked): the windows are sized to it (unless given), and `profile` bounds how far
+/// the footprint a vector averages over moves r_c.
+piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, const cv::Mat& background,
+                             PivJobSummary& sum) {
   piv::PivOptions piv_options = o.piv;
-  {
-    auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
-    io::Frame fr;
-    while (pre->next(fr)) {
-      if (fr.index < o.first_frame || fr.damaged) continue;
-      if (o.last_frame >= 0 && fr.index > o.last_frame) break;
-      if (!static_mask.empty() && static_mask.size() != fr.gray.size()) break;  // refused below
-      const cv::Mat img = o.preprocess.any() ? piv::preprocess(fr.gray, o.preprocess, background) : fr.gray;
-      sum.texture_half_width_px = piv::texture_half_width_px(img, frame_mask(fr));
-      if (o.size_windows_to_texture)
-        piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
-      break;
-    }
+  auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  io::Frame fr;
+  while (pre->next(fr)) {
+    if (fr.index < o.first_frame || fr.damaged) continue;
+    if (o.last_frame >= 0 && fr.index > o.last_frame) break;
+    if (!masks.static_mask.empty() && masks.static_mask.size() != fr.gray.size()) break;  // refused later
+    const cv::Mat img = o.preprocess.any() ? piv::preprocess(fr.gray, o.preprocess, background) : fr.gray;
+    sum.texture_half_width_px = piv::texture_half_width_px(img, masks.of(fr));
+    if (o.size_windows_to_texture)
+      piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
+    break;
   }
   sum.windows_px = piv_options.windows_px;
-  const piv::PivEngine engine(piv_options);
-  const bool csv = io::is_field_csv(o.output);
+  return piv_options;
+}
 
-  // Step 2: stream the frames; keep the unique frames a pair still needs.
-  std::deque<std::shared_ptr<const Unique>> window;  // the last pair_spacing + 1 unique frames
-  std::size_t unique_count = 0;
-  io::AtomicOutput out(o.output, o.force);
-  io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
+/// The header of the fields: source, PIV options and how the windows were chosen, masks.
+core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header, const io::FrameSource& source,
+                            const piv::PivOptions& piv_options, const VaneAngle& vane_angle,
+                            const PivJobSummary& sum) {
   core::Metadata meta = header;
-  meta.emplace_back("source", source->description());
+  meta.emplace_back("source", source.description());
   meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
   for (auto& kv : piv_options.to_metadata()) meta.push_back(std::move(kv));
   if (o.size_windows_to_texture)
@@ -419,16 +414,17 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // What a vector is a mean over: `profile` reads these (root attributes of .h5 fields).
   meta.emplace_back("piv_final_window_px", std::to_string(piv_options.windows_px.back()));
   if (std::isfinite(sum.texture_half_width_px))
-    meta.emplace_back("texture_size_px", fmt::format("{:.4g}", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth));
+    meta.emplace_back("texture_size_px",
+                      fmt::format("{:.4g}", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth));
   for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
-  meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}",
-                                         o.pair_spacing, o.stride, o.first_frame,
+  meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}", o.pair_spacing,
+                                         o.stride, o.first_frame,
                                          o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
   if (o.annulus_outer_px > 0)
     meta.emplace_back("mask_annulus",
-                      fmt::format("centre ({}, {}) px, r in [{}, {}] px measured",
-                                  format_number(o.centre_x_px), format_number(o.centre_y_px),
-                                  format_number(o.annulus_inner_px), format_number(o.annulus_outer_px)));
+                      fmt::format("centre ({}, {}) px, r in [{}, {}] px measured", format_number(o.centre_x_px),
+                                  format_number(o.centre_y_px), format_number(o.annulus_inner_px),
+                                  format_number(o.annulus_outer_px)));
   if (!o.mask_image.empty()) meta.emplace_back("mask_image", o.mask_image);
   if (o.vane.geometry.blades > 0)
     meta.emplace_back(
@@ -448,6 +444,83 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                 : fmt::format("log {} at t + {} s{}", o.vane.log_path, format_number(vane_angle.log_offset()),
                               o.vane.log_offset_auto ? " (offset found from the video)" : "")));
   meta.emplace_back("units", "displacements in px per pair from frame a to frame b");
+  return meta;
+}
+
+/// fields.h5's root attributes: what profile and width read (docs/formats.md).
+void set_field_attributes(io::FieldFileWriter& fields, const PivJobOptions& o, const io::FrameSource& source,
+                          const core::Metadata& meta, const piv::PivOptions& piv_options,
+                          const VaneAngle& vane_angle, const PivJobSummary& sum) {
+  fields.set_attribute("fps", source.fps());
+  fields.set_attribute("source", source.description());
+  fields.set_attribute("options", metadata_text(meta));
+  std::string conv;
+  for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
+  fields.set_attribute("conventions", conv);
+  fields.set_attribute("shearzone_version", kVersion);
+  fields.set_attribute("piv_final_window_px", static_cast<double>(piv_options.windows_px.back()));
+  if (std::isfinite(sum.texture_half_width_px))
+    fields.set_attribute("texture_size_px", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth);
+  fields.set_attribute("duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
+  fields.set_attribute("damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
+  {
+    std::string list;
+    for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i) {
+      if (i) list += ',';  // (not "," + to_string: GCC 12 -Wrestrict false positive)
+      list += std::to_string(sum.damaged[i]);
+    }
+    if (sum.damaged.size() > 1000) list += ",...";
+    fields.set_attribute("damaged_frames", list.empty() ? std::string("none") : list);
+  }
+  // The drive the vane mask followed: what `profile` locks its phase to.
+  if (o.vane.geometry.blades > 0 && o.vane.log_path.empty() && o.vane.f_Hz > 0)
+    fields.set_attribute("vane_phase_rad", vane_angle.phase());
+  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty()) {
+    fields.set_attribute("vane_angle_log", o.vane.log_path);
+    fields.set_attribute("vane_log_offset_s", vane_angle.log_offset());
+  }
+  if (!std::isnan(o.centre_x_px)) {
+    fields.set_attribute("centre_x_px", o.centre_x_px);
+    fields.set_attribute("centre_y_px", o.centre_y_px);
+  }
+  for (const auto& [k, v] : o.attributes) {
+    double x = 0;
+    if (io::parse_number(v, false, x)) fields.set_attribute(k, x);
+    else fields.set_attribute(k, v);
+  }
+}
+
+}  // namespace
+
+PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
+                          const core::ProgressCallback& progress) {
+  const auto t_start = std::chrono::steady_clock::now();
+  // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
+  o.validate();
+  io::check_output_allowed(o.output, o.force);
+  auto source = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  cv::Mat static_mask;
+  if (!o.mask_image.empty()) {
+    cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
+  }
+  VaneAngle vane_angle(o.vane);
+  PivJobSummary sum;
+  sum.phase_rad = o.vane.phase_rad;
+  if (o.vane.phase_auto) find_vane_phase(o, vane_angle, sum);
+  if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty() && o.vane.log_offset_auto)
+    align_angle_log(o, source->fps(), vane_angle);
+  const cv::Mat background = o.preprocess.background ? background_image(o) : cv::Mat();
+  const FrameMasks masks{o, static_mask, vane_angle};
+  const piv::PivOptions piv_options = size_windows(o, masks, background, sum);
+  const piv::PivEngine engine(piv_options);
+  const bool csv = io::is_field_csv(o.output);
+
+  // Step 2: stream the frames; keep the unique frames a pair still needs.
+  std::deque<std::shared_ptr<const Unique>> window;  // the last pair_spacing + 1 unique frames
+  std::size_t unique_count = 0;
+  io::AtomicOutput out(o.output, o.force);
+  io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
+  const core::Metadata meta = piv_metadata(o, header, *source, piv_options, vane_angle, sum);
 
   std::size_t pair_index = 0;
   const std::int64_t hint = source->size_hint();
@@ -521,7 +594,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     u.frame = frame;
     u.frame.gray = frame.gray.clone();
     u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
-    u.mask = frame_mask(frame);
+    u.mask = masks.of(frame);
     window.push_back(std::move(up));
     ++unique_count;
     if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();
@@ -554,43 +627,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
 
   // Step 4: root attributes and commit.
   if (fields.started()) {
-    fields.set_attribute("fps", source->fps());
-    fields.set_attribute("source", source->description());
-    fields.set_attribute("options", metadata_text(meta));
-    std::string conv;
-    for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
-    fields.set_attribute("conventions", conv);
-    fields.set_attribute("shearzone_version", kVersion);
-    fields.set_attribute("piv_final_window_px", static_cast<double>(piv_options.windows_px.back()));
-    if (std::isfinite(sum.texture_half_width_px))
-      fields.set_attribute("texture_size_px", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth);
-    fields.set_attribute("duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
-    fields.set_attribute("damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
-    {
-      std::string list;
-      for (std::size_t i = 0; i < sum.damaged.size() && i < 1000; ++i) {
-        if (i) list += ',';  // (not "," + to_string: GCC 12 -Wrestrict false positive)
-        list += std::to_string(sum.damaged[i]);
-      }
-      if (sum.damaged.size() > 1000) list += ",...";
-      fields.set_attribute("damaged_frames", list.empty() ? std::string("none") : list);
-    }
-    // The drive the vane mask followed: what `profile` locks its phase to.
-    if (o.vane.geometry.blades > 0 && o.vane.log_path.empty() && o.vane.f_Hz > 0)
-      fields.set_attribute("vane_phase_rad", vane_angle.phase());
-    if (o.vane.geometry.blades > 0 && !o.vane.log_path.empty()) {
-      fields.set_attribute("vane_angle_log", o.vane.log_path);
-      fields.set_attribute("vane_log_offset_s", vane_angle.log_offset());
-    }
-    if (!std::isnan(o.centre_x_px)) {
-      fields.set_attribute("centre_x_px", o.centre_x_px);
-      fields.set_attribute("centre_y_px", o.centre_y_px);
-    }
-    for (const auto& [k, v] : o.attributes) {
-      double x = 0;
-      if (io::parse_number(v, false, x)) fields.set_attribute(k, x);
-      else fields.set_attribute(k, v);
-    }
+    set_field_attributes(fields, o, *source, meta, piv_options, vane_angle, sum);
     fields.close();
   }
   out.commit();
