@@ -428,14 +428,11 @@ const std::vector<std::string>& study_rules() {
 
 std::string study_branch_name(double phi0_rad) { return sim::SceneProtocol::branch_folder(phi0_rad); }
 
-Study load_study(const fs::path& file, const KnownOption& known_option, const OptionNames& option_names,
-                 const CheckStage& check_stage) {
-  const io::TomlConfig c = io::TomlConfig::load(file);
-  const Reader r(c, known_option, option_names, check_stage);
-  Study s;
-  s.file = fs::absolute(file).lexically_normal();
+namespace {
 
-  // Every key, known: the fixed ones, the named tables, the stages' options.
+/// Every key of the study file known: the fixed ones, the named tables, the stages'
+/// options and the slurm rules (an unknown key names its nearest known one).
+void check_known_keys(const io::TomlConfig& c, const Reader& r) {
   const std::set<std::string> fixed{
       "lab.f_Hz", "lab.clip_glob.files", "lab.clip_glob.pattern", "lab.clip_glob.N", "lab.clip_glob.phi0_rad",
       "lab.clip_glob.f_Hz", "lab.log_glob.files", "lab.log_glob.pattern", "lab.log_glob.N",
@@ -479,10 +476,11 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
     }
   }
 
-  // ---- lab: clips ----
-  const double lab_f = c.has("lab.f_Hz") ? r.positive("lab.f_Hz", 1000) : 0.0;
-  std::set<std::string> names;
-  std::set<std::string> clip_tables, log_tables;
+}
+
+/// The names of the [lab.clips.NAME] and [lab.logs.NAME] tables.
+void named_tables(const io::TomlConfig& c, const Reader& r, std::set<std::string>& clip_tables,
+                  std::set<std::string>& log_tables) {
   for (const std::string& key : c.keys()) {
     for (const auto& [prefix, set] : {std::pair<std::string, std::set<std::string>*>{"lab.clips.", &clip_tables},
                                       std::pair<std::string, std::set<std::string>*>{"lab.logs.", &log_tables}}) {
@@ -494,6 +492,12 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
       set->insert(rest.substr(0, dot));
     }
   }
+}
+
+/// The clips: [lab.clips.NAME] tables and lab.clip_glob (f_Hz by default lab_f); their
+/// names go into `names` (every clip's and log's, each once).
+void read_clips(const io::TomlConfig& c, const Reader& r, const std::set<std::string>& clip_tables, double lab_f,
+                Study& s, std::set<std::string>& names) {
   for (const std::string& name : clip_tables) {
     const std::string t = "lab.clips." + name;
     if (!valid_name(name)) r.fail(t + ".video", fmt::format("clip name \"{}\" (expected up to 100 letters, digits, _ - . +)", name));
@@ -538,7 +542,11 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
       r.fail(c.has("lab.clip_glob.files") ? "lab.clip_glob.files" : "lab.clips." + cl.name + ".video",
              fmt::format("two clips named \"{}\" (each clip's outputs go to lab/clips/NAME)", cl.name));
 
-  // ---- lab: torque logs ----
+}
+
+/// The torque logs: [lab.logs.NAME] tables and lab.log_glob.
+void read_logs(const io::TomlConfig& c, const Reader& r, const std::set<std::string>& log_tables, Study& s,
+               std::set<std::string>& names) {
   for (const std::string& name : log_tables) {
     const std::string t = "lab.logs." + name;
     if (!valid_name(name)) r.fail(t + ".file", fmt::format("log name \"{}\" (expected up to 100 letters, digits, _ - . +)", name));
@@ -562,149 +570,148 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
       r.fail(c.has("lab.log_glob.files") ? "lab.log_glob.files" : "lab.logs." + l.name + ".file",
              fmt::format("log name \"{}\" used twice or not letters, digits, _ - . + (outputs go to lab/logs/NAME)",
                          l.name));
-  s.lab_piv = r.stage_args("lab.piv", "piv");
-  s.lab_profile = r.stage_args("lab.profile", "profile");
-  s.lab_width = r.stage_args("lab.width", "width");
-  s.lab_laos = r.stage_args("lab.laos", "laos");
 
-  // ---- simulation ----
-  bool any_sim = false;
-  for (const std::string& key : c.keys()) any_sim = any_sim || key.rfind("sim.", 0) == 0;
-  if (any_sim) {
-    if (!c.has("sim.scene")) {
-      std::string first;
-      for (const std::string& key : c.keys())
-        if (first.empty() && key.rfind("sim.", 0) == 0) first = key;
-      r.fail(first, "[sim] has no scene (expected sim.scene, a cup scene with [vane], [camera] and [protocol])");
-    }
-    s.scene = r.existing_file("sim.scene");
-    sim::LoadedScene checked;
+}
+
+/// [sim]'s cup scene, checked as the simulator reads it, its branches' amplitudes,
+/// frequency, cycles and threads; the scene as checked.
+sim::LoadedScene read_sim_scene(const io::TomlConfig& c, const Reader& r, Study& s) {
+  if (!c.has("sim.scene")) {
+    std::string first;
+    for (const std::string& key : c.keys())
+      if (first.empty() && key.rfind("sim.", 0) == 0) first = key;
+    r.fail(first, "[sim] has no scene (expected sim.scene, a cup scene with [vane], [camera] and [protocol])");
+  }
+  s.scene = r.existing_file("sim.scene");
+  sim::LoadedScene checked;
+  try {
+    checked = sim::load_scene(s.scene, true);
+  } catch (const Error& e) {
+    throw ConfigError(fmt::format("{} (the scene of {}:{}: key \"sim.scene\")", e.what(), c.source(),
+                                  c.line("sim.scene")));
+  }
+  if (!checked.protocol || !checked.camera)
+    r.fail("sim.scene", fmt::format("{}: a study's cup scene needs [vane], [camera] and [protocol] (docs/sim.md)",
+                                    s.scene.string()));
+  const sim::SceneProtocol& p = *checked.protocol;
+  s.sim_phi0_rad = c.has("sim.phi0_rad") ? r.numbers("sim.phi0_rad") : p.phi0_rad;
+  std::set<std::string> branch_names;
+  for (const double a : s.sim_phi0_rad) {
+    if (!(a > 0 && a <= 100)) r.fail("sim.phi0_rad", fmt::format("{} (expected 0 < phi0 <= 100 rad)", io::format_number(a)));
+    if (!branch_names.insert(study_branch_name(a)).second)
+      r.fail("sim.phi0_rad", fmt::format("{} appears twice", io::format_number(a)));
+  }
+  s.sim_f_Hz = c.has("sim.f_Hz") ? r.positive("sim.f_Hz", 1000) : p.f_Hz;
+  s.sim_cycles = c.has("sim.cycles") ? r.positive("sim.cycles", 1e6) : p.cycles;
+  s.sim_threads = c.has("sim.threads") ? static_cast<int>(r.integers("sim.threads", 1, 256)[0]) : 1;
+  // Every branch's drive as `sim --phi0 --f-hz --cycles` will check it, before any job.
+  for (const double a : s.sim_phi0_rad) {
     try {
-      checked = sim::load_scene(s.scene, true);
-    } catch (const Error& e) {
-      throw ConfigError(fmt::format("{} (the scene of {}:{}: key \"sim.scene\")", e.what(), c.source(),
-                                    c.line("sim.scene")));
+      sim::validate_branch(checked.world->options().sectors, checked.world->options().time_step, 0.0, a,
+                           s.sim_f_Hz, s.sim_cycles);
+    } catch (const ConfigError& e) {
+      const std::string what = e.what();
+      // The key at fault: the option the message names (a branch too long: the cycles or
+      // the frequency), else the scene whose protocol gave the value.
+      const std::vector<const char*> keys = what.rfind("--phi0", 0) == 0   ? std::vector{"sim.phi0_rad"}
+                                            : what.rfind("--f-hz", 0) == 0 ? std::vector{"sim.f_Hz"}
+                                                                           : std::vector{"sim.cycles", "sim.f_Hz"};
+      std::string key = "sim.scene";
+      for (const char* k : keys)
+        if (key == "sim.scene" && c.has(k)) key = k;
+      r.fail(key, fmt::format("the branch at phi0 = {} rad: {}", io::format_number(a), what));
     }
-    if (!checked.protocol || !checked.camera)
-      r.fail("sim.scene", fmt::format("{}: a study's cup scene needs [vane], [camera] and [protocol] (docs/sim.md)",
-                                      s.scene.string()));
-    const sim::SceneProtocol& p = *checked.protocol;
-    s.sim_phi0_rad = c.has("sim.phi0_rad") ? r.numbers("sim.phi0_rad") : p.phi0_rad;
-    std::set<std::string> branch_names;
-    for (const double a : s.sim_phi0_rad) {
-      if (!(a > 0 && a <= 100)) r.fail("sim.phi0_rad", fmt::format("{} (expected 0 < phi0 <= 100 rad)", io::format_number(a)));
-      if (!branch_names.insert(study_branch_name(a)).second)
-        r.fail("sim.phi0_rad", fmt::format("{} appears twice", io::format_number(a)));
-    }
-    s.sim_f_Hz = c.has("sim.f_Hz") ? r.positive("sim.f_Hz", 1000) : p.f_Hz;
-    s.sim_cycles = c.has("sim.cycles") ? r.positive("sim.cycles", 1e6) : p.cycles;
-    s.sim_threads = c.has("sim.threads") ? static_cast<int>(r.integers("sim.threads", 1, 256)[0]) : 1;
-    // Every branch's drive as `sim --phi0 --f-hz --cycles` will check it, before any job.
-    for (const double a : s.sim_phi0_rad) {
-      try {
-        sim::validate_branch(checked.world->options().sectors, checked.world->options().time_step, 0.0, a,
-                             s.sim_f_Hz, s.sim_cycles);
-      } catch (const ConfigError& e) {
-        const std::string what = e.what();
-        // The key at fault: the option the message names (a branch too long: the cycles or
-        // the frequency), else the scene whose protocol gave the value.
-        const std::vector<const char*> keys = what.rfind("--phi0", 0) == 0   ? std::vector{"sim.phi0_rad"}
-                                              : what.rfind("--f-hz", 0) == 0 ? std::vector{"sim.f_Hz"}
-                                                                             : std::vector{"sim.cycles", "sim.f_Hz"};
-        std::string key = "sim.scene";
-        for (const char* k : keys)
-          if (key == "sim.scene" && c.has(k)) key = k;
-        r.fail(key, fmt::format("the branch at phi0 = {} rad: {}", io::format_number(a), what));
-      }
-    }
-    // The scene's own chain values unless the study sets a grid.
-    const OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
-    const auto scene_number = [&](const char* table, const char* key, double def) {
-      if (!tmpl.contains(table) || !tmpl.at(table).contains(key)) return def;
-      const auto& v = tmpl.at(table).at(key);
-      return v.is_integer() ? static_cast<double>(v.as_integer()) : v.as_floating();
-    };
-    std::vector<long long> Ns = c.has("sim.N") ? r.integers("sim.N", 1, 100000)
-                                               : std::vector<long long>{static_cast<long long>(checked.beads_per_chain)};
-    std::vector<double> lmax = c.has("sim.l_max_m") ? r.numbers("sim.l_max_m")
-                                                    : std::vector<double>{scene_number("chains", "l_max_m", 0.0)};
-    std::vector<double> angle = c.has("sim.max_angle_deg") ? r.numbers("sim.max_angle_deg")
-                                                           : std::vector<double>{scene_number("chains", "max_angle_deg", 180.0)};
-    std::vector<long long> seeds = c.has("sim.seeds") ? r.integers("sim.seeds", 0, (1LL << 53))
-                                                      : std::vector<long long>{static_cast<long long>(scene_number("fill", "seed", 1))};
-    const long long beads = c.has("sim.beads") ? r.integers("sim.beads", 1, 100000000)[0] : 0;
-    for (const double l : lmax)
-      if (!(l >= 0)) r.fail("sim.l_max_m", fmt::format("{} (expected >= 0 m)", io::format_number(l)));
+  }
+  return checked;
+}
+
+/// [sim]'s grid: a group per N x l_max_m x max_angle_deg x seed, each with its scene.
+void read_sim_grid(const io::TomlConfig& c, const Reader& r, const sim::LoadedScene& checked, Study& s) {
+  // The scene's own chain values unless the study sets a grid.
+  const OrderedToml tmpl = toml::parse<toml::discard_comments, std::map, std::vector>(s.scene.string());
+  const auto scene_number = [&](const char* table, const char* key, double def) {
+    if (!tmpl.contains(table) || !tmpl.at(table).contains(key)) return def;
+    const auto& v = tmpl.at(table).at(key);
+    return v.is_integer() ? static_cast<double>(v.as_integer()) : v.as_floating();
+  };
+  std::vector<long long> Ns = c.has("sim.N") ? r.integers("sim.N", 1, 100000)
+                                             : std::vector<long long>{static_cast<long long>(checked.beads_per_chain)};
+  std::vector<double> lmax = c.has("sim.l_max_m") ? r.numbers("sim.l_max_m")
+                                                  : std::vector<double>{scene_number("chains", "l_max_m", 0.0)};
+  std::vector<double> angle = c.has("sim.max_angle_deg") ? r.numbers("sim.max_angle_deg")
+                                                         : std::vector<double>{scene_number("chains", "max_angle_deg", 180.0)};
+  std::vector<long long> seeds = c.has("sim.seeds") ? r.integers("sim.seeds", 0, (1LL << 53))
+                                                    : std::vector<long long>{static_cast<long long>(scene_number("fill", "seed", 1))};
+  const long long beads = c.has("sim.beads") ? r.integers("sim.beads", 1, 100000000)[0] : 0;
+  for (const double l : lmax)
+    if (!(l >= 0)) r.fail("sim.l_max_m", fmt::format("{} (expected >= 0 m)", io::format_number(l)));
+  for (const double a : angle)
+    if (!(a > 0 && a <= 180)) r.fail("sim.max_angle_deg", fmt::format("{} (expected 0 < angle <= 180 deg)", io::format_number(a)));
+  // A value given twice would weigh its branch twice in every fit.
+  const auto once = [&](const char* key, std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const auto d = std::adjacent_find(v.begin(), v.end());
+    if (d != v.end()) r.fail(key, fmt::format("{} appears twice (a grid lists each value once)", io::format_number(*d)));
+  };
+  once("sim.N", std::vector<double>(Ns.begin(), Ns.end()));
+  once("sim.seeds", std::vector<double>(seeds.begin(), seeds.end()));
+  once("sim.l_max_m", lmax);
+  once("sim.max_angle_deg", angle);
+  const std::size_t points = lmax.size() * angle.size() * Ns.size() * seeds.size();
+  if (points > kMaxGridPoints)
+    r.fail(seeds.size() > 1 ? "sim.seeds" : c.has("sim.N") ? "sim.N" : c.has("sim.l_max_m") ? "sim.l_max_m" : "sim.scene",
+           fmt::format("a grid of {} points (N x l_max_m x max_angle_deg x seeds = {} x {} x {} x {}); at most {}",
+                       points, Ns.size(), lmax.size(), angle.size(), seeds.size(), kMaxGridPoints));
+  for (const auto N : Ns)
+    if (beads > 0 && beads / N < 1)
+      r.fail("sim.beads", fmt::format("{} beads make no chain of N = {}", beads, N));
+  for (const double l : lmax)
     for (const double a : angle)
-      if (!(a > 0 && a <= 180)) r.fail("sim.max_angle_deg", fmt::format("{} (expected 0 < angle <= 180 deg)", io::format_number(a)));
-    // A value given twice would weigh its branch twice in every fit.
-    const auto once = [&](const char* key, std::vector<double> v) {
-      std::sort(v.begin(), v.end());
-      const auto d = std::adjacent_find(v.begin(), v.end());
-      if (d != v.end()) r.fail(key, fmt::format("{} appears twice (a grid lists each value once)", io::format_number(*d)));
-    };
-    once("sim.N", std::vector<double>(Ns.begin(), Ns.end()));
-    once("sim.seeds", std::vector<double>(seeds.begin(), seeds.end()));
-    once("sim.l_max_m", lmax);
-    once("sim.max_angle_deg", angle);
-    const std::size_t points = lmax.size() * angle.size() * Ns.size() * seeds.size();
-    if (points > kMaxGridPoints)
-      r.fail(seeds.size() > 1 ? "sim.seeds" : c.has("sim.N") ? "sim.N" : c.has("sim.l_max_m") ? "sim.l_max_m" : "sim.scene",
-             fmt::format("a grid of {} points (N x l_max_m x max_angle_deg x seeds = {} x {} x {} x {}); at most {}",
-                         points, Ns.size(), lmax.size(), angle.size(), seeds.size(), kMaxGridPoints));
-    for (const auto N : Ns)
-      if (beads > 0 && beads / N < 1)
-        r.fail("sim.beads", fmt::format("{} beads make no chain of N = {}", beads, N));
-    for (const double l : lmax)
-      for (const double a : angle)
-        for (const auto N : Ns)
-          for (const auto seed : seeds) {
-            StudySimGroup g;
-            g.N = static_cast<int>(N);
-            g.l_max_m = l;
-            g.max_angle_deg = a;
-            g.seed = seed;
-            g.dataset = fmt::format("sim_l{}_a{}", l, a);
-            g.name = fmt::format("N{}_l{}_a{}_s{}", N, l, a, seed);
-            g.scene_text = group_scene(s.scene, tmpl, g, c.has("sim.N"), c.has("sim.l_max_m"), c.has("sim.max_angle_deg"),
-                                       beads, s.sim_threads);
-            s.groups.push_back(std::move(g));
-          }
-    // Each generated scene as the simulator will read it, before the output folder exists
-    // (a refusal then leaves nothing behind): written to a file of its own in the system's
-    // temporary folder, loaded, removed.
-    const fs::path probe = fs::temp_directory_path() / fmt::format("shearzone-study-{}.toml", ::getpid());
-    for (const auto& g : s.groups) {
-      {
-        std::ofstream f(probe, std::ios::trunc);
-        f << g.scene_text;
-        if (!f) throw ConfigError(fmt::format("{}: cannot write a scene to check it", probe.string()));
-      }
-      try {
-        (void)sim::load_scene(probe, true);
-      } catch (const Error& e) {
-        std::error_code ec;
-        fs::remove(probe, ec);
-        std::string what = e.what();
-        if (const auto at = what.find(probe.string()); at != std::string::npos)
-          what.replace(at, probe.string().size(), "the scene of group " + g.name);
-        throw ConfigError(fmt::format("{} (generated from {} by {})", what, s.scene.string(), c.source()));
-      }
+      for (const auto N : Ns)
+        for (const auto seed : seeds) {
+          StudySimGroup g;
+          g.N = static_cast<int>(N);
+          g.l_max_m = l;
+          g.max_angle_deg = a;
+          g.seed = seed;
+          g.dataset = fmt::format("sim_l{}_a{}", l, a);
+          g.name = fmt::format("N{}_l{}_a{}_s{}", N, l, a, seed);
+          g.scene_text = group_scene(s.scene, tmpl, g, c.has("sim.N"), c.has("sim.l_max_m"), c.has("sim.max_angle_deg"),
+                                     beads, s.sim_threads);
+          s.groups.push_back(std::move(g));
+        }
+}
+
+/// Each generated scene as the simulator will read it, before the output folder exists
+/// (a refusal then leaves nothing behind): written to a file of its own in the system's
+/// temporary folder, loaded, removed.
+void check_group_scenes(const io::TomlConfig& c, const Study& s) {
+  const fs::path probe = fs::temp_directory_path() / fmt::format("shearzone-study-{}.toml", ::getpid());
+  for (const auto& g : s.groups) {
+    {
+      std::ofstream f(probe, std::ios::trunc);
+      f << g.scene_text;
+      if (!f) throw ConfigError(fmt::format("{}: cannot write a scene to check it", probe.string()));
     }
-    if (!s.groups.empty()) {
+    try {
+      (void)sim::load_scene(probe, true);
+    } catch (const Error& e) {
       std::error_code ec;
       fs::remove(probe, ec);
+      std::string what = e.what();
+      if (const auto at = what.find(probe.string()); at != std::string::npos)
+        what.replace(at, probe.string().size(), "the scene of group " + g.name);
+      throw ConfigError(fmt::format("{} (generated from {} by {})", what, s.scene.string(), c.source()));
     }
-    s.sim_render = r.stage_args("sim.render", "render");
-    s.sim_piv = r.stage_args("sim.piv", "piv");
-    s.sim_profile = r.stage_args("sim.profile", "profile");
-    s.sim_width = r.stage_args("sim.width", "width");
-    s.sim_laos = r.stage_args("sim.laos", "laos");
   }
-  if (s.clips.empty() && s.logs.empty() && s.groups.empty())
-    throw ConfigError(fmt::format("{}: no clip, no torque log and no [sim]: nothing to study (docs/study.md)",
-                                  c.source()));
+  if (!s.groups.empty()) {
+    std::error_code ec;
+    fs::remove(probe, ec);
+  }
+}
 
+/// The fits' options and weights.
+void read_fits(const io::TomlConfig& c, const Reader& r, Study& s) {
   s.fit_erf = r.stage_args("fits.erf", "erf");
   s.fit_power = r.stage_args("fits.power", "power");
   s.collapse_erf = r.stage_args("fits.collapse", "collapse");
@@ -715,7 +722,10 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
     s.fit_weigh_intervals = w == "intervals";
   }
 
-  // ---- slurm ----
+}
+
+/// [slurm]: the defaults and each rule's own.
+void read_slurm(const io::TomlConfig& c, const Reader& r, Study& s) {
   if (c.has("slurm.partition")) s.slurm.partition = r.str("slurm.partition");
   if (c.has("slurm.time_min")) s.slurm.time_min = r.integers("slurm.time_min", 1, 10000000)[0];
   if (c.has("slurm.mem_mb")) s.slurm.mem_mb = r.integers("slurm.mem_mb", 1, 100000000)[0];
@@ -727,6 +737,45 @@ Study load_study(const fs::path& file, const KnownOption& known_option, const Op
     if (c.has(t + ".mem_mb")) rr.mem_mb = r.integers(t + ".mem_mb", 1, 100000000)[0];
     s.slurm.rules[rule] = rr;
   }
+}
+
+}  // namespace
+
+Study load_study(const fs::path& file, const KnownOption& known_option, const OptionNames& option_names,
+                 const CheckStage& check_stage) {
+  const io::TomlConfig c = io::TomlConfig::load(file);
+  const Reader r(c, known_option, option_names, check_stage);
+  Study s;
+  s.file = fs::absolute(file).lexically_normal();
+  check_known_keys(c, r);
+  // The lab: clips and torque logs, each name once.
+  const double lab_f = c.has("lab.f_Hz") ? r.positive("lab.f_Hz", 1000) : 0.0;
+  std::set<std::string> names, clip_tables, log_tables;
+  named_tables(c, r, clip_tables, log_tables);
+  read_clips(c, r, clip_tables, lab_f, s, names);
+  read_logs(c, r, log_tables, s, names);
+  s.lab_piv = r.stage_args("lab.piv", "piv");
+  s.lab_profile = r.stage_args("lab.profile", "profile");
+  s.lab_width = r.stage_args("lab.width", "width");
+  s.lab_laos = r.stage_args("lab.laos", "laos");
+  // The simulation.
+  bool any_sim = false;
+  for (const std::string& key : c.keys()) any_sim = any_sim || key.rfind("sim.", 0) == 0;
+  if (any_sim) {
+    const sim::LoadedScene checked = read_sim_scene(c, r, s);
+    read_sim_grid(c, r, checked, s);
+    check_group_scenes(c, s);
+    s.sim_render = r.stage_args("sim.render", "render");
+    s.sim_piv = r.stage_args("sim.piv", "piv");
+    s.sim_profile = r.stage_args("sim.profile", "profile");
+    s.sim_width = r.stage_args("sim.width", "width");
+    s.sim_laos = r.stage_args("sim.laos", "laos");
+  }
+  if (s.clips.empty() && s.logs.empty() && s.groups.empty())
+    throw ConfigError(fmt::format("{}: no clip, no torque log and no [sim]: nothing to study (docs/study.md)",
+                                  c.source()));
+  read_fits(c, r, s);
+  read_slurm(c, r, s);
   return s;
 }
 
