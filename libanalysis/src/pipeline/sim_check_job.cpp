@@ -108,24 +108,19 @@ void SimCheckOptions::validate() const {
   }
 }
 
-std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Metadata& header,
-                                       const SimCheckProgress& stage) {
-  o.validate();
-  const auto branches = branches_of(o.run_dir);
-  std::vector<SimCheckSetting> settings = o.settings;
-  if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1, ""});
-  if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
-    throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
-  // Every branch's inputs before any work: a missing surface.h5 used to be found after
-  // the first branch's video and truths were written (8 files left behind).
+namespace {
+
+/// Every branch's inputs before any work (a missing surface.h5 used to be found after
+/// the first branch's video and truths were written), and the two files of a branch
+/// from one run: the camera's frames and the simulator's surface field set against each
+/// other must describe the same motion.
+void check_branch_inputs(const std::vector<std::pair<std::string, fs::path>>& branches) {
   for (const auto& [name, dir] : branches)
     for (const char* need : {"frames.h5", "surface.h5"})
       if (!fs::is_regular_file(dir / need))
         throw InputError(fmt::format("{}: no such file; expected the branch's {} (a scene with a [camera] writes "
                                      "frames.h5 and surface.h5)",
                                      (dir / need).string(), need));
-  // The two files of a branch from one run: the camera's frames and the simulator's
-  // surface field set against each other must describe the same motion.
   for (const auto& [name, dir] : branches) {
     auto run_id = [](const fs::path& p) {
       const io::H5File f = io::H5File::open_read(p);
@@ -141,224 +136,254 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
                                    "runs (expected the frames.h5 and surface.h5 of one run of shearzone sim)",
                                    (dir / "surface.h5").string(), b, a));
   }
-  // Progress in stages: per branch the render, the truths, then each setting.
-  const std::size_t total = branches.size() * (2 + settings.size());
-  std::size_t done = 0;
-  auto say = [&](const std::string& s) {
-    if (stage) stage(s, done, total);
-    if (s.find(": profile ") == std::string::npos) ++done;
-  };
+}
 
-  std::vector<SimCheckRow> rows;
-  for (const auto& [name, dir] : branches) {
-    const fs::path bout = o.output_dir / name;
-    // 1. Film the branch.
-    auto t = Clock::now();
-    SimRenderOptions ro = o.render;
-    ro.run_dir = dir;
-    ro.output_dir = bout / "video";
-    ro.force = o.force;
-    say(fmt::format("{}: render", name));
-    const SimRenderSummary rs = run_sim_render(ro, header);
-    const double render_s = since(t);
-    const sim::FramesFile frames(dir / "frames.h5");
-    const sim::FilmedCup& cup = frames.cup();
-    const double d = cup.bead_diameter_m;
-    const synth::CupGeometry geometry = filmed_geometry(cup);
-    const synth::CupImage& im = rs.image;
-    const double phase_video = cup.vane_phase_rad + 2.0 * std::numbers::pi * cup.f_Hz * frames.time(0 + ro.first_frame);
-    const fs::path video = rs.files.front();
+/// A field through `profile` and `width` with the check's options (no_result where no
+/// profile comes out); the seconds each took, where asked.
+WidthRow profile_and_width(const SimCheckOptions& o, const core::Metadata& header, double d, const fs::path& field,
+                           const fs::path& prof, const fs::path& wid, double* prof_s, double* wid_s,
+                           const fs::path& noise_ref = {}) {
+  auto t1 = Clock::now();
+  ProfileJobOptions po;
+  po.input = field;
+  po.noise_ref = noise_ref;
+  po.output = prof;
+  po.force = o.force;
+  po.bead_diameter_m = d;
+  try {
+    run_profile_job(po, header);
+  } catch (const NoResultError& e) {
+    return no_result(e.what());
+  }
+  if (prof_s) *prof_s = since(t1);
+  t1 = Clock::now();
+  WidthJobOptions wo;
+  wo.inputs = {prof};
+  wo.output = wid;
+  wo.force = o.force;
+  wo.width = o.width;
+  const auto r = run_width_job(wo, header);
+  if (wid_s) *wid_s = since(t1);
+  return r.front();
+}
 
-    // 2. The truths: the camera's (bead centres) and the simulator's surface field.
-    t = Clock::now();
-    say(fmt::format("{}: truth", name));
-    std::vector<synth::ProjectedBeads> proj;
-    std::vector<double> vane_angles;
-    for (std::size_t k = 0; k < rs.frames; ++k) {
-      sim::FrameBodies b = frames.frame(static_cast<std::size_t>(ro.first_frame) + k);
-      vane_angles.push_back(cup.vane_angle(b.t_s));
-      proj.push_back(synth::project_beads(rs.camera, geometry, filmed_beads(std::move(b)), rs.surface_z_m, ro.look));
-    }
-    auto set_geometry_attributes = [&](auto&& set) {
-      set("centre_x_px", im.centre_x_px);
-      set("centre_y_px", im.centre_y_px);
-      set("cup_radius_px", im.cup_radius_px);
-      set("vane_radius_px", im.vane_surface_radius_px);
-      set("m_per_px", rs.camera.m_per_px);
-      set("N", static_cast<double>(cup.N));
-      if (cup.f_Hz > 0) {
-        set("f_Hz", cup.f_Hz);
-        set("phi0_rad", cup.phi0_rad);
-        set("vane_phase_rad", phase_video);
-      }
-    };
-    std::vector<double> gx, gy;
-    for (double x = 0.5 * o.truth_spacing_px - 0.5; x < rs.camera.width_px - 0.5; x += o.truth_spacing_px)
-      gx.push_back(x);
-    for (double y = 0.5 * o.truth_spacing_px - 0.5; y < rs.camera.height_px - 0.5; y += o.truth_spacing_px)
-      gy.push_back(y);
-    {
-      io::AtomicOutput f(bout / "truth_centres.h5", o.force);
-      {
-        io::FieldFileWriter w(f.temp_path());
-        for (std::size_t k = 0; k + 1 < rs.frames; ++k)
-          w.append(synth::visible_motion(proj[k], proj[k + 1], gx, gy, im, cup.vane_blades, vane_angles[k]),
-                   static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps, 1.0 / cup.fps);
-        set_geometry_attributes([&](const char* n, double v) { w.set_attribute(n, v); });
-        w.set_attribute("fps", cup.fps);
-        w.set_attribute("noise_sigma_px", 0.0);
-        w.set_attribute("source", "shearzone sim check: the camera's truth (surface beads' centre motion)");
-        w.close();
-      }
-      f.commit();
-    }
-    auto profile_and_width = [&](const fs::path& field, const fs::path& prof, const fs::path& wid, double* prof_s,
-                                 double* wid_s, const fs::path& noise_ref = {}) -> WidthRow {
-      auto t1 = Clock::now();
-      ProfileJobOptions po;
-      po.input = field;
-      po.noise_ref = noise_ref;
-      po.output = prof;
-      po.force = o.force;
-      po.bead_diameter_m = d;
-      try {
-        run_profile_job(po, header);
-      } catch (const NoResultError& e) {
-        return no_result(e.what());
-      }
-      if (prof_s) *prof_s = since(t1);
-      t1 = Clock::now();
-      WidthJobOptions wo;
-      wo.inputs = {prof};
-      wo.output = wid;
-      wo.force = o.force;
-      wo.width = o.width;
-      const auto r = run_width_job(wo, header);
-      if (wid_s) *wid_s = since(t1);
-      return r.front();
-    };
-    const WidthRow centres = profile_and_width(bout / "truth_centres.h5", bout / "truth_centres_profile.csv",
-                                               bout / "truth_centres_width.csv", nullptr, nullptr);
-    const WidthRow surface = profile_and_width(dir / "surface.h5", bout / "truth_surface_profile.csv",
-                                               bout / "truth_surface_width.csv", nullptr, nullptr);
-    // The PIV's noise floor, as in the lab: a static clip (frame 0's packing and vane,
-    // fresh sensor noise per frame) through the same PIV setting is `profile`'s
-    // --noise-ref. (The default floor, the motion in the outer 15 % of the annulus, is
-    // motion here: the zone of a small cup reaches its wall.)
-    const fs::path static_clip = bout / "static.mp4";
-    {
-      io::AtomicOutput f(static_clip, o.force);
-      {
-        io::VideoWriter w(f.temp_path(), cup.fps, cv::Size(rs.camera.width_px, rs.camera.height_px), ro.codec,
-                          f.final_path());
-        for (std::size_t k = 0; k < kStaticFrames; ++k)
-          w.write(synth::render_cup_frame(rs.camera, geometry, rs.surface_z_m, proj[0], vane_angles[0], ro.look,
-                                   kStaticSeedOffset + k));
-        w.close();
-      }
-      f.commit();
-    }
-    const double truth_s = since(t);
+/// A branch filmed, and what the camera and the simulator saw: the video, the beads as
+/// projected in every frame with the vane's angle, the static clip for the noise floor
+/// and both truths' widths.
+struct FilmedBranch {
+  SimRenderOptions render;
+  SimRenderSummary rs;
+  sim::FilmedCup cup;
+  double phase_video = 0.0;  ///< the drive's phase in video time
+  fs::path video, static_clip;
+  std::vector<synth::ProjectedBeads> proj;
+  std::vector<double> vane_angles;
+  WidthRow centres, surface;
+  double render_s = 0.0, truth_s = 0.0;
+};
 
-    // 3. The lab pipeline, per PIV setting.
-    for (const SimCheckSetting& st : settings) {
-      SimCheckRow row;
-      row.branch = name;
-      row.setting = st.label();
-      row.phi0_rad = cup.phi0_rad;
-      row.N = cup.N;
-      row.bead_diameter_m = d;
-      row.bead_diameter_px = rs.bead_diameter_px;
-      row.render_s = render_s;
-      row.truth_s = truth_s;
-      row.centres = centres;
-      row.surface = surface;
-      const fs::path sout = bout / st.label();
-      PivJobOptions p = camera_piv_options(cup, im, rs.camera.m_per_px, phase_video, o.piv);
-      p.inputs = {video.string()};
-      p.output = sout / "fields.h5";
-      p.force = o.force;
-      p.piv.windows_px = st.windows_px;
-      if (!st.interpolation.empty()) p.piv.interpolation = piv::interpolation_from_name(st.interpolation);
-      p.pair_spacing = st.spacing;
-      p.validate();
-      say(fmt::format("{}: piv {}", name, st.label()));
-      t = Clock::now();
-      PivJobSummary ps;
-      try {
-        ps = run_piv_job(p, header);
-      } catch (const InputError& e) {
-        // A setting the video cannot take (windows larger than the unmasked cup): a row
-        // that says so, not the end of the grid.
-        row.piv_s = since(t);
-        row.video = no_result(e.what());
-        row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
-        row.piv_rms_error_px = row.piv_bias_u_px = row.piv_bias_v_px = core::kUnset;
-        row.invalid_fraction = core::kUnset;
-        rows.push_back(std::move(row));
+/// The camera's truth (the surface beads' centre motion) as a field file on a grid of
+/// o.truth_spacing_px, with the geometry attributes the lab pipeline reads.
+void write_centres_truth(const SimCheckOptions& o, const FilmedBranch& fb, const fs::path& path) {
+  const synth::CupImage& im = fb.rs.image;
+  const sim::FilmedCup& cup = fb.cup;
+  std::vector<double> gx, gy;
+  for (double x = 0.5 * o.truth_spacing_px - 0.5; x < fb.rs.camera.width_px - 0.5; x += o.truth_spacing_px)
+    gx.push_back(x);
+  for (double y = 0.5 * o.truth_spacing_px - 0.5; y < fb.rs.camera.height_px - 0.5; y += o.truth_spacing_px)
+    gy.push_back(y);
+  io::AtomicOutput f(path, o.force);
+  {
+    io::FieldFileWriter w(f.temp_path());
+    for (std::size_t k = 0; k + 1 < fb.rs.frames; ++k)
+      w.append(synth::visible_motion(fb.proj[k], fb.proj[k + 1], gx, gy, im, cup.vane_blades, fb.vane_angles[k]),
+               static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps, 1.0 / cup.fps);
+    w.set_attribute("centre_x_px", im.centre_x_px);
+    w.set_attribute("centre_y_px", im.centre_y_px);
+    w.set_attribute("cup_radius_px", im.cup_radius_px);
+    w.set_attribute("vane_radius_px", im.vane_surface_radius_px);
+    w.set_attribute("m_per_px", fb.rs.camera.m_per_px);
+    w.set_attribute("N", static_cast<double>(cup.N));
+    if (cup.f_Hz > 0) {
+      w.set_attribute("f_Hz", cup.f_Hz);
+      w.set_attribute("phi0_rad", cup.phi0_rad);
+      w.set_attribute("vane_phase_rad", fb.phase_video);
+    }
+    w.set_attribute("fps", cup.fps);
+    w.set_attribute("noise_sigma_px", 0.0);
+    w.set_attribute("source", "shearzone sim check: the camera's truth (surface beads' centre motion)");
+    w.close();
+  }
+  f.commit();
+}
+
+/// The PIV's noise floor, as in the lab: a static clip (frame 0's packing and vane,
+/// fresh sensor noise per frame) through the same PIV setting is `profile`'s
+/// --noise-ref. (The default floor, the motion in the outer 15 % of the annulus, is
+/// motion here: the zone of a small cup reaches its wall.)
+void write_static_clip(const SimCheckOptions& o, const FilmedBranch& fb) {
+  const synth::CupGeometry geometry = filmed_geometry(fb.cup);
+  io::AtomicOutput f(fb.static_clip, o.force);
+  {
+    io::VideoWriter w(f.temp_path(), fb.cup.fps, cv::Size(fb.rs.camera.width_px, fb.rs.camera.height_px),
+                      fb.render.codec, f.final_path());
+    for (std::size_t k = 0; k < kStaticFrames; ++k)
+      w.write(synth::render_cup_frame(fb.rs.camera, geometry, fb.rs.surface_z_m, fb.proj[0], fb.vane_angles[0],
+                                      fb.render.look, kStaticSeedOffset + k));
+    w.close();
+  }
+  f.commit();
+}
+
+/// 1. and 2.: the branch filmed, and the truths: the camera's (bead centres) and the
+/// simulator's surface field, each through profile and width.
+FilmedBranch film_branch(const SimCheckOptions& o, const core::Metadata& header, const std::string& name,
+                         const fs::path& dir, const std::function<void(const std::string&)>& say) {
+  const fs::path bout = o.output_dir / name;
+  FilmedBranch fb;
+  auto t = Clock::now();
+  fb.render = o.render;
+  fb.render.run_dir = dir;
+  fb.render.output_dir = bout / "video";
+  fb.render.force = o.force;
+  say(fmt::format("{}: render", name));
+  fb.rs = run_sim_render(fb.render, header);
+  fb.render_s = since(t);
+  const sim::FramesFile frames(dir / "frames.h5");
+  fb.cup = frames.cup();
+  const sim::FilmedCup& cup = fb.cup;
+  fb.phase_video =
+      cup.vane_phase_rad + 2.0 * std::numbers::pi * cup.f_Hz * frames.time(0 + fb.render.first_frame);
+  fb.video = fb.rs.files.front();
+  fb.static_clip = bout / "static.mp4";
+
+  t = Clock::now();
+  say(fmt::format("{}: truth", name));
+  const synth::CupGeometry geometry = filmed_geometry(cup);
+  for (std::size_t k = 0; k < fb.rs.frames; ++k) {
+    sim::FrameBodies b = frames.frame(static_cast<std::size_t>(fb.render.first_frame) + k);
+    fb.vane_angles.push_back(cup.vane_angle(b.t_s));
+    fb.proj.push_back(
+        synth::project_beads(fb.rs.camera, geometry, filmed_beads(std::move(b)), fb.rs.surface_z_m, fb.render.look));
+  }
+  write_centres_truth(o, fb, bout / "truth_centres.h5");
+  const double d = cup.bead_diameter_m;
+  fb.centres = profile_and_width(o, header, d, bout / "truth_centres.h5", bout / "truth_centres_profile.csv",
+                                 bout / "truth_centres_width.csv", nullptr, nullptr);
+  fb.surface = profile_and_width(o, header, d, dir / "surface.h5", bout / "truth_surface_profile.csv",
+                                 bout / "truth_surface_width.csv", nullptr, nullptr);
+  write_static_clip(o, fb);
+  fb.truth_s = since(t);
+  return fb;
+}
+
+/// The PIV error per vector against the camera's truth at the same node and pair: RMS
+/// and mean of each component over valid and replaced vectors where the truth sees a bead.
+void piv_error(const fs::path& fields, const FilmedBranch& fb, SimCheckRow& row) {
+  const auto reader = io::open_field_file(fields, core::kUnset);
+  double se = 0, su = 0, sv = 0;
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < reader->size(); ++k) {
+    core::VectorField f;
+    double ta = 0, dt = 0;
+    reader->read(k, f, ta, dt);
+    const auto a = static_cast<std::size_t>(std::llround(ta * fb.cup.fps));
+    const auto b = static_cast<std::size_t>(std::llround((ta + dt) * fb.cup.fps));
+    if (b >= fb.proj.size()) continue;
+    const core::VectorField tr = synth::visible_motion(fb.proj[a], fb.proj[b], f.x_px, f.y_px, fb.rs.image,
+                                                       fb.cup.vane_blades, fb.vane_angles[a]);
+    for (std::size_t q = 0; q < f.size(); ++q) {
+      if ((f.flag[q] != core::VectorFlag::kValid && f.flag[q] != core::VectorFlag::kReplaced) ||
+          tr.flag[q] != core::VectorFlag::kValid)
         continue;
-      }
-      row.piv_s = since(t);
-      row.pairs = ps.pairs;
-      if (ps.windows_px != st.windows_px) {  // sized to the texture: say which were used
-        SimCheckSetting used = st;
-        used.windows_px = ps.windows_px;
-        row.setting = used.label();
-      }
-      const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
-      row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
-      say(fmt::format("{}: profile {}", name, st.label()));
-      // The same setting on the static clip: the noise floor (vane at rest: no vane mask).
-      PivJobOptions ps0 = p;
-      ps0.inputs = {static_clip.string()};
-      ps0.output = sout / "static_fields.h5";
-      ps0.vane.f_Hz = 0.0;
-      ps0.vane.phi0_rad = 0.0;
-      ps0.vane.phase_rad = 0.0;
-      ps0.vane.angle0_deg = vane_angles[0] * 180.0 / std::numbers::pi;
-      (void)run_piv_job(ps0, header);
-      row.video = profile_and_width(p.output, sout / "profile.csv", sout / "width.csv", &row.profile_s, &row.width_s,
-                                    ps0.output);
-      if (fs::exists(sout / "profile.csv")) {
-        row.profile_rms_diff_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_centres_profile.csv");
-        row.profile_rms_diff_surface_m_per_s =
-            profile_rms_diff(sout / "profile.csv", bout / "truth_surface_profile.csv");
-      } else {
-        row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
-      }
-      // PIV error per vector against the camera's truth at the same node and pair.
-      const auto reader = io::open_field_file(p.output, core::kUnset);
-      double se = 0, su = 0, sv = 0;
-      std::size_t n = 0;
-      for (std::size_t k = 0; k < reader->size(); ++k) {
-        core::VectorField f;
-        double ta = 0, dt = 0;
-        reader->read(k, f, ta, dt);
-        const auto a = static_cast<std::size_t>(std::llround(ta * cup.fps));
-        const auto b = static_cast<std::size_t>(std::llround((ta + dt) * cup.fps));
-        if (b >= proj.size()) continue;
-        const core::VectorField tr = synth::visible_motion(proj[a], proj[b], f.x_px, f.y_px, im, cup.vane_blades,
-                                                    vane_angles[a]);
-        for (std::size_t q = 0; q < f.size(); ++q) {
-          if ((f.flag[q] != core::VectorFlag::kValid && f.flag[q] != core::VectorFlag::kReplaced) ||
-              tr.flag[q] != core::VectorFlag::kValid)
-            continue;
-          const double du = f.u_px[q] - tr.u_px[q], dv = f.v_px[q] - tr.v_px[q];
-          se += du * du + dv * dv;
-          su += du;
-          sv += dv;
-          ++n;
-        }
-      }
-      row.compared_vectors = n;
-      row.piv_rms_error_px = n > 0 ? std::sqrt(se / static_cast<double>(n)) : core::kUnset;
-      row.piv_bias_u_px = n > 0 ? su / static_cast<double>(n) : core::kUnset;
-      row.piv_bias_v_px = n > 0 ? sv / static_cast<double>(n) : core::kUnset;
-      rows.push_back(std::move(row));
+      const double du = f.u_px[q] - tr.u_px[q], dv = f.v_px[q] - tr.v_px[q];
+      se += du * du + dv * dv;
+      su += du;
+      sv += dv;
+      ++n;
     }
   }
+  row.compared_vectors = n;
+  row.piv_rms_error_px = n > 0 ? std::sqrt(se / static_cast<double>(n)) : core::kUnset;
+  row.piv_bias_u_px = n > 0 ? su / static_cast<double>(n) : core::kUnset;
+  row.piv_bias_v_px = n > 0 ? sv / static_cast<double>(n) : core::kUnset;
+}
 
-  // The table.
+/// 3. The lab pipeline on the video with one PIV setting: piv (and piv of the static
+/// clip, the noise floor), profile, width, and the comparison with both truths.
+SimCheckRow run_setting(const SimCheckOptions& o, const core::Metadata& header, const std::string& name,
+                        const FilmedBranch& fb, const SimCheckSetting& st,
+                        const std::function<void(const std::string&)>& say) {
+  const sim::FilmedCup& cup = fb.cup;
+  const fs::path bout = o.output_dir / name;
+  SimCheckRow row;
+  row.branch = name;
+  row.setting = st.label();
+  row.phi0_rad = cup.phi0_rad;
+  row.N = cup.N;
+  row.bead_diameter_m = cup.bead_diameter_m;
+  row.bead_diameter_px = fb.rs.bead_diameter_px;
+  row.render_s = fb.render_s;
+  row.truth_s = fb.truth_s;
+  row.centres = fb.centres;
+  row.surface = fb.surface;
+  const fs::path sout = bout / st.label();
+  PivJobOptions p = camera_piv_options(cup, fb.rs.image, fb.rs.camera.m_per_px, fb.phase_video, o.piv);
+  p.inputs = {fb.video.string()};
+  p.output = sout / "fields.h5";
+  p.force = o.force;
+  p.piv.windows_px = st.windows_px;
+  if (!st.interpolation.empty()) p.piv.interpolation = piv::interpolation_from_name(st.interpolation);
+  p.pair_spacing = st.spacing;
+  p.validate();
+  say(fmt::format("{}: piv {}", name, st.label()));
+  auto t = Clock::now();
+  PivJobSummary ps;
+  try {
+    ps = run_piv_job(p, header);
+  } catch (const InputError& e) {
+    // A setting the video cannot take (windows larger than the unmasked cup): a row
+    // that says so, not the end of the grid.
+    row.piv_s = since(t);
+    row.video = no_result(e.what());
+    row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
+    row.piv_rms_error_px = row.piv_bias_u_px = row.piv_bias_v_px = core::kUnset;
+    row.invalid_fraction = core::kUnset;
+    return row;
+  }
+  row.piv_s = since(t);
+  row.pairs = ps.pairs;
+  if (ps.windows_px != st.windows_px) {  // sized to the texture: say which were used
+    SimCheckSetting used = st;
+    used.windows_px = ps.windows_px;
+    row.setting = used.label();
+  }
+  const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
+  row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
+  say(fmt::format("{}: profile {}", name, st.label()));
+  // The same setting on the static clip: the noise floor (vane at rest: no vane mask).
+  PivJobOptions ps0 = p;
+  ps0.inputs = {fb.static_clip.string()};
+  ps0.output = sout / "static_fields.h5";
+  ps0.vane.f_Hz = 0.0;
+  ps0.vane.phi0_rad = 0.0;
+  ps0.vane.phase_rad = 0.0;
+  ps0.vane.angle0_deg = fb.vane_angles[0] * 180.0 / std::numbers::pi;
+  (void)run_piv_job(ps0, header);
+  row.video = profile_and_width(o, header, cup.bead_diameter_m, p.output, sout / "profile.csv", sout / "width.csv",
+                                &row.profile_s, &row.width_s, ps0.output);
+  if (fs::exists(sout / "profile.csv")) {
+    row.profile_rms_diff_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_centres_profile.csv");
+    row.profile_rms_diff_surface_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_surface_profile.csv");
+  } else {
+    row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
+  }
+  piv_error(p.output, fb, row);
+  return row;
+}
+
+/// closed_loop.csv: a row per branch and setting.
+void write_closed_loop(const SimCheckOptions& o, const core::Metadata& header, const std::vector<SimCheckRow>& rows) {
   core::Metadata meta = header;
   meta.emplace_back("run", o.run_dir.string());
   meta.emplace_back("v_c_m_per_s", io::format_number(o.width.v_c_m_per_s));
@@ -404,6 +429,32 @@ std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Met
     }
   }
   out.commit();
+}
+
+}  // namespace
+
+std::vector<SimCheckRow> run_sim_check(const SimCheckOptions& o, const core::Metadata& header,
+                                       const SimCheckProgress& stage) {
+  o.validate();
+  const auto branches = branches_of(o.run_dir);
+  std::vector<SimCheckSetting> settings = o.settings;
+  if (settings.empty()) settings.push_back({o.piv.piv.windows_px, 1, ""});
+  if (!o.force && fs::exists(o.output_dir / "closed_loop.csv"))
+    throw ConfigError(fmt::format("{} exists: give --force to replace it", (o.output_dir / "closed_loop.csv").string()));
+  check_branch_inputs(branches);
+  // Progress in stages: per branch the render, the truths, then each setting.
+  const std::size_t total = branches.size() * (2 + settings.size());
+  std::size_t done = 0;
+  const std::function<void(const std::string&)> say = [&](const std::string& s) {
+    if (stage) stage(s, done, total);
+    if (s.find(": profile ") == std::string::npos) ++done;
+  };
+  std::vector<SimCheckRow> rows;
+  for (const auto& [name, dir] : branches) {
+    const FilmedBranch fb = film_branch(o, header, name, dir, say);
+    for (const SimCheckSetting& st : settings) rows.push_back(run_setting(o, header, name, fb, st, say));
+  }
+  write_closed_loop(o, header, rows);
   return rows;
 }
 
