@@ -92,27 +92,20 @@ void LaosJobOptions::validate() const {
     if (k.empty()) throw ConfigError(fmt::format("laos: --tag \"={}\": expected KEY=VALUE", v));
 }
 
-LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& header) {
-  o.validate();
-  const bool convert = !std::isnan(o.stress_constant_Pa_per_N_m) || o.log_constants;
-  if (convert && o.read.quantity == io::LogQuantity::kStrainStress)
-    throw ConfigError("laos: vane constants convert angle/torque logs; this log is already strain/stress");
-  if (o.read.quantity == io::LogQuantity::kStrainStress && o.inertia_kg_m2 > 0)
-    throw ConfigError("laos: --inertia-kg-m2 needs an angle/torque log (or vane constants)");
-  std::string tag_N;
-  std::vector<std::pair<std::string, std::string>> extra_tags;
-  for (const auto& kv : o.tags) {
-    if (kv.first == "N")
-      tag_N = kv.second;
-    else
-      extra_tags.push_back(kv);
-  }
+namespace {
 
-  LaosJobSummary sum;
+/// Every input log read and analysed (each segment, each amplitude), with the
+/// quantity of the logs (strain/stress: true), which all must share.
+struct Analysed {
   std::vector<Item> items;
+  std::optional<bool> native_ss;
+};
+Analysed analyse_logs(const LaosJobOptions& o, bool convert, const std::string& tag_N, LaosJobSummary& sum) {
+  Analysed an;
+  std::vector<Item>& items = an.items;
   // The logs' own quantity (a RheoCompass waveform in strain/stress, a RepTate file) or
   // the options'; all inputs must agree, since the output columns follow it.
-  std::optional<bool> native_ss;
+  std::optional<bool>& native_ss = an.native_ss;
   for (const auto& path : o.inputs) {
     const io::OscillationLog log = io::read_oscillation_log(path, o.read);
     ++sum.logs;
@@ -173,11 +166,12 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       for (auto& A : rec.amplitudes) items.push_back({log.source, seg.label, N, std::move(A), ins});
     }
   }
-  const bool ss = convert || native_ss.value_or(false);
-  const Names nm = names(ss);
-  sum.stress_strain = ss;
+  return an;
+}
 
-  // Header: conventions, options, model.
+/// The header of every table: conventions, options, model.
+core::Metadata laos_metadata(const LaosJobOptions& o, const core::Metadata& header, bool ss, bool convert,
+                             const Names& nm) {
   core::Metadata meta = header;
   auto add = [&](const std::string& k, const std::string& v) { meta.emplace_back(k, v); };
   std::string ins;
@@ -218,7 +212,12 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
                         "eta_M = sum n v_n (-1)^((n-1)/2), eta_L = sum v_n (odd n <= M); S = (K_L - "
                         "K_M)/K_L, T = (eta_L - eta_M)/eta_L");
 
-  // summary.csv
+  return meta;
+}
+
+/// summary.csv's columns: the tags, then the measures in the log's units.
+std::vector<std::string> summary_columns(const std::vector<std::pair<std::string, std::string>>& extra_tags,
+                                         bool ss, const Names& nm) {
   std::vector<std::string> cols = {"source", "segment", "amplitude", "N"};
   for (const auto& kv : extra_tags) cols.push_back(kv.first);
   const std::string K = nm.K, Ks = nm.K_s;
@@ -242,73 +241,91 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
         std::string("instrument_G_dprime_Pa"), std::string("instrument_torque_N_m")})
     cols.push_back(c);
 
-  io::AtomicOutputSet set(o.output, o.force);
-  {
-    auto& f = set.add("summary.csv");
-    io::CsvWriter w(f.stream(), meta, cols);
-    for (std::size_t i = 0; i < items.size(); ++i) {
-      const auto& it = items[i];
-      const auto& A = it.A;
-      const auto& m = A.measures;
-      int used = 0;
-      for (const auto& c : A.cycles) used += c.used ? 1 : 0;
-      std::vector<std::string> row = {it.source, it.segment, std::to_string(i + 1), it.N};
-      for (const auto& kv : extra_tags) row.push_back(kv.second);
-      const std::vector<double> vals = {
-          static_cast<double>(A.first_line), static_cast<double>(A.last_line), A.x0,
-          nominal(A.x0), A.omega,
-          A.r_max, A.r_max_raw, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
-          A.M >= 3 ? m.Phi[3] : core::kUnset, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
-          m.K_L, m.eta_M, m.eta_L, m.S, m.T, A.E_d, A.E_d_ratio, A.phi_d,
-          static_cast<double>(used), static_cast<double>(A.cycles.size()),
-          static_cast<double>(A.partial_cycles), static_cast<double>(A.first_steady_cycle),
-          static_cast<double>(A.M), static_cast<double>(A.M_cap)};
-      for (double v : vals) row.push_back(format_number_nan_empty(v));
-      if (A.first_line == 0) row[row.size() - vals.size()] = row[row.size() - vals.size() + 1] = "";
-      if (A.first_steady_cycle == 0) row[row.size() - 4] = "";
-      row.push_back(A.phase_method);
-      row.push_back(format_number_nan_empty(A.x_offset));
-      row.push_back(laos::amplitude_status_name(A.status));
-      for (double v : {it.instrument.f_Hz, it.instrument.G_prime_Pa, it.instrument.G_dprime_Pa,
-                       it.instrument.torque_N_m})
-        row.push_back(format_number_nan_empty(v));
-      w.row(row);
-      sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
-                          m.tan_delta, m.I3_over_I1, A.phi_d, A.M, used,
-                          static_cast<int>(A.cycles.size())});
-    }
+  return cols;
+}
+
+/// summary.csv: a row per amplitude (and the job summary's rows).
+void write_summary(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<std::string>& cols,
+                   const std::vector<Item>& items, const std::vector<std::pair<std::string, std::string>>& extra_tags,
+                   LaosJobSummary& sum) {
+  auto& f = set.add("summary.csv");
+  io::CsvWriter w(f.stream(), meta, cols);
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const auto& it = items[i];
+    const auto& A = it.A;
+    const auto& m = A.measures;
+    int used = 0;
+    for (const auto& c : A.cycles) used += c.used ? 1 : 0;
+    std::vector<std::string> row = {it.source, it.segment, std::to_string(i + 1), it.N};
+    for (const auto& kv : extra_tags) row.push_back(kv.second);
+    const std::vector<double> vals = {
+        static_cast<double>(A.first_line), static_cast<double>(A.last_line), A.x0,
+        nominal(A.x0), A.omega,
+        A.r_max, A.r_max_raw, m.K1p, m.K1p_se, m.K1pp, m.K1pp_se, m.tan_delta, m.I2_over_I1, m.I3_over_I1,
+        A.M >= 3 ? m.Phi[3] : core::kUnset, m.e[1], m.e3_over_e1, m.v[1], m.v3_over_v1, m.K_M,
+        m.K_L, m.eta_M, m.eta_L, m.S, m.T, A.E_d, A.E_d_ratio, A.phi_d,
+        static_cast<double>(used), static_cast<double>(A.cycles.size()),
+        static_cast<double>(A.partial_cycles), static_cast<double>(A.first_steady_cycle),
+        static_cast<double>(A.M), static_cast<double>(A.M_cap)};
+    for (double v : vals) row.push_back(format_number_nan_empty(v));
+    if (A.first_line == 0) row[row.size() - vals.size()] = row[row.size() - vals.size() + 1] = "";
+    if (A.first_steady_cycle == 0) row[row.size() - 4] = "";
+    row.push_back(A.phase_method);
+    row.push_back(format_number_nan_empty(A.x_offset));
+    row.push_back(laos::amplitude_status_name(A.status));
+    for (double v : {it.instrument.f_Hz, it.instrument.G_prime_Pa, it.instrument.G_dprime_Pa,
+                     it.instrument.torque_N_m})
+      row.push_back(format_number_nan_empty(v));
+    w.row(row);
+    sum.rows.push_back({it.source, it.segment, A.status, i + 1, A.x0, A.r_max, m.K1p, m.K1pp,
+                        m.tan_delta, m.I3_over_I1, A.phi_d, A.M, used,
+                        static_cast<int>(A.cycles.size())});
   }
-  {
-    auto& f = set.add("cycles.csv");
-    io::CsvWriter w(f.stream(), meta,
-                    {"source", "segment", "amplitude", "cycle", "t_start_s", nm.x0, nm.r_max, nm.r_max_raw,
-                     (ss ? "G1_prime_" : "K1_prime_") + K, (ss ? "G1_dprime_" : "K1_dprime_") + K,
-                     nm.E, "steady", "used"});
-    for (std::size_t i = 0; i < items.size(); ++i)
-      for (const auto& c : items[i].A.cycles)
-        w.row(std::vector<std::string>{
-            items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(c.cycle),
-            format_number_nan_empty(c.t_start_s), format_number_nan_empty(c.x0),
-            format_number_nan_empty(c.r_max), format_number_nan_empty(c.r_max_raw), format_number_nan_empty(c.K1p), format_number_nan_empty(c.K1pp),
-            format_number_nan_empty(c.E_d), c.steady ? "1" : "0", c.used ? "1" : "0"});
+}
+
+/// cycles.csv: a row per cycle of every amplitude.
+void write_cycles(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items, bool ss,
+                  const Names& nm) {
+  const std::string& K = nm.K;
+  auto& f = set.add("cycles.csv");
+  io::CsvWriter w(f.stream(), meta,
+                  {"source", "segment", "amplitude", "cycle", "t_start_s", nm.x0, nm.r_max, nm.r_max_raw,
+                   (ss ? "G1_prime_" : "K1_prime_") + K, (ss ? "G1_dprime_" : "K1_dprime_") + K,
+                   nm.E, "steady", "used"});
+  for (std::size_t i = 0; i < items.size(); ++i)
+    for (const auto& c : items[i].A.cycles)
+      w.row(std::vector<std::string>{
+          items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(c.cycle),
+          format_number_nan_empty(c.t_start_s), format_number_nan_empty(c.x0),
+          format_number_nan_empty(c.r_max), format_number_nan_empty(c.r_max_raw), format_number_nan_empty(c.K1p), format_number_nan_empty(c.K1pp),
+          format_number_nan_empty(c.E_d), c.steady ? "1" : "0", c.used ? "1" : "0"});
+}
+
+/// harmonics.csv: a row per harmonic of every amplitude.
+void write_harmonics(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items, bool ss,
+                     const Names& nm) {
+  const std::string& K = nm.K;
+  auto& f = set.add("harmonics.csv");
+  const std::string a = ss ? "G" : "K";
+  io::CsvWriter w(f.stream(), meta,
+                  {"source", "segment", "amplitude", "n", a + "_prime_n_" + K, a + "_prime_n_se_" + K,
+                   a + "_dprime_n_" + K, a + "_dprime_n_se_" + K, "I_n_over_I1", "Phi_n_rad", "M"});
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const auto& A = items[i].A;
+    for (int n = 1; n <= A.M; ++n)
+      w.row(std::vector<std::string>{
+          items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(n),
+          format_number_nan_empty(A.fit.Kp[n]), format_number_nan_empty(A.fit.Kp_se[n]),
+          format_number_nan_empty(A.fit.Kpp[n]), format_number_nan_empty(A.fit.Kpp_se[n]),
+          format_number_nan_empty(A.measures.I_over_I1[n]), format_number_nan_empty(A.measures.Phi[n]),
+          std::to_string(A.M)});
   }
-  {
-    auto& f = set.add("harmonics.csv");
-    const std::string a = ss ? "G" : "K";
-    io::CsvWriter w(f.stream(), meta,
-                    {"source", "segment", "amplitude", "n", a + "_prime_n_" + K, a + "_prime_n_se_" + K,
-                     a + "_dprime_n_" + K, a + "_dprime_n_se_" + K, "I_n_over_I1", "Phi_n_rad", "M"});
-    for (std::size_t i = 0; i < items.size(); ++i) {
-      const auto& A = items[i].A;
-      for (int n = 1; n <= A.M; ++n)
-        w.row(std::vector<std::string>{
-            items[i].source, items[i].segment, std::to_string(i + 1), std::to_string(n),
-            format_number_nan_empty(A.fit.Kp[n]), format_number_nan_empty(A.fit.Kp_se[n]),
-            format_number_nan_empty(A.fit.Kpp[n]), format_number_nan_empty(A.fit.Kpp_se[n]),
-            format_number_nan_empty(A.measures.I_over_I1[n]), format_number_nan_empty(A.measures.Phi[n]),
-            std::to_string(A.M)});
-    }
-  }
+}
+
+/// lissajous_NN.csv: every sample of amplitude NN with the fit and its elastic and
+/// viscous parts.
+void write_lissajous(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
+                     const Names& nm) {
   for (std::size_t i = 0; i < items.size(); ++i) {
     const auto& A = items[i].A;
     core::Metadata lm = meta;
@@ -339,6 +356,36 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
           format_number_nan_empty(A.fit.odd_sin_part(th)), format_number_nan_empty(A.fit.odd_cos_part(th))});
     }
   }
+}
+
+}  // namespace
+
+LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& header) {
+  o.validate();
+  const bool convert = !std::isnan(o.stress_constant_Pa_per_N_m) || o.log_constants;
+  if (convert && o.read.quantity == io::LogQuantity::kStrainStress)
+    throw ConfigError("laos: vane constants convert angle/torque logs; this log is already strain/stress");
+  if (o.read.quantity == io::LogQuantity::kStrainStress && o.inertia_kg_m2 > 0)
+    throw ConfigError("laos: --inertia-kg-m2 needs an angle/torque log (or vane constants)");
+  std::string tag_N;
+  std::vector<std::pair<std::string, std::string>> extra_tags;
+  for (const auto& kv : o.tags) {
+    if (kv.first == "N")
+      tag_N = kv.second;
+    else
+      extra_tags.push_back(kv);
+  }
+  LaosJobSummary sum;
+  const Analysed an = analyse_logs(o, convert, tag_N, sum);
+  const bool ss = convert || an.native_ss.value_or(false);
+  const Names nm = names(ss);
+  sum.stress_strain = ss;
+  const core::Metadata meta = laos_metadata(o, header, ss, convert, nm);
+  io::AtomicOutputSet set(o.output, o.force);
+  write_summary(set, meta, summary_columns(extra_tags, ss, nm), an.items, extra_tags, sum);
+  write_cycles(set, meta, an.items, ss, nm);
+  write_harmonics(set, meta, an.items, ss, nm);
+  write_lissajous(set, meta, an.items, nm);
   sum.files = set.final_paths();
   set.commit_all();
   return sum;
