@@ -815,30 +815,33 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
 
 }  // namespace
 
-BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
-                              const core::ProgressCallback& progress) {
-  BenchSimOptions o = options;
-  if (o.quick) {
-    o.beads = {150, 300};
-    o.steps = 5;
-    o.warmup_steps = 3;
-    o.accuracy_beads = 150;
-    o.accuracy_time_steps_s = {5e-4, 1e-3};
-    o.accuracy_max_iterations = {25, 100};
-    o.accuracy_duration_s = 0.002;
-    o.settle_max_steps = 600;
-    o.relax_min_steps = 5;
-    o.relax_max_steps = 50;
-    o.cup_beads = 400;
-    o.stir_beads = 300;
-    o.stir_side_d = 10;
-    o.chain_lengths = {1};
-    o.cup_tolerances = {1e-2, 1e-3};
-    o.cup_time_steps_s = {1e-3};
-    o.preshear_cycles = 0;
-    o.seeds = {1, 2};
-    if (o.cup_accuracy || o.sector_check) o.f_Hz = 10.0;  // 100 steps per cycle
-  }
+namespace {
+
+/// --quick: a smoke run of every table in seconds.
+void set_quick(BenchSimOptions& o) {
+  o.beads = {150, 300};
+  o.steps = 5;
+  o.warmup_steps = 3;
+  o.accuracy_beads = 150;
+  o.accuracy_time_steps_s = {5e-4, 1e-3};
+  o.accuracy_max_iterations = {25, 100};
+  o.accuracy_duration_s = 0.002;
+  o.settle_max_steps = 600;
+  o.relax_min_steps = 5;
+  o.relax_max_steps = 50;
+  o.cup_beads = 400;
+  o.stir_beads = 300;
+  o.stir_side_d = 10;
+  o.chain_lengths = {1};
+  o.cup_tolerances = {1e-2, 1e-3};
+  o.cup_time_steps_s = {1e-3};
+  o.preshear_cycles = 0;
+  o.seeds = {1, 2};
+  if (o.cup_accuracy || o.sector_check) o.f_Hz = 10.0;  // 100 steps per cycle
+}
+
+/// The options every bench takes (threads, solvers, --reference).
+void validate_common(const BenchSimOptions& o) {
   if (o.threads.empty()) throw ConfigError("bench sim: --threads needs at least one thread count");
   if (o.solvers.empty() || o.solvers.size() > 3)
     throw ConfigError("bench sim: --solver needs one to three solvers (alternate, forward, anderson)");
@@ -853,36 +856,40 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
     throw ConfigError("bench sim: --reference is the whole cup's rows of --sector-check: give --sector-check");
   if (o.sector_check && o.cup_accuracy)
     throw ConfigError("bench sim: --sector-check and --accuracy are separate runs: give one");
-  if (o.cup_accuracy || o.sector_check) {
-    if (o.scene.empty() || o.scene == "stir" || o.scene == "plow")
-      throw ConfigError("bench sim: --accuracy charts the sheared cup: give --scene cup or a scene .toml with a [vane]");
-    auto bad_list = [](const std::vector<double>& v, double hi) {
-      if (v.empty() || v.size() > 16) return true;
-      for (const double x : v)
-        if (!(x > 0.0 && x <= hi)) return true;
-      return false;
-    };
-    if (bad_list(o.cup_tolerances, 1.0))
-      throw ConfigError("bench sim: --tolerances needs 1 to 16 tolerances, each in (0, 1]");
-    if (bad_list(o.cup_time_steps_s, 0.1))
-      throw ConfigError("bench sim: --time-steps needs 1 to 16 time steps, each in (0, 0.1] s");
-    if (o.cycles < 1 || o.cycles > 1000 || o.preshear_cycles < 0 || o.preshear_cycles > 1000)
-      throw ConfigError(fmt::format("bench sim: --cycles {} / --preshear-cycles {}: expected 1..1000 and 0..1000",
-                                    o.cycles, o.preshear_cycles));
-    if (o.accuracy_cap < 1 || o.accuracy_cap > 100000)
-      throw ConfigError(fmt::format("bench sim: --accuracy-cap {}: expected 1..100000", o.accuracy_cap));
-    // The torque's harmonic fit (5 harmonics and a drift: 12 parameters) needs 13 steps a cycle.
-    constexpr long long kMinStepsPerCycle = 13;
-    if (o.f_Hz > 0)
-      for (const double h : o.cup_accuracy ? o.cup_time_steps_s : std::vector<double>{o.time_step_s})
-        if (h > 0 && std::llround(1.0 / (o.f_Hz * h)) < kMinStepsPerCycle)
-          throw ConfigError(fmt::format("bench sim: h = {} s at --f-hz {}: {} steps per drive cycle (expected at least "
-                                        "{} for the torque's harmonic fit)",
-                                        io::format_number(h), io::format_number(o.f_Hz),
-                                        std::llround(1.0 / (o.f_Hz * h)), kMinStepsPerCycle));
-  }
-  if (o.scene == "stir" || o.scene == "plow") return run_stir_bench(o, header, progress, o.scene == "plow");
-  if (!o.scene.empty()) return run_cup_bench(o, header, progress);
+}
+
+/// --accuracy and --sector-check on the sheared cup.
+void validate_cup_charts(const BenchSimOptions& o) {
+  if (o.scene.empty() || o.scene == "stir" || o.scene == "plow")
+    throw ConfigError("bench sim: --accuracy charts the sheared cup: give --scene cup or a scene .toml with a [vane]");
+  auto bad_list = [](const std::vector<double>& v, double hi) {
+    if (v.empty() || v.size() > 16) return true;
+    for (const double x : v)
+      if (!(x > 0.0 && x <= hi)) return true;
+    return false;
+  };
+  if (bad_list(o.cup_tolerances, 1.0))
+    throw ConfigError("bench sim: --tolerances needs 1 to 16 tolerances, each in (0, 1]");
+  if (bad_list(o.cup_time_steps_s, 0.1))
+    throw ConfigError("bench sim: --time-steps needs 1 to 16 time steps, each in (0, 0.1] s");
+  if (o.cycles < 1 || o.cycles > 1000 || o.preshear_cycles < 0 || o.preshear_cycles > 1000)
+    throw ConfigError(fmt::format("bench sim: --cycles {} / --preshear-cycles {}: expected 1..1000 and 0..1000",
+                                  o.cycles, o.preshear_cycles));
+  if (o.accuracy_cap < 1 || o.accuracy_cap > 100000)
+    throw ConfigError(fmt::format("bench sim: --accuracy-cap {}: expected 1..100000", o.accuracy_cap));
+  // The torque's harmonic fit (5 harmonics and a drift: 12 parameters) needs 13 steps a cycle.
+  constexpr long long kMinStepsPerCycle = 13;
+  if (o.f_Hz > 0)
+    for (const double h : o.cup_accuracy ? o.cup_time_steps_s : std::vector<double>{o.time_step_s})
+      if (h > 0 && std::llround(1.0 / (o.f_Hz * h)) < kMinStepsPerCycle)
+        throw ConfigError(fmt::format("bench sim: h = {} s at --f-hz {}: {} steps per drive cycle (expected at least "
+                                      "{} for the torque's harmonic fit)",
+                                      io::format_number(h), io::format_number(o.f_Hz),
+                                      std::llround(1.0 / (o.f_Hz * h)), kMinStepsPerCycle));
+}
+
+/// The packing bench's own options.
+void validate_box_bench(const BenchSimOptions& o) {
   if (!(o.time_step_s > 0.0 && o.time_step_s <= 0.1) || !(o.tolerance > 0.0) || o.max_iterations < 1 ||
       o.max_iterations > 100000 || o.freeze_sweeps < 0 || o.relax_max_steps < 0 || o.relax_max_steps > 1000000 ||
       o.relax_min_steps < 0)
@@ -898,6 +905,12 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   if (o.accuracy_beads < 1 || o.accuracy_beads > 1000000)
     throw ConfigError(fmt::format("bench sim: --accuracy-beads {}: expected 1..1000000", o.accuracy_beads));
   if (!(o.accuracy_duration_s > 0.0)) throw ConfigError("bench sim: accuracy duration must be > 0");
+}
+
+/// The packing bench: speed against bead count and threads, accuracy against time step
+/// and iteration cap.
+BenchSimSummary run_box_bench(const BenchSimOptions& o, const core::Metadata& header,
+                              const core::ProgressCallback& progress) {
   io::AtomicOutputSet out(o.out_dir, o.force);
   out.check("sim_speed.csv");
   out.check("sim_accuracy.csv");
@@ -1032,6 +1045,20 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   out.commit_all();
   sum.files = out.final_paths();
   return sum;
+}
+
+}  // namespace
+
+BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
+                              const core::ProgressCallback& progress) {
+  BenchSimOptions o = options;
+  if (o.quick) set_quick(o);
+  validate_common(o);
+  if (o.cup_accuracy || o.sector_check) validate_cup_charts(o);
+  if (o.scene == "stir" || o.scene == "plow") return run_stir_bench(o, header, progress, o.scene == "plow");
+  if (!o.scene.empty()) return run_cup_bench(o, header, progress);
+  validate_box_bench(o);
+  return run_box_bench(o, header, progress);
 }
 
 }  // namespace shearzone::pipeline
