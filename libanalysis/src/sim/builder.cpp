@@ -14,7 +14,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
-#include "solver_rows.hpp"
+#include "sector.hpp"
 
 namespace shearzone::sim {
 
