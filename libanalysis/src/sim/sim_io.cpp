@@ -22,6 +22,16 @@ constexpr const char* kCheckpointFormat = "shearzone-sim-checkpoint";
 // files still read (identity orientations, default freeze and one thread).
 constexpr std::int64_t kCheckpointVersion = 2;
 
+/// The members given of each element of `rows`, one element after the other (a row of
+/// a dataset per element).
+template <class Out, class Row, class... T>
+std::vector<Out> gather(const std::vector<Row>& rows, T Row::*... members) {
+  std::vector<Out> out;
+  out.reserve(rows.size() * sizeof...(T));
+  for (const Row& r : rows) (out.push_back(static_cast<Out>(r.*members)), ...);
+  return out;
+}
+
 std::vector<double> flatten(const std::vector<Vec3>& v) {
   std::vector<double> out;
   out.reserve(3 * v.size());
@@ -144,44 +154,20 @@ void write_checkpoint(const std::filesystem::path& path, const World& world,
     f.write("/walls/friction", {nw}, mu);
   }
   if (const std::size_t nr = s.ropes.size(); nr > 0) {
-    std::vector<std::int64_t> ij;
-    std::vector<double> len, imp;
-    for (const auto& r : s.ropes) {
-      ij.push_back(r.i);
-      ij.push_back(r.j);
-      len.push_back(r.max_length);
-      imp.push_back(r.impulse);
-    }
-    f.write("/ropes/bodies", {nr, 2}, ij);
-    f.write("/ropes/max_length", {nr}, len);
-    f.write("/ropes/impulse", {nr}, imp);
-    if (o.sectors != 0) {
-      std::vector<std::int64_t> image;
-      for (const auto& r : s.ropes) image.push_back(static_cast<std::int64_t>(r.image));
-      f.write("/ropes/image", {nr}, image);
-    }
+    using Rope = WorldState::Rope;
+    f.write("/ropes/bodies", {nr, 2}, gather<std::int64_t>(s.ropes, &Rope::i, &Rope::j));
+    f.write("/ropes/max_length", {nr}, gather<double>(s.ropes, &Rope::max_length));
+    f.write("/ropes/impulse", {nr}, gather<double>(s.ropes, &Rope::impulse));
+    if (o.sectors != 0)
+      f.write("/ropes/image", {nr}, gather<std::int64_t>(s.ropes, &Rope::image));
   }
   if (const std::size_t na = s.angles.size(); na > 0) {
-    std::vector<std::int64_t> abc;
-    std::vector<double> amax, imp;
-    for (const auto& a : s.angles) {
-      abc.push_back(a.prev);
-      abc.push_back(a.mid);
-      abc.push_back(a.next);
-      amax.push_back(a.max_angle);
-      imp.push_back(a.impulse);
-    }
-    f.write("/angles/bodies", {na, 3}, abc);
-    f.write("/angles/max_angle", {na}, amax);
-    f.write("/angles/impulse", {na}, imp);
-    if (o.sectors != 0) {
-      std::vector<std::int64_t> image;
-      for (const auto& a : s.angles) {
-        image.push_back(static_cast<std::int64_t>(a.image_prev));
-        image.push_back(static_cast<std::int64_t>(a.image_next));
-      }
-      f.write("/angles/image", {na, 2}, image);
-    }
+    using Angle = WorldState::Angle;
+    f.write("/angles/bodies", {na, 3}, gather<std::int64_t>(s.angles, &Angle::prev, &Angle::mid, &Angle::next));
+    f.write("/angles/max_angle", {na}, gather<double>(s.angles, &Angle::max_angle));
+    f.write("/angles/impulse", {na}, gather<double>(s.angles, &Angle::impulse));
+    if (o.sectors != 0)
+      f.write("/angles/image", {na, 2}, gather<std::int64_t>(s.angles, &Angle::image_prev, &Angle::image_next));
   }
   // Rotors (the vane): drive and reference placement; bodies in CSR form.
   f.set_attribute("/", "n_rotors", static_cast<std::int64_t>(s.rotors.size()));

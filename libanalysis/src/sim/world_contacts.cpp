@@ -208,18 +208,8 @@ void World::find_contacts(double alert) {
 }
 
 void World::apply_contact(const ContactRow& r, const Vec3& p, const detail::Sector& sec) {
-  SolverBody& bi = body_[static_cast<std::size_t>(r.i)];
-  SolverBody& bj = body_[static_cast<std::size_t>(r.j)];
-  const Vec3 np = r.n.cross(p);
-  if (r.image != 0) {  // j's side of a seam row, in j's frame
-    bj.v += bj.inv_mass * sec.rot(p, -1);
-    bj.w -= (bj.inv_inertia * r.rj) * sec.rot(np, -1);
-  } else {
-    bj.v += bj.inv_mass * p;
-    bj.w -= (bj.inv_inertia * r.rj) * np;
-  }
-  bi.v -= bi.inv_mass * p;
-  bi.w -= (bi.inv_inertia * r.ri) * np;
+  detail::apply_row_impulse(body_[static_cast<std::size_t>(r.i)], body_[static_cast<std::size_t>(r.j)], r, r.n, p,
+                            sec);
 }
 
 // Row geometry at x(t) and the warm start (impulses of the previous step, applied).

@@ -208,17 +208,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     r.pt = pt;
     const double wn = bi.inv_mass + bj.inv_mass;
     const double wt = wn + r.ri * r.ri * bi.inv_inertia + r.rj * r.rj * bj.inv_inertia;
-    const Vec3 p = dpn * n + dpt;
-    const Vec3 np = n.cross(p);
-    if (r.image != 0) {
-      bj.v += bj.inv_mass * sec.rot(p, -1);
-      bj.w -= (bj.inv_inertia * r.rj) * sec.rot(np, -1);
-    } else {
-      bj.v += bj.inv_mass * p;
-      bj.w -= (bj.inv_inertia * r.rj) * np;
-    }
-    bi.v -= bi.inv_mass * p;
-    bi.w -= (bi.inv_inertia * r.ri) * np;
+    detail::apply_row_impulse(bi, bj, r, n, dpn * n + dpt, sec);
     t.dv2 += wn * wn * dpn * dpn + wt * wt * dpt.squaredNorm();
     t.wp2 += wn * wn * pn * pn + wt * wt * pt.squaredNorm();
     if (closed || pn != 0.0) ++t.active;
