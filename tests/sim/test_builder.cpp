@@ -71,6 +71,23 @@ double check_placement(const ChainPlacement& p, const ChainOptions& o, const Reg
   return worst_angle;
 }
 
+/// Chains of n beads (l_max = 0.1 d, at most 60 degrees) filled into `region`, walls and
+/// beads at friction mu, inserted in the lowest `insert` of the region.
+FillOptions chain_fill(int chains, int n, std::uint64_t seed, const BoxRegion& region, double mu, double insert) {
+  FillOptions f;
+  f.chains.diameter = kD;
+  f.chains.density = kRho;
+  f.chains.chains = chains;
+  f.chains.beads_per_chain = n;
+  f.chains.l_max = 0.1 * kD;
+  f.chains.theta_max = deg(60.0);
+  f.chains.seed = seed;
+  f.region = region;
+  f.wall_friction = mu;
+  f.insert_fraction = insert;
+  return f;
+}
+
 }  // namespace
 
 TEST_CASE("Chain placement: no overlaps, bond lengths, turning angles, inside, deterministic",
@@ -208,22 +225,8 @@ TEST_CASE("Sphere–region volumes: caps, box partitions, cylinder", "[sim][buil
 TEST_CASE("A small fill of chains settles", "[sim][builder]") {
   // 16 chains of 6 beads (96 beads) into a box 6 d × 6 d; the drop runs at a loose
   // tolerance, the relaxation at the default-like one.
-  Options wo;
-  wo.time_step = 5e-4;
-  wo.tolerance = 1e-3;
-  wo.max_iterations = 200;
-  wo.friction = 0.3;
-  FillOptions f;
-  f.chains.diameter = kD;
-  f.chains.density = kRho;
-  f.chains.chains = 16;
-  f.chains.beads_per_chain = 6;
-  f.chains.l_max = 0.1 * kD;
-  f.chains.theta_max = deg(60.0);
-  f.chains.seed = 2;
-  f.region = BoxRegion{Vec3::Zero(), Vec3(6, 6, 10) * kD};
-  f.wall_friction = 0.3;
-  f.insert_fraction = 0.2;
+  const Options wo{.time_step = 5e-4, .friction = 0.3, .tolerance = 1e-3, .max_iterations = 200};
+  FillOptions f = chain_fill(16, 6, 2, BoxRegion{Vec3::Zero(), Vec3(6, 6, 10) * kD}, 0.3, 0.2);
   f.relax_kinetic_energy = 1e-5;
   const auto t0 = std::chrono::steady_clock::now();
   const FillResult a = fill(wo, f);
@@ -262,22 +265,9 @@ PackingRun pour(int n, std::uint64_t seed) {
   // 1710 beads (= 38 × 45 = 190 × 9) in a 12 d × 12 d box: a pile about 10 d high.
   constexpr int kBeads = 1710;
   constexpr double kWidth = 12.0, kWall = 2.0;  // box width, wall exclusion (× d)
-  Options wo;
-  wo.time_step = 5e-4;
-  wo.tolerance = 1e-3;
-  wo.max_iterations = 400;  // chains need 40–150 sweeps at 1e-3 (100 is hit every step)
-  wo.friction = 0.2;
-  FillOptions f;
-  f.chains.diameter = kD;
-  f.chains.density = kRho;
-  f.chains.chains = kBeads / n;
-  f.chains.beads_per_chain = n;
-  f.chains.l_max = 0.1 * kD;
-  f.chains.theta_max = deg(60.0);
-  f.chains.seed = seed;
-  f.region = BoxRegion{Vec3::Zero(), Vec3(kWidth, kWidth, 20.0) * kD};
-  f.wall_friction = 0.2;
-  f.insert_fraction = 0.25;
+  // Chains need 40-150 sweeps at 1e-3 (a cap of 100 is hit every step).
+  const Options wo{.time_step = 5e-4, .friction = 0.2, .tolerance = 1e-3, .max_iterations = 400};
+  FillOptions f = chain_fill(kBeads / n, n, seed, BoxRegion{Vec3::Zero(), Vec3(kWidth, kWidth, 20.0) * kD}, 0.2, 0.25);
   // Chain beads on the surface keep rolling (no rolling resistance): 1e-4 m g d per
   // bead is one bead in 1710 at 0.2 m/s. The interior, where φ is measured, is at rest.
   f.relax_kinetic_energy = 1e-4;

@@ -12,24 +12,10 @@ using namespace shearzone::sim;
 using namespace testutil;
 
 TEST_CASE("2000 beads poured into a box settle without divergence (throughput)", "[sim][slow]") {
-  Options o;
-  o.time_step = 5e-4;
-  o.tolerance = 1e-4;
-  o.max_iterations = 200;
-  o.friction = 0.2;
-  World w(o);
-  BoxPour p;  // layers of 12 x 12 at 1.02 d in a box 12.5 d wide
-  p.beads = 2000;
-  p.per_row = 12;
-  p.diameter = kD;
-  p.density = kRho;
-  p.half_width = 0.5 * 12.5 * kD;
-  p.wall_friction = 0.2;
-  p.pitch = 1.02;
-  p.jitter = 0.02;
-  p.z0 = 0.6;
-  p.layer_dz = 1.05;
-  p.seed = 11;
+  World w(Options{.time_step = 5e-4, .friction = 0.2, .tolerance = 1e-4, .max_iterations = 200});
+  // Layers of 12 x 12 at 1.02 d in a box 12.5 d wide.
+  const BoxPour p{.beads = 2000, .per_row = 12, .diameter = kD, .density = kRho, .half_width = 0.5 * 12.5 * kD,
+                  .wall_friction = 0.2, .pitch = 1.02, .jitter = 0.02, .z0 = 0.6, .layer_dz = 1.05, .seed = 11};
   add_box_pour(w, p);
   std::int64_t updates = 0;
   double seconds = 0.0, worst_overlap = 0.0;
@@ -41,7 +27,7 @@ TEST_CASE("2000 beads poured into a box settle without divergence (throughput)",
     updates += d.row_updates;
     worst_overlap = std::max(worst_overlap, d.max_overlap);
   }
-  WARN("2000 beads, " << w.steps_done() << " steps of " << o.time_step << " s: "
+  WARN("2000 beads, " << w.steps_done() << " steps of " << w.options().time_step << " s: "
                       << updates / seconds << " row updates/s (whole step), " << w.steps_done() / seconds
                       << " steps/s; last step: " << d.contacts << " contacts, " << d.active_contacts
                       << " active, " << d.iterations << " sweeps, residual " << d.residual
