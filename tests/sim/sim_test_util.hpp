@@ -23,6 +23,12 @@ inline void set_solver(shearzone::sim::Options& o, Solver s) {
   o.anderson_depth = s == Solver::anderson ? 3 : 0;
 }
 
+/// `o` with solver `s`'s sweeps.
+inline shearzone::sim::Options solver_options(Solver s, shearzone::sim::Options o) {
+  set_solver(o, s);
+  return o;
+}
+
 inline bool rel_close(double a, double b, double tol) { return std::abs(a - b) <= tol * std::abs(b); }
 
 /// Three fixed beads touching each other in an equilateral triangle at z = 0 (indices

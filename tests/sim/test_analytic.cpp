@@ -25,11 +25,8 @@ struct InclineResult {
 
 // Plane z = 0 with friction μ, gravity tilted by α (same as a plane inclined at α).
 InclineResult incline(double alpha, double mu, Solver solver) {
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 1e-4;
-  o.gravity = kG * Vec3(std::sin(alpha), 0.0, -std::cos(alpha));
-  o.tolerance = 1e-12;
+  const Options o = solver_options(
+      solver, {.time_step = 1e-4, .gravity = kG * Vec3(std::sin(alpha), 0.0, -std::cos(alpha)), .tolerance = 1e-12});
   World w(o);
   w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), mu});
   const int b = w.add_sphere(Vec3(0.0, 0.0, 0.5 * kD), kD, kRho);
@@ -82,10 +79,7 @@ TEST_CASE("A sphere on an incline with tan a > 3.5 mu slides, a = g(sin a - mu c
 TEST_CASE("A sphere launched on a plane rolls at 5/7 v0 from t* = 2 v0 /(7 mu g)", "[sim]") {
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const double v0 = 0.5, mu = 0.3, h = 1e-5;
-  Options o;
-  set_solver(o, solver);
-  o.time_step = h;
-  o.tolerance = 1e-12;
+  Options o = solver_options(solver, {.time_step = h, .tolerance = 1e-12});
   World w(o);
   w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), mu});
   const int b = w.add_sphere(Vec3(0.0, 0.0, 0.5 * kD), kD, kRho);
@@ -114,11 +108,7 @@ TEST_CASE("A column at rest: the support impulse per step equals M g h", "[sim]"
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const int n_beads = 12;
   for (const bool pocket : {false, true}) {
-    Options o;
-    set_solver(o, solver);
-    o.time_step = 1e-3;
-    o.tolerance = 1e-8;
-    o.max_iterations = 20000;
+    Options o = solver_options(solver, {.time_step = 1e-3, .tolerance = 1e-8, .max_iterations = 20000});
     World w(o);
     double z0 = 0.5 * kD;
     if (pocket)
@@ -146,11 +136,7 @@ TEST_CASE("A column at rest: the support impulse per step equals M g h", "[sim]"
 
 TEST_CASE("A bead in a pocket of fixed beads stays put over 1e4 steps", "[sim]") {
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 1e-3;
-  o.tolerance = 1e-6;
-  o.friction = 0.3;
+  Options o = solver_options(solver, {.time_step = 1e-3, .friction = 0.3, .tolerance = 1e-6});
   World w(o);
   const double z = add_pocket(w);
   const Vec3 start(0.0, 0.0, z);

@@ -25,12 +25,7 @@ std::vector<int> hanging_chain(World& w, int n, double bond) {
   return beads;
 }
 Options hanging_chain_options(Solver solver) {
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 1e-3;
-  o.tolerance = 1e-10;
-  o.max_iterations = 20000;
-  return o;
+  return solver_options(solver, {.time_step = 1e-3, .tolerance = 1e-10, .max_iterations = 20000});
 }
 }  // namespace
 
@@ -65,10 +60,7 @@ TEST_CASE("A rope pendulum keeps its length and its period", "[sim]") {
   // lies on the tangent of the circle, off by (v h)²/(2L) ≤ g h² θ0²... per step before
   // the next step's C/h term removes it: the bound is that chord error plus the solver's.
   const double L = 5.0 * kD, h = 1e-4, theta0 = deg(5.0);
-  Options o;
-  set_solver(o, solver);
-  o.time_step = h;
-  o.tolerance = 1e-10;
+  Options o = solver_options(solver, {.time_step = h, .tolerance = 1e-10});
   World w(o);
   const int a = w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed);
   const int b = w.add_sphere(L * Vec3(std::sin(theta0), 0.0, -std::cos(theta0)), kD, kRho);
@@ -106,11 +98,7 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
   const double bond = 1.1 * kD, theta_max = deg(30.0);
   SECTION("a chain bent beyond the limit is straightened to it in one step") {
-    Options o;
-    set_solver(o, solver);
-    o.gravity = Vec3::Zero();
-    o.time_step = 1e-3;
-    o.tolerance = 1e-12;
+    Options o = solver_options(solver, {.time_step = 1e-3, .gravity = Vec3::Zero(), .tolerance = 1e-12});
     World w(o);
     const double bent = deg(45.0);
     std::vector<int> beads{w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho),
@@ -131,11 +119,7 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
   }
   SECTION("a chain swinging down from two fixed beads never exceeds the limit") {
     const double h = 1e-4;
-    Options o;
-    set_solver(o, solver);
-    o.time_step = h;
-    o.tolerance = 1e-8;
-    o.max_iterations = 5000;
+    Options o = solver_options(solver, {.time_step = h, .tolerance = 1e-8, .max_iterations = 5000});
     World w(o);
     std::vector<int> beads{w.add_sphere(Vec3(-bond, 0.0, 0.0), kD, kRho, BodyKind::kFixed),
                            w.add_sphere(Vec3::Zero(), kD, kRho, BodyKind::kFixed)};
@@ -165,9 +149,7 @@ TEST_CASE("The turning-angle limit holds on a bent and a swinging chain", "[sim]
 
 TEST_CASE("A straight chain falls freely: angle rows stay inactive (W_a guard)", "[sim]") {
   const Solver solver = GENERATE(Solver::alternate, Solver::forward, Solver::anderson);  // every solver
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 1e-3;
+  Options o = solver_options(solver, {.time_step = 1e-3});
   World w(o);
   std::vector<int> beads;
   for (int k = 0; k < 5; ++k) beads.push_back(w.add_sphere(Vec3(1.1 * kD * k, 0.0, 0.0), kD, kRho));

@@ -25,12 +25,9 @@ namespace {
 /// A box of walls with a fixed bead, a kinematic bead, two angle-limited chains and
 /// single beads falling onto each other: every kind of row and body.
 World make_scene(Solver solver = Solver::alternate) {
-  Options o;
-  set_solver(o, solver);
-  o.time_step = 5e-4;
-  o.tolerance = 1e-5;
-  o.max_iterations = 60;  // low enough that the cap is hit now and then
-  o.friction = 0.3;
+  // A sweep cap low enough to be hit now and then.
+  const Options o =
+      solver_options(solver, {.time_step = 5e-4, .friction = 0.3, .tolerance = 1e-5, .max_iterations = 60});
   World w(o);
   const double half = 3.0 * kD;
   w.add_wall(Wall{Vec3::Zero(), Vec3::UnitZ(), 0.4});

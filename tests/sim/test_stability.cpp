@@ -17,14 +17,12 @@ namespace {
 // 60 beads dropped into a box of five planes (floor and four sides).
 World pour(int steps, StepDiagnostics* last = nullptr, int threads = 1, int freeze_sweeps = 16,
            double tolerance = 1e-4, int parallel_min_rows_per_thread = 2000, Solver solver = Solver::alternate) {
-  Options o;
-  set_solver(o, solver);
-  o.parallel_min_rows_per_thread = parallel_min_rows_per_thread;
-  o.time_step = 5e-4;
-  o.tolerance = tolerance;
-  o.max_iterations = 200;
-  o.threads = threads;
-  o.freeze_sweeps = freeze_sweeps;
+  const Options o = solver_options(solver, {.time_step = 5e-4,
+                                            .tolerance = tolerance,
+                                            .max_iterations = 200,
+                                            .freeze_sweeps = freeze_sweeps,
+                                            .threads = threads,
+                                            .parallel_min_rows_per_thread = parallel_min_rows_per_thread});
   World w(o);
   BoxPour p;  // 60 beads, layers of 4 x 4 at 1.2 d, box 10 d wide, seed 7
   p.diameter = kD;
