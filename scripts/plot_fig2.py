@@ -19,7 +19,6 @@ collapse: rescaled r~ against phi~ with r_tilde_sigma bars (`shearzone collapse 
           master curve if given.
 Run with /usr/bin/python3 (Debian's python3-matplotlib and python3-numpy).
 """
-import argparse
 import math
 import os
 import sys
@@ -297,8 +296,7 @@ def collapse(a):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="panel", required=True)
+    ap, sub = szplot.panel_parser(__doc__)
     p = sub.add_parser("profiles")
     p.add_argument("out")
     p.add_argument("inputs", nargs="+")

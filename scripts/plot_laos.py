@@ -19,7 +19,6 @@ amplitude, stay apart; the legend gives the factor, and the right panel shows th
 exponents with their standard errors.
 Run with /usr/bin/python3 (Debian's python3-matplotlib).
 """
-import argparse
 import glob
 import math
 import os
@@ -222,8 +221,7 @@ def taun(a):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="panel", required=True)
+    ap, sub = szplot.panel_parser(__doc__)
     p = sub.add_parser("lissajous")
     p.add_argument("out")
     p.add_argument("outdir")

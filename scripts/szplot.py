@@ -11,6 +11,7 @@ Every log axis gets at least three labelled ticks: decades when the data span se
 1-2-5 (or finer) steps when they span one or less, plain numbers (0.02, 5, 200) in the
 range 1e-3..1e4 and a x 10^n beyond.
 """
+import argparse
 import math
 import os
 import sys
@@ -30,6 +31,12 @@ WIDE = (7.0, 2.9)  # two columns
 COLORS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#999999"]
 MARKERS = ["o", "s", "^", "D", "v", "P", "X", "h"]
 LINESTYLES = ["-", "--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 1, 1, 1, 1, 1)), (0, (1, 1)), (0, (8, 2))]
+
+
+def panel_parser(doc):
+    """A parser whose first argument names the panel to draw: (parser, its subparsers)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    return ap, ap.add_subparsers(dest="panel", required=True)
 
 
 def setup():

@@ -24,6 +24,16 @@ std::vector<double> erf_data(const std::vector<double>& x, const std::vector<dou
   for (double v : x) y.push_back(ErfTransition{}(p.data(), v));
   return y;
 }
+/// The erf fit of erf_data(x, q) with Gaussian noise of SD `noise` (seeded), its status
+/// and message shown on failure.
+CurveFit fit_noisy_erf(const std::vector<double>& x, const std::vector<double>& q, double noise,
+                       std::uint64_t seed) {
+  testing::Gauss g(seed);
+  auto y = erf_data(x, q);
+  for (double& v : y) v += noise * g();
+  return fit_erf(x, y, {});
+}
+
 }  // namespace
 
 TEST_CASE("erf starting values follow the documented rules", "[fit]") {
@@ -66,10 +76,7 @@ TEST_CASE("erf degeneracies are statuses", "[fit]") {
     // Only the rising start of a transition centred at 1.4 is sampled (x <= 1).
     const std::vector<double> q = {1.0, 3.0, 1.4, 0.4};
     const auto x = grid(0.0, 1.0, 12);
-    testing::Gauss g(3);
-    auto y = erf_data(x, q);
-    for (double& v : y) v += 0.002 * g();
-    const CurveFit c = fit_erf(x, y, {});
+    const CurveFit c = fit_noisy_erf(x, q, 0.002, 3);
     INFO(status_name(c.status) << " " << c.message);
     CHECK((c.status == FitStatus::kTransitionOutsideRange || c.status == FitStatus::kNoConvergence ||
            c.status == FitStatus::kSingularCovariance));
@@ -79,10 +86,7 @@ TEST_CASE("erf degeneracies are statuses", "[fit]") {
     // W = 0.01 against a spacing of 0.09: at most one point inside phi_c +- W.
     const std::vector<double> q = {1.0, 3.0, 0.52, 0.01};
     const auto x = grid(0.0, 1.0, 12);
-    testing::Gauss g(4);
-    auto y = erf_data(x, q);
-    for (double& v : y) v += 0.01 * g();
-    const CurveFit c = fit_erf(x, y, {});
+    const CurveFit c = fit_noisy_erf(x, q, 0.01, 4);
     INFO(status_name(c.status) << " " << c.message);
     CHECK(c.status == FitStatus::kTransitionUnresolved);
     CHECK_FALSE(c.usable());

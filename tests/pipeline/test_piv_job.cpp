@@ -44,6 +44,14 @@ pipeline::PivJobOptions job(std::vector<std::string> inputs, const fs::path& out
   return o;
 }
 
+/// A clip of `frames` rotation frames in tmp/clip (make_clip: "avi" or "png") and the job
+/// that reads it into `out`.
+pipeline::PivJobOptions clip_job(const testing::TempDir& tmp, int frames, const std::string& format,
+                                 const fs::path& out) {
+  make_clip(tmp / "clip", frames, format);
+  return job({(tmp / "clip" / (format == "png" ? "frame_*.png" : "video." + format)).string()}, out);
+}
+
 /// A bead clip (25 fps) around a four-blade vane (half-width 5 px, radius 70 px)
 /// oscillating as phi = 0.3 sin(pi t), with a shear zone whose rigid core turns with
 /// the vane.
@@ -133,8 +141,7 @@ TEST_CASE("PIV reads PGM frames and frames named by content; the message names a
 
 TEST_CASE("a video becomes an HDF5 field file in the documented layout", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
-  make_clip(tmp / "clip", 5, "avi");
-  auto o = job({(tmp / "clip" / "video.avi").string()}, tmp / "fields.h5");
+  auto o = clip_job(tmp, 5, "avi", tmp / "fields.h5");
   o.centre_x_px = 127.5;
   o.centre_y_px = 95.5;
   o.attributes = {{"m_per_px", "0.0001"}, {"N", "9"}, {"sample", "steel beads"}};
@@ -194,8 +201,7 @@ TEST_CASE("repeated frames are skipped and counted; the fields are unchanged", "
 
 TEST_CASE("pair spacing, stride and frame range select the pairs", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
-  make_clip(tmp / "clip", 8, "png");
-  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
+  auto o = clip_job(tmp, 8, "png", tmp / "f.h5");
   o.pair_spacing = 2;
   o.stride = 3;
   o.first_frame = 1;
@@ -242,9 +248,8 @@ TEST_CASE("a masked clip gives the same file on 1, 2 and 3 threads, one pair per
 
 TEST_CASE("the vane angle can come from a log, with an offset", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
-  make_clip(tmp / "clip", 3, "png");
+  auto o = clip_job(tmp, 3, "png", tmp / "f.h5");
   testing::write_file(tmp / "log.csv", "# rheometer export\ntime_s,angle_rad\n0,0\n1,0.5\n2,1.0\n");
-  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
   o.centre_x_px = 127.5;
   o.centre_y_px = 95.5;
   o.vane.geometry = {4, 4, 60};
