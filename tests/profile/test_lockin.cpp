@@ -35,16 +35,9 @@ synth::ZoneFieldOptions clip(double f_Hz) {
 }
 
 ProfileOptions profile_options(const synth::ZoneFieldOptions& z, int harmonics) {
-  ProfileOptions o;
-  o.centre_x_px = z.centre_x_px;
-  o.centre_y_px = z.centre_y_px;
-  o.m_per_px = z.m_per_px;
-  o.r_min_m = z.vane_radius_m;
-  o.r_max_m = z.cup_radius_m;
-  o.bin_m = kBin;
-  o.se_replicates = 200;
-  o.lockin_harmonics = harmonics;
-  return o;
+  return {.centre_x_px = z.centre_x_px, .centre_y_px = z.centre_y_px, .m_per_px = z.m_per_px,
+          .r_min_m = z.vane_radius_m, .r_max_m = z.cup_radius_m, .bin_m = kBin, .se_replicates = 200,
+          .lockin_harmonics = harmonics};
 }
 
 /// The profile of `pairs` pairs, with the drive phase computed from t0 + t0_error_s.

@@ -74,6 +74,13 @@ int to_int(std::int64_t v, const io::H5File& f, const std::string& name) {
   return static_cast<int>(v);
 }
 
+/// A dataset of body indices (rows x width), each checked by to_int.
+std::vector<int> read_bodies(const io::H5File& f, const std::string& name, std::size_t rows, std::size_t width) {
+  std::vector<int> out;
+  for (const std::int64_t v : read_checked<std::int64_t>(f, name, rows, width)) out.push_back(to_int(v, f, name));
+  return out;
+}
+
 std::size_t count_attr(const io::H5File& f, const char* name) {
   if (!f.has_attribute("/", name))
     throw InputError(fmt::format("{}: attribute \"{}\": not found", f.path(), name));
@@ -326,23 +333,20 @@ WorldState read_checkpoint(const std::filesystem::path& path) {
     for (std::size_t k = 0; k < nw; ++k) s.walls.push_back(Wall{p[k], nn[k], mu[k]});
   }
   if (const std::size_t nr = count_attr(f, "n_ropes"); nr > 0) {
-    const auto ij = read_checked<std::int64_t>(f, "/ropes/bodies", nr, 2);
+    const auto ij = read_bodies(f, "/ropes/bodies", nr, 2);
     const auto len = read_checked<double>(f, "/ropes/max_length", nr, 0);
     const auto imp = read_checked<double>(f, "/ropes/impulse", nr, 0);
     const auto image = images("/ropes/image", nr, 0);
-    for (std::size_t k = 0; k < nr; ++k)
-      s.ropes.push_back({to_int(ij[2 * k], f, "/ropes/bodies"), to_int(ij[2 * k + 1], f, "/ropes/bodies"),
-                         len[k], imp[k], image[k]});
+    for (std::size_t k = 0; k < nr; ++k) s.ropes.push_back({ij[2 * k], ij[2 * k + 1], len[k], imp[k], image[k]});
   }
   if (const std::size_t na = count_attr(f, "n_angles"); na > 0) {
-    const auto abc = read_checked<std::int64_t>(f, "/angles/bodies", na, 3);
+    const auto abc = read_bodies(f, "/angles/bodies", na, 3);
     const auto amax = read_checked<double>(f, "/angles/max_angle", na, 0);
     const auto imp = read_checked<double>(f, "/angles/impulse", na, 0);
     const auto image = images("/angles/image", na, 2);
     for (std::size_t k = 0; k < na; ++k)
-      s.angles.push_back({to_int(abc[3 * k], f, "/angles/bodies"), to_int(abc[3 * k + 1], f, "/angles/bodies"),
-                          to_int(abc[3 * k + 2], f, "/angles/bodies"), amax[k], imp[k], image[2 * k],
-                          image[2 * k + 1]});
+      s.angles.push_back(
+          {abc[3 * k], abc[3 * k + 1], abc[3 * k + 2], amax[k], imp[k], image[2 * k], image[2 * k + 1]});
   }
   if (const std::size_t nc = count_attr(f, "n_contacts"); nc > 0) {
     const auto ids = read_checked<std::int64_t>(f, "/contacts/bodies", nc, 3);
