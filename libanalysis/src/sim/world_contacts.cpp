@@ -208,8 +208,8 @@ void World::find_contacts(double alert) {
 }
 
 void World::apply_contact(const ContactRow& r, const Vec3& p, const detail::Sector& sec) {
-  detail::apply_row_impulse(body_[static_cast<std::size_t>(r.i)], body_[static_cast<std::size_t>(r.j)], r, r.n, p,
-                            sec);
+  detail::apply_row_impulse(body_[static_cast<std::size_t>(r.i)], body_[static_cast<std::size_t>(r.j)], r.image, r.ri,
+                            r.rj, r.n, p, sec);
 }
 
 // Row geometry at x(t) and the warm start (impulses of the previous step, applied).

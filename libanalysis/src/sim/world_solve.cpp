@@ -208,7 +208,7 @@ void World::sweep_lists(const RowLists& lists, bool forward, int sweep, bool che
     r.pt = pt;
     const double wn = bi.inv_mass + bj.inv_mass;
     const double wt = wn + r.ri * r.ri * bi.inv_inertia + r.rj * r.rj * bj.inv_inertia;
-    detail::apply_row_impulse(bi, bj, r, n, dpn * n + dpt, sec);
+    detail::apply_row_impulse(bi, bj, r.image, r.ri, r.rj, n, dpn * n + dpt, sec);
     t.dv2 += wn * wn * dpn * dpn + wt * wt * dpt.squaredNorm();
     t.wp2 += wn * wn * pn * pn + wt * wt * pt.squaredNorm();
     if (closed || pn != 0.0) ++t.active;
