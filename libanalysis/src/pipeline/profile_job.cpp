@@ -82,22 +82,21 @@ cv::Mat first_frame(const std::string& path) {
 }
 
 /// What width needs to bound the PIV's systematic errors, from piv's attributes (none
-/// for fields piv did not write): the footprint each velocity is a mean over, a final
-/// window of W px (variance W^2 / 12 about its centre along any direction) and a texture
-/// of d px that moves with its bead's centre, up to d / 2 away (variance <= d^2 / 4);
-/// and piv's displacement bias bound over the pair's time step.
+/// for fields piv did not write): the footprint each velocity is a mean over
+/// (profile::piv_footprint_var_m2) and piv's displacement bias bound over the pair's
+/// time step (profile::piv_velocity_bias_bound).
 void add_velocity_bounds(core::Metadata& meta, const io::FieldReader& src, double m_per_px, double dt_s) {
   const double W = src.attribute("piv_final_window_px");
   if (!(set(W) && W > 0 && W < 1e5)) return;
   const double d = src.attribute("texture_size_px");
   const double d_px = set(d) && d > 0 && d < 1e5 ? d : 0.0;
-  meta.emplace_back("velocity_footprint_var_m2", format_number((W * W / 12.0 + d_px * d_px / 4.0) * m_per_px * m_per_px));
+  meta.emplace_back("velocity_footprint_var_m2", format_number(profile::piv_footprint_var_m2(W, d_px, m_per_px)));
   meta.emplace_back("velocity_footprint",
                     fmt::format("(W^2 / 12 + d^2 / 4) m_per_px^2: piv's final window W = {} px, texture d = {} px "
                                 "({}); width bounds how far r_c reads high by it",
                                 format_number(W), format_number(d_px),
                                 d_px > 0 ? "texture_size_px of the field file" : "unknown: 0"));
-  meta.emplace_back("velocity_bias_bound_m_per_s", format_number(profile::kPivBiasBoundPx * m_per_px / dt_s));
+  meta.emplace_back("velocity_bias_bound_m_per_s", format_number(profile::piv_velocity_bias_bound(m_per_px, dt_s)));
   meta.emplace_back("velocity_bias_bound",
                     fmt::format("piv's displacement bias, at most {} px per pair (docs/piv.md), over dt = {} s; "
                                 "width bounds how far it moves r_c",

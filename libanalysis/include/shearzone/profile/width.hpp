@@ -134,6 +134,16 @@ double scan_rc(const std::vector<double>& r, const std::vector<double>& v,
 /// beads moving 0.05-0.2 px per pair read 0.0035 px low (docs/profile-width.md).
 inline constexpr double kPivBiasBoundPx = 0.01;
 
+/// The variance of the footprint one PIV velocity is a mean over, m^2: a final window of
+/// W px (variance W^2 / 12 about its centre along any direction) and a texture of d px
+/// that moves with its bead's centre, up to d / 2 away (variance <= d^2 / 4).
+inline double piv_footprint_var_m2(double final_window_px, double texture_px, double m_per_px) {
+  const double W = final_window_px, d = texture_px;
+  return (W * W / 12.0 + d * d / 4.0) * m_per_px * m_per_px;
+}
+/// The bound of a PIV velocity's systematic error, m/s: kPivBiasBoundPx per pair over dt.
+inline double piv_velocity_bias_bound(double m_per_px, double dt_s) { return kPivBiasBoundPx * m_per_px / dt_s; }
+
 /// How far a velocity bias of at most `bias_m_per_s` moves r_c where v crosses v_c over
 /// a decay of length lambda: lambda ln(1 + e) outwards and -lambda ln(1 - e) inwards,
 /// e = bias / v_c (inwards: down to the vane, r_c - r_first, when e >= 1). 0 where either
