@@ -22,4 +22,9 @@ AngleLog read_angle_log(const std::string& path, std::size_t min_rows) {
   return log;
 }
 
+void write_angle_log(std::ostream& out, const core::Metadata& metadata, const AngleLog& log) {
+  CsvWriter w(out, metadata, {"time_s", "angle_rad"});
+  for (std::size_t r = 0; r < log.time_s.size(); ++r) w.row(std::vector<double>{log.time_s[r], log.angle_rad[r]});
+}
+
 }  // namespace shearzone::io

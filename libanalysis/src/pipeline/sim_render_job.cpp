@@ -12,8 +12,8 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/atomic_output.hpp"
-#include "shearzone/io/csv.hpp"
 #include "shearzone/io/image.hpp"
 #include "shearzone/io/json.hpp"
 #include "shearzone/io/video.hpp"
@@ -168,7 +168,7 @@ SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata&
   meta.emplace_back("run", o.run_dir.string());
   meta.emplace_back("time_s", "video time: 0 at the first frame drawn (simulated time " + num(t_first) + " s)");
   meta.emplace_back("angle_rad", "vane deflection phi, > 0 counter-clockwise seen from above (and on the image)");
-  io::CsvWriter angles(out.add("vane_angle.csv").stream(), meta, {"time_s", "angle_rad"});
+  io::AngleLog angles;
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t fk = static_cast<std::size_t>(o.first_frame) + k;
     sim::FrameBodies bodies = frames.frame(fk);
@@ -182,10 +182,12 @@ SimRenderSummary run_sim_render(const SimRenderOptions& o, const core::Metadata&
       const std::string bytes = io::encode_image(img, o.output_dir / names[k]);
       out.add(names[k]).stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     }
-    angles.row(std::vector<double>{t_s - t_first, phi});
+    angles.time_s.push_back(t_s - t_first);
+    angles.angle_rad.push_back(phi);
     if (progress) progress(k + 1, count);
   }
   if (writer) writer->close();
+  io::write_angle_log(out.add("vane_angle.csv").stream(), meta, angles);
 
   // camera.json: everything in px that the lab pipeline needs, and how it was drawn.
   {

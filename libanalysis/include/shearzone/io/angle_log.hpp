@@ -4,8 +4,11 @@
 #pragma once
 
 #include <cstddef>
+#include <ostream>
 #include <string>
 #include <vector>
+
+#include "shearzone/core/metadata.hpp"
 
 namespace shearzone::io {
 
@@ -16,5 +19,8 @@ struct AngleLog {
 /// Reads the log; InputError for fewer than `min_rows` rows or times that do not strictly
 /// increase (file:line, the value, what was expected).
 AngleLog read_angle_log(const std::string& path, std::size_t min_rows);
+
+/// Writes the log (the header `metadata`, then a row per sample; every digit of each value).
+void write_angle_log(std::ostream& out, const core::Metadata& metadata, const AngleLog& log);
 
 }  // namespace shearzone::io
