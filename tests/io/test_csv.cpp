@@ -1,8 +1,10 @@
+#include <fstream>
 #include <sstream>
 
 #include <catch2/catch.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/csv.hpp"
 #include "support/temp_dir.hpp"
 
@@ -121,4 +123,22 @@ TEST_CASE("a huge header gives a short message", "[io][csv]") {
     CHECK(m.size() < 500);
   }
   CHECK(io::excerpt(std::string(1000, 'x'), 10) == "xxxxxxxxxx... (990 more characters)");
+}
+
+TEST_CASE("an angle log written by write_angle_log reads back exactly; a log whose time does not increase is "
+          "refused with its line",
+          "[io]") {
+  testing::TempDir tmp("angle_log");
+  const io::AngleLog log{{0.0, 0.04, 0.08, 0.12}, {0.0, 0.1 / 3.0, -2e-17, 0.3}};
+  {
+    std::ofstream f(tmp / "a.csv");
+    io::write_angle_log(f, {{"source", "test"}}, log);
+  }
+  const io::AngleLog back = io::read_angle_log((tmp / "a.csv").string(), 4);
+  CHECK(back.time_s == log.time_s);  // every digit: exact
+  CHECK(back.angle_rad == log.angle_rad);
+  CHECK_THROWS_AS(io::read_angle_log((tmp / "a.csv").string(), 5), InputError);
+  testing::write_file(tmp / "b.csv", "time_s,angle_rad\n0,0\n0.1,0\n0.1,0\n");
+  CHECK_THROWS_WITH(io::read_angle_log((tmp / "b.csv").string(), 2),
+                    Catch::Matchers::Contains("b.csv:4") && Catch::Matchers::Contains("does not increase"));
 }
