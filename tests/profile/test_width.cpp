@@ -319,25 +319,18 @@ TEST_CASE("bootstrap CIs of r_c over 24 cycles cover the truth 91.5-98.5 % of th
 // blocks of fit residuals miss the slow noise the fit removed (measured: 28 %).
 TEST_CASE("bootstrap CIs of r_c of a single oscillation cycle cover the truth 91.5-98.5 %",
           "[profile][width]") {
-  OscillatingCase c;
-  check_coverage(coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions));
+  check_coverage(coverage_of(OscillatingCase{}, Grouping::kPairsPhaseDetrended, kCoverageRepetitions));
 }
 
 TEST_CASE("bootstrap CIs of r_c of three oscillation cycles cover the truth 91.5-98.5 %",
           "[profile][width]") {
-  OscillatingCase c;
-  c.f_Hz = 1.0;
-  c.pairs = 75;
-  c.noise = 0.3;
+  const OscillatingCase c{.f_Hz = 1.0, .pairs = 75, .noise = 0.3};
   check_coverage(coverage_of(c, Grouping::kPairsPhaseDetrended, kCoverageRepetitions));
 }
 
 TEST_CASE("bootstrap CIs of r_c of ten cycles with cycle-to-cycle scatter cover the truth",
           "[profile][width]") {
-  OscillatingCase c;
-  c.f_Hz = 1.0;
-  c.pairs = 250;
-  c.cycle_scatter = 0.1;
+  const OscillatingCase c{.f_Hz = 1.0, .pairs = 250, .cycle_scatter = 0.1};
   check_coverage(coverage_of(c, Grouping::kCycles, kCoverageRepetitions));
 }
 

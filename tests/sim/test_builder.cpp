@@ -322,11 +322,7 @@ TEST_CASE("Packing: poured single beads near random loose packing, chains looser
 
 TEST_CASE("an annulus region (the cup around its vane): placement stays between the radii, volumes add up",
           "[sim][builder]") {
-  CylinderRegion c;
-  c.radius = 0.03;
-  c.inner_radius = 0.01;
-  c.z0 = 0.0;
-  c.z1 = 0.02;
+  const CylinderRegion c{.radius = 0.03, .z0 = 0.0, .z1 = 0.02, .inner_radius = 0.01};
   ChainOptions o;
   o.chains = 80;
   o.beads_per_chain = 3;
