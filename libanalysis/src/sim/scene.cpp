@@ -250,33 +250,6 @@ BoxRegion read_box(const Scene& s, const std::string& lo_key, const std::string&
   return {lo, hi};
 }
 
-/// Everything a scene puts in the world, read and checked before anything is built.
-struct SceneBodies {
-  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
-  std::optional<BoxRegion> box;
-  double box_friction = 0.5;
-  bool lid = false;
-  bool cylinder = false;
-  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
-  double cyl_cx = 0.0, cyl_cy = 0.0;
-  bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
-  int sectors = 0;           ///< cylinder.sectors: a periodic wedge of 1/sectors of the cup (0: the whole cup)
-  double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
-  // Beads.
-  double diameter = 0.0, density = 2500.0;
-  std::vector<Vec3> fixed, kinematic, mobile;
-  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
-  ChainOptions chains;
-  // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
-  std::vector<Vec3> vane;
-  Vec3 vane_centre = Vec3::Zero();
-  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3, vane_stop_change = 0.0;
-  // [fill].
-  bool fill = false;
-  Region fill_region;
-  bool settle = false;
-  FillOptions settle_options;
-};
 
 /// The first side of a periodic wedge of 1/k of the cup: blade 0 (azimuth 0) in its middle.
 double sector_start(int k) { return k != 0 ? -std::numbers::pi / k : 0.0; }
@@ -638,12 +611,14 @@ void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
   w.add_rotor(ids, b.vane_centre, Vec3::UnitZ(), b.vane_phi0, b.vane_f, b.vane_phase, 0.0);
 }
 
-/// Builds the world of a scene. `check_only` (restart): reads and checks every section
-/// but places, drops and relaxes nothing. The fill stage's report goes to the result's `fill`.
-LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& protocol, bool check_only,
-                        const FillProgress& progress) {
-  Options opt = read_options(s);
-  SceneBodies b = read_bodies(s);
+/// The world's options, bodies and camera of a scene, every cross-section rule checked
+/// (the drive resolved by the time step, the sector's limits, the camera's frame).
+void read_world(const Scene& s, SceneSpec& spec) {
+  const std::optional<SceneProtocol>& protocol = spec.protocol;
+  Options& opt = spec.options;
+  opt = read_options(s);
+  SceneBodies& b = spec.bodies;
+  b = read_bodies(s);
   if (b.sectors != 0) {  // the periodic wedge of the cup (World: "Periodic sector")
     opt.sectors = b.sectors;
     opt.sector_centre = Vec3(b.cyl_cx, b.cyl_cy, 0.0);
@@ -698,10 +673,9 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
   // fill raises the drop column along +z: the beads must fall down it.
   if (b.settle && !(opt.gravity.z() < 0.0))
     s.fail("fill.settle", "needs gravity with a downward (negative z) component (sim.gravity_m_per_s2)");
-  LoadedScene out;
   if (s.has("camera.fps") || s.has("camera.m_per_px") || s.has("camera.spacing_px") || s.has("camera.frames")) {
     if (!b.cylinder) s.fail_file("[camera] looks down into a [cylinder] (give the cup as [cylinder])");
-    SceneCamera& c = out.camera.emplace();
+    SceneCamera& c = spec.camera.emplace();
     c.fps = s.positive("camera.fps", 25.0);
     if (!(c.fps <= 1e4)) s.fail("camera.fps", "expected 0 < fps <= 1e4");
     if (!(1.0 / c.fps >= opt.time_step * (1 - 1e-9)))
@@ -725,6 +699,17 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
     c.vane_blades = b.vane.empty() ? 0 : static_cast<int>(s.integer("vane.blades", 4, 1, 64));
     c.vane_height_m = b.vane.empty() ? 0.0 : s.num("vane.height_m", 0.0);
   }
+}
+
+}  // namespace
+
+LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgress& progress) {
+  const Options& opt = spec.options;
+  const SceneBodies& b = spec.bodies;
+  LoadedScene out;
+  out.protocol = spec.protocol;
+  out.camera = spec.camera;
+  out.cadence = spec.cadence;
   out.torque_every_rad = b.vane_torque_every;
   out.stop_change = b.vane_stop_change;
   out.vane = !b.vane.empty();
@@ -799,6 +784,8 @@ LoadedScene build_world(const Scene& s, const std::optional<SceneProtocol>& prot
   }
   return out;
 }
+
+namespace {
 
 /// A fresh scene must not start with overlapping beads: the solver would push them
 /// apart in one step (a bead leaving at metres per second) and report nothing.
@@ -950,13 +937,17 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
                        scene.mobile_beads, mobile));
 }
 
-LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {
+SceneSpec read_scene(const std::filesystem::path& path) {
   const Scene scene(path);
-  const std::optional<SceneProtocol> protocol = read_protocol(scene);
-  const SceneCadence cadence = read_cadence(scene, protocol);
-  LoadedScene out = build_world(scene, protocol, check_only, progress);
-  out.cadence = cadence;
-  out.protocol = protocol;
+  SceneSpec spec;
+  spec.protocol = read_protocol(scene);
+  spec.cadence = read_cadence(scene, spec.protocol);
+  read_world(scene, spec);
+  return spec;
+}
+
+LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {
+  LoadedScene out = build_scene(read_scene(path), check_only, progress);
   if (!check_only) refuse_initial_overlaps(*out.world, path);
   return out;
 }

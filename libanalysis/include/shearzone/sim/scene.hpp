@@ -110,6 +110,7 @@
 #include <vector>
 
 #include "shearzone/core/progress.hpp"
+#include "shearzone/sim/builder.hpp"
 #include "shearzone/sim/surface.hpp"
 #include "shearzone/sim/world.hpp"
 
@@ -174,6 +175,46 @@ struct SceneProtocol {
   static std::string branch_folder(double phi0_rad);
 };
 
+/// Everything a scene puts in the world, read and checked before anything is built (the
+/// scene file's sections in SI units, the cylinder's and the vane's beads laid out).
+struct SceneBodies {
+  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
+  std::optional<BoxRegion> box;
+  double box_friction = 0.5;
+  bool lid = false;
+  bool cylinder = false;
+  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
+  double cyl_cx = 0.0, cyl_cy = 0.0;
+  bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
+  int sectors = 0;           ///< cylinder.sectors: a periodic wedge of 1/sectors of the cup (0: the whole cup)
+  double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
+  // Beads.
+  double diameter = 0.0, density = 2500.0;
+  std::vector<Vec3> fixed, kinematic, mobile;
+  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
+  ChainOptions chains;
+  // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
+  std::vector<Vec3> vane;
+  Vec3 vane_centre = Vec3::Zero();
+  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3, vane_stop_change = 0.0;
+  // [fill].
+  bool fill = false;
+  Region fill_region;
+  bool settle = false;
+  FillOptions settle_options;
+};
+
+/// A scene as values: what read_scene makes of a scene file, every key and every rule
+/// between sections checked, and what build_scene makes a world from. The typed boundary
+/// between the TOML and the engine.
+struct SceneSpec {
+  std::optional<SceneProtocol> protocol;
+  std::optional<SceneCamera> camera;
+  SceneCadence cadence;
+  Options options;     ///< the world's (a periodic sector's fields set from the cylinder)
+  SceneBodies bodies;  ///< the container, beads, chains, vane and fill
+};
+
 struct LoadedScene {
   std::optional<SceneProtocol> protocol;  ///< the scene has a [protocol]
   std::optional<SceneCamera> camera;  ///< the scene has a [camera]
@@ -202,6 +243,12 @@ struct FillProgress {
 };
 
 LoadedScene load_scene(const std::filesystem::path& scene, bool check_only, const FillProgress& progress = {});
+
+/// The scene file read and checked, nothing built (ConfigError naming file:line and key).
+SceneSpec read_scene(const std::filesystem::path& scene);
+/// The world of a scene spec (load_scene's second half; it does not refuse overlapping
+/// beads, which load_scene does for a fresh scene file). `check_only`: the container only.
+LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgress& progress = {});
 
 /// The drive of an amplitude branch (`sim --restart CKPT --phi0 A --f-hz F --cycles K`)
 /// on a world of `sectors` (0: the whole cup) and `time_step` s, starting at
