@@ -125,7 +125,7 @@ TEST_CASE("a huge header gives a short message", "[io][csv]") {
   CHECK(io::excerpt(std::string(1000, 'x'), 10) == "xxxxxxxxxx... (990 more characters)");
 }
 
-TEST_CASE("an angle log written by write_angle_log reads back exactly; a log whose time does not increase is "
+TEST_CASE("an angle log written by write_angle_log reads back exactly, a log whose time does not increase is "
           "refused with its line",
           "[io]") {
   testing::TempDir tmp("angle_log");

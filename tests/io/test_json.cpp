@@ -6,7 +6,7 @@
 
 using namespace shearzone;
 
-TEST_CASE("JSON strings escape quotes, backslashes and control characters; NaN is null", "[io][json]") {
+TEST_CASE("JSON strings escape quotes, backslashes and control characters, NaN is null", "[io][json]") {
   CHECK(io::json_string("plain") == "\"plain\"");
   CHECK(io::json_string("run \"a\" \\ b") == "\"run \\\"a\\\" \\\\ b\"");
   CHECK(io::json_string("tab\tline\nret\r\x01") == "\"tab\\tline\\nret\\r\\u0001\"");

@@ -122,7 +122,7 @@ void rewrite_stts(const std::filesystem::path& path, std::uint32_t delta) {
 }
 }  // namespace
 
-TEST_CASE("an MP4 whose time stamps stall or run at another rate than its duration is refused; --fps times "
+TEST_CASE("an MP4 whose time stamps stall or run at another rate than its duration is refused, --fps times "
           "its frames index / fps",
           "[io][video]") {
   testing::TempDir dir("video");

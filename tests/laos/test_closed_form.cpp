@@ -206,7 +206,7 @@ TEST_CASE("an added even harmonic is reported and leaves the odd measures alone"
   }
 }
 
-TEST_CASE("Maxwell from rest: steady cycles recover G' and G''; the transient biases", "[laos]") {
+TEST_CASE("Maxwell from rest: steady cycles recover G' and G'', the transient biases", "[laos]") {
   const double G = 5, lambda = 0.7, omega = 2, x0 = 0.2;
   const double wl = omega * lambda;
   const double Gp = G * wl * wl / (1 + wl * wl), Gpp = G * wl / (1 + wl * wl);

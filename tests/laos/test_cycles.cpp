@@ -79,7 +79,7 @@ TEST_CASE("two amplitudes in one record split at a 5 % change", "[laos]") {
   }
 }
 
-TEST_CASE("partial cycles are dropped and counted; --cycles selects", "[laos]") {
+TEST_CASE("partial cycles are dropped and counted, --cycles selects", "[laos]") {
   const double x0 = 0.2;  // ω = 1
   // Start a quarter cycle late and stop a quarter cycle early: 3 complete, 2 partial.
   Waveform w;
@@ -200,7 +200,7 @@ TEST_CASE("guards: --no-split over several amplitudes is refused unless forced",
 // Issue 34: the simulated cup's tau_max was one impulsive contact (6.0 mN m against a
 // 99th percentile of 1.3). tau_max is now min(the largest sample, the largest value of
 // the cycle's odd-harmonic reconstruction); the raw largest sample is kept beside it.
-TEST_CASE("tau_max ignores a single spike and keeps a plateau; the raw maximum keeps the spike", "[laos]") {
+TEST_CASE("tau_max ignores a single spike and keeps a plateau, the raw maximum keeps the spike", "[laos]") {
   const double x0 = 0.3, omega = 2 * kPi * 0.5;
   const double G1 = 0.01, G3 = 0.002;  // torque per rad: elastic first and third harmonic
   auto model = [&](double th, double) { return x0 * (G1 * std::sin(th) + G3 * std::sin(3 * th)); };

@@ -108,7 +108,7 @@ TEST_CASE("a PIV pair writes the vector CSV with options and conventions", "[pip
   CHECK(good > 0.9 * u.size());
 }
 
-TEST_CASE("PIV reads PGM frames and frames named by content; the message names a non-image",
+TEST_CASE("PIV reads PGM frames and frames named by content, the message names a non-image",
           "[pipeline][piv]") {
   testing::TempDir tmp("pivfmt");
   pipeline::SynthJobOptions s;
@@ -168,7 +168,7 @@ TEST_CASE("a video becomes an HDF5 field file in the documented layout", "[pipel
   CHECK(f.attribute_string("/", "source").find("video.avi") != std::string::npos);
 }
 
-TEST_CASE("repeated frames are skipped and counted; the fields are unchanged", "[pipeline][piv]") {
+TEST_CASE("repeated frames are skipped and counted, the fields are unchanged", "[pipeline][piv]") {
   testing::TempDir tmp("pivjob");
   make_clip(tmp / "clean", 4, "png");
   // The same frames, each written three times (as some encoders repeat frames),

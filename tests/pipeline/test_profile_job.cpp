@@ -301,7 +301,7 @@ fs::path zone_clip(const fs::path& dir, double phase_rad,
 
 }  // namespace
 
-TEST_CASE("the drive phase: a 10 degree error in vane_phase_rad shows as cos 10 in the in-phase amplitude; "
+TEST_CASE("the drive phase: a 10 degree error in vane_phase_rad shows as cos 10 in the in-phase amplitude, "
           "the angle log removes it",
           "[pipeline][profile][lockin]") {
   TempDir tmp("drive_phase");

@@ -549,7 +549,7 @@ cycles = 2
   CHECK(sum.stages[2].summary.torque_amplitudes.back() > sum.stages[1].summary.torque_amplitudes.back());
 }
 
-TEST_CASE("a rough floor: a layer of touching fixed beads; the fill and the vane start on its tops",
+TEST_CASE("a rough floor: a layer of touching fixed beads, the fill and the vane start on its tops",
           "[pipeline][sim][vane]") {
   TempDir dir("sim_rough_floor");
   const std::string scene = with(with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05"),
@@ -580,7 +580,7 @@ TEST_CASE("a rough floor: a layer of touching fixed beads; the fill and the vane
   CHECK(mobile_min_z > 0.7 * 0.004);
 }
 
-TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit; both or neither refused",
+TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit, both or neither refused",
           "[pipeline][sim][vane]") {
   TempDir dir("sim_lengths_d");
   const std::string metres = with(kVaneCup, "duration_s = 2.0", "duration_s = 0.05");
@@ -604,7 +604,7 @@ TEST_CASE("lengths in bead diameters: the same cup as in metres, bit for bit; bo
              Contains("key \"vane.radius_d\": 0.004 m: expected at least 1.5 bead diameters"));
 }
 
-TEST_CASE("a vane cup's friction defaults to the paper's oiled chains (mu = 0.2), beads and floor; its solver to "
+TEST_CASE("a vane cup's friction defaults to the paper's oiled chains (mu = 0.2), beads and floor, its solver to "
           "forward sweeps with Anderson(3)",
           "[pipeline][sim][vane]") {
   TempDir dir("sim_cup_friction");

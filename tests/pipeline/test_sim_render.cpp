@@ -66,7 +66,7 @@ std::string read_bytes(const std::filesystem::path& p) { return testing::read_fi
 
 }  // namespace
 
-TEST_CASE("sim render: a filmed run renders to the same bytes twice; camera.json and piv.toml carry the geometry",
+TEST_CASE("sim render: a filmed run renders to the same bytes twice, camera.json and piv.toml carry the geometry",
           "[pipeline][sim][render]") {
   TempDir dir("sim_render");
   film_run(dir);

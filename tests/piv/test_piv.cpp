@@ -365,7 +365,7 @@ TEST_CASE("the vane phase is fitted from measured angles, and refused over less 
   CHECK(std::isnan(piv::fit_vane_phase(t, a, f).phase_rad));
 }
 
-TEST_CASE("the default preset is the defaults; an unknown preset names the four", "[piv]") {
+TEST_CASE("the default preset is the defaults, an unknown preset names the four", "[piv]") {
   CHECK(piv::piv_preset("default").matches(piv::PivOptions{}));
   CHECK_FALSE(piv::piv_preset("fast").matches(piv::PivOptions{}));
   piv::PivOptions o;

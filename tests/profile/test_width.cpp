@@ -362,7 +362,7 @@ TEST_CASE("the bootstrap is deterministic for a seed", "[profile][width]") {
   CHECK(a.rc_m < a.ci_high_m);
 }
 
-TEST_CASE("the footprint a velocity averages lowers the interval's low end by var / (2 lambda); a "
+TEST_CASE("the footprint a velocity averages lowers the interval's low end by var / (2 lambda), a "
           "velocity bias widens each side by its shift",
           "[profile][width]") {
   // A window average of exp(-r / lambda) over a footprint of variance var reads

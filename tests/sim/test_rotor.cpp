@@ -103,7 +103,7 @@ TEST_CASE("the motor torque of a vane holding a bead against gravity is r m g, p
   CHECK(w2.rotor_torque(rot2) == Approx(-r * m * kG).epsilon(1e-6));
 }
 
-TEST_CASE("a checkpoint keeps the rotor; a branch with a new drive starts from the checkpoint's place",
+TEST_CASE("a checkpoint keeps the rotor, a branch with a new drive starts from the checkpoint's place",
           "[sim][rotor]") {
   shearzone::testing::TempDir dir("rotor_ckpt");
   Options o;

@@ -13,8 +13,8 @@ const std::filesystem::path kFilmedCup =
     std::filesystem::path(SHEARZONE_DATA_SAMPLES_DIR) / "sim" / "filmed_cup.toml";
 }  // namespace
 
-TEST_CASE("a scene read into a spec and built is the world load_scene builds; a spec changed as a value builds "
-          "the change",
+TEST_CASE("a scene read into a spec and built is the world load_scene builds, and a spec changed as a value "
+          "builds the change",
           "[sim][scene]") {
   const SceneSpec spec = read_scene(kFilmedCup);
   REQUIRE(spec.camera.has_value());
