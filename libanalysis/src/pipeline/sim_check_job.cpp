@@ -174,6 +174,7 @@ struct FilmedBranch {
   SimRenderOptions render;
   SimRenderSummary rs;
   sim::FilmedCup cup;
+  synth::CupGeometry geometry;  ///< the cup as the renderer draws it
   double phase_video = 0.0;  ///< the drive's phase in video time
   fs::path video, static_clip;
   std::vector<synth::ProjectedBeads> proj;
@@ -222,13 +223,12 @@ void write_centres_truth(const SimCheckOptions& o, const FilmedBranch& fb, const
 /// --noise-ref. (The default floor, the motion in the outer 15 % of the annulus, is
 /// motion here: the zone of a small cup reaches its wall.)
 void write_static_clip(const SimCheckOptions& o, const FilmedBranch& fb) {
-  const synth::CupGeometry geometry = filmed_geometry(fb.cup);
   io::AtomicOutput f(fb.static_clip, o.force);
   {
     io::VideoWriter w(f.temp_path(), fb.cup.fps, cv::Size(fb.rs.camera.width_px, fb.rs.camera.height_px),
                       fb.render.codec, f.final_path());
     for (std::size_t k = 0; k < kStaticFrames; ++k)
-      w.write(synth::render_cup_frame(fb.rs.camera, geometry, fb.rs.surface_z_m, fb.proj[0], fb.vane_angles[0],
+      w.write(synth::render_cup_frame(fb.rs.camera, fb.geometry, fb.rs.surface_z_m, fb.proj[0], fb.vane_angles[0],
                                       fb.render.look, kStaticSeedOffset + k));
     w.close();
   }
@@ -259,12 +259,12 @@ FilmedBranch film_branch(const SimCheckOptions& o, const core::Metadata& header,
 
   t = Clock::now();
   say(fmt::format("{}: truth", name));
-  const synth::CupGeometry geometry = filmed_geometry(cup);
+  fb.geometry = filmed_geometry(cup);
   for (std::size_t k = 0; k < fb.rs.frames; ++k) {
     sim::FrameBodies b = frames.frame(static_cast<std::size_t>(fb.render.first_frame) + k);
     fb.vane_angles.push_back(cup.vane_angle(b.t_s));
     fb.proj.push_back(
-        synth::project_beads(fb.rs.camera, geometry, filmed_beads(std::move(b)), fb.rs.surface_z_m, fb.render.look));
+        synth::project_beads(fb.rs.camera, fb.geometry, filmed_beads(std::move(b)), fb.rs.surface_z_m, fb.render.look));
   }
   write_centres_truth(o, fb, bout / "truth_centres.h5");
   const double d = cup.bead_diameter_m;

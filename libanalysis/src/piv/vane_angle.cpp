@@ -110,11 +110,14 @@ VanePhaseFit fit_vane_phase(const std::vector<double>& t, const std::vector<doub
     out.phase_rad = std::numeric_limits<double>::quiet_NaN();
     return out;
   }
-  const auto first = [n](const std::vector<double>& v) {
-    return std::vector<double>(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n));
-  };
-  // A sin wt + B cos wt = R sin(w t + phase), phase = atan2(B, A).
-  const core::SineAt s = core::fit_sine_at(first(t), first(y), 2.0 * std::numbers::pi * f_Hz, 0.0, false);
+  const double w = 2.0 * std::numbers::pi * f_Hz;
+  // A sin wt + B cos wt = R sin(w t + phase), phase = atan2(B, A); the common length only.
+  const core::SineAt s =
+      t.size() == y.size()
+          ? core::fit_sine_at(t, y, w, 0.0, false)
+          : core::fit_sine_at(std::vector<double>(t.begin(), t.begin() + static_cast<std::ptrdiff_t>(n)),
+                              std::vector<double>(y.begin(), y.begin() + static_cast<std::ptrdiff_t>(n)), w, 0.0,
+                              false);
   out.amplitude_rad = std::hypot(s.A, s.B);
   out.phase_rad = std::atan2(s.B, s.A);
   out.offset_rad = s.C;

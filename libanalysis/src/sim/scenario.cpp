@@ -58,13 +58,13 @@ LatticePourLayout add_lattice_pour(World& w, const LatticePour& o) {
 
 namespace {
 
-/// Translational ½ m v² per bead over m g d.
-double kinetic_energy_per_mgd(const World& w, int beads, const LatticePour& pour) {
+/// Translational ½ m v² per bead of the pour over m g d.
+double kinetic_energy_per_mgd(const World& w, const LatticePour& pour) {
   const double d = pour.diameter;
   const double mgd = pour.density * std::numbers::pi * d * d * d / 6.0 * 9.81 * d;
   double ke = 0.0;
   for (int b = 0; b < w.body_count(); ++b) ke += 0.5 * w.mass(b) * w.velocity(b).squaredNorm();
-  return ke / beads / mgd;
+  return ke / pour.count / mgd;
 }
 
 }  // namespace
@@ -87,7 +87,7 @@ SettledPour settle_lattice_pour(const LatticePour& pour, const PourSettling& st,
   for (std::int64_t s = 1; s <= st.drop_max_steps; ++s) {
     w.step();
     p.drop_steps = s;
-    p.drop_kinetic_energy = kinetic_energy_per_mgd(w, pour.count, pour);
+    p.drop_kinetic_energy = kinetic_energy_per_mgd(w, pour);
     if (s >= min_steps && p.drop_kinetic_energy < st.drop_kinetic_energy) break;
   }
   for (int b = 0; b < w.body_count(); ++b) p.height = std::max(p.height, w.position(b).z() + 0.5 * d);
@@ -102,7 +102,7 @@ SettledPour settle_lattice_pour(const LatticePour& pour, const PourSettling& st,
   for (std::int64_t k = 1; k <= st.relax_max_steps; ++k) {
     const StepDiagnostics sd = r.step();
     p.relax_steps = k;
-    p.relax_kinetic_energy = kinetic_energy_per_mgd(r, pour.count, pour);
+    p.relax_kinetic_energy = kinetic_energy_per_mgd(r, pour);
     if (k >= st.relax_min_steps && !sd.hit_iteration_cap && p.relax_kinetic_energy < st.relax_kinetic_energy) break;
   }
   p.state = r.state();
