@@ -213,7 +213,7 @@ def cases(work):
         ("piv_mp4_tick_stamps", ["piv", "tick.mp4", "--windows", "32,16", "-o", "st.h5"], 2, ["st.h5"],
          r"tick.mp4: the container's clocks disagree: its time stamps give 12800 fps"),
         ("study_generated_scene_refused", ["study", "run", "study_n10.toml", "-o", "so"], 2, ["so"],
-         r"the scene of group N10_l0.0004_a60_s1:[0-9]+: key \"cylinder.sectors\": a periodic sector with chains of 10 beads"),
+         r"the scene of group N10_l0.0004_a60_s1: key \"cylinder.sectors\": a periodic sector with chains of 10 beads"),
         ("render_size_1e8", ["sim", "render", "cam_a", "-o", "rv", "--size", "16384,16384", "--format", "png"], 2,
          ["rv"], r"--size 16384x16384: 2.68e\+08 pixels per frame; expected at most 1e\+08"),
         ("render_mp4v_too_wide", ["sim", "render", "cam_a", "-o", "rv", "--size", "9000,2000"], 2, ["rv"],

@@ -153,32 +153,47 @@ int cup_chains(const BenchSimOptions& o, int N, int sectors) { return std::max(1
 
 /// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads (a sector with
 /// chains beyond the validated 9 beads sets sector_chains: the bench measures them).
-std::string cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
+sim::SceneSpec cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
   const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
   const double fill_height =
       o.cup_beads * std::numbers::pi / 6.0 * d * d * d / (0.6 * std::numbers::pi * (R * R - Rv * Rv));
   const double height = fill_height + 3.0 * d;
-  return fmt::format(
-      "# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {N} beads\n"
-      "[sim]\nduration_s = 0\ntime_step_s = {h}\nfriction = 0.2\ntolerance = {tol}\nmax_iterations = {cap}\n"
-      "freeze_sweeps = {fs}\n[output]\nsnapshot_every = 0\n"
-      "[cylinder]\nradius_m = {R}\nheight_m = {H}\nbead_diameter_m = {d}\n{sectors}"
-      "[beads]\ndiameter_m = {d}\ndensity_kg_per_m3 = 7800\n"
-      "[chains]\nbeads_per_chain = {N}\nl_max_m = 0.0004\nmax_angle_deg = 40\n"
-      "[vane]\nradius_m = {Rv}\nheight_m = {H}\n"
-      "[fill]\ncount = {count}\nseed = {seed}\nsettle = true\n",
-      fmt::arg("N", N), fmt::arg("h", io::format_number(o.time_step_s)), fmt::arg("tol", io::format_number(o.tolerance)),
-      fmt::arg("cap", o.max_iterations), fmt::arg("fs", o.freeze_sweeps), fmt::arg("R", io::format_number(R)),
-      fmt::arg("H", io::format_number(height)), fmt::arg("d", io::format_number(d)),
-      fmt::arg("Rv", io::format_number(Rv)), fmt::arg("count", cup_chains(o, N, sectors)),
-      fmt::arg("seed", seed), fmt::arg("sectors", sectors > 1 ? fmt::format("sectors = {}\n{}", sectors,
-                                                   N > 9 ? "sector_chains = true\n" : "")
-                                     : ""));
+  sim::SceneSpec s;
+  s.source = fmt::format("bench sim --scene cup (N = {})", N);
+  s.sim.duration_s = 0.0;
+  s.sim.time_step_s = o.time_step_s;
+  s.sim.friction = 0.2;
+  s.sim.tolerance = o.tolerance;
+  s.sim.max_iterations = o.max_iterations;
+  s.sim.freeze_sweeps = o.freeze_sweeps;
+  s.output.snapshot_every = 0;
+  s.cylinder.radius_m = R;
+  s.cylinder.height_m = height;
+  s.cylinder.bead_diameter_m = d;
+  if (sectors > 1) s.cylinder.sectors = sectors;
+  if (sectors > 1 && N > 9) s.cylinder.sector_chains = true;
+  s.beads.diameter_m = d;
+  s.beads.density_kg_per_m3 = 7800.0;
+  s.chains.beads_per_chain = N;
+  s.chains.l_max_m = 0.0004;
+  s.chains.max_angle_deg = 40.0;
+  s.vane.radius_m = Rv;
+  s.vane.height_m = height;
+  s.fill.count = cup_chains(o, N, sectors);
+  s.fill.seed = static_cast<std::int64_t>(seed);
+  s.fill.settle = true;
+  return s;
 }
 
-/// A vane cup scene, filled (InputError without a [vane]).
-sim::LoadedScene load_cup(const std::filesystem::path& file, const std::string& name) {
-  sim::LoadedScene sc = sim::load_scene(file, false);
+/// A vane cup's world, filled (InputError without a [vane]); `file` not empty: the
+/// spec written beside the outputs under that name (the built-in cup).
+sim::LoadedScene cup_world(io::AtomicOutputSet& out, const std::string& file, const sim::SceneSpec& spec,
+                           const std::string& name) {
+  if (!file.empty())
+    sim::write_scene(spec, out.add(file).stream(),
+                     fmt::format("# shearzone bench sim --scene cup: the paper's vane cup, chains of N = {} beads\n",
+                                 spec.chains.beads_per_chain.value_or(1)));
+  sim::LoadedScene sc = sim::build_scene(spec, false);
   if (!sc.vane || sc.world->rotor_count() == 0)
     throw InputError(fmt::format("bench sim --scene {}: no [vane]: the benchmark shears a vane cup", name));
   return sc;
@@ -298,8 +313,8 @@ sim::WorldState preshear(const sim::World& filled, const BenchSimOptions& o, con
 
 /// --scene cup --accuracy: the observables of the sheared cup against the solver's
 /// tolerance and time step (sim_cup_accuracy.csv, a row per N, setting and cycle).
-BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std::filesystem::path>& scenes,
-                                 const std::vector<int>& lengths, io::AtomicOutputSet& out, io::AtomicOutput& csv_file,
+BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<sim::SceneSpec>& scenes,
+                                 const std::vector<std::string>& scene_files, const std::vector<int>& lengths, io::AtomicOutputSet& out, io::AtomicOutput& csv_file,
                                  core::Metadata m, const core::ProgressCallback& progress) {
   const SolverChoice solver = solver_choices(o).front();
   m.emplace_back("protocol", fmt::format("per N: the settled fill, {} pre-shear cycle(s) at h = {} s and tolerance {} "
@@ -320,7 +335,7 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<std
   const std::size_t total = lengths.size() * o.cup_time_steps_s.size() * o.cup_tolerances.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
-    sim::LoadedScene sc = load_cup(scenes[i], o.scene);
+    sim::LoadedScene sc = cup_world(out, scene_files[i], scenes[i], o.scene);
     sim::World& w = *sc.world;
     const int mobile = mobile_count(w);
     const sim::WorldState pre = preshear(w, o, solver);
@@ -495,10 +510,8 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
           if (progress) progress(++done, total);
           continue;
         }
-        io::AtomicOutput& f = out.add(fmt::format("cup_N{}_K{}_seed{}.toml", N, K, seed));
-        f.stream() << cup_scene(o, N, K, seed);
-        f.stream().flush();
-        sim::LoadedScene sc = load_cup(f.temp_path(), o.scene);
+        sim::LoadedScene sc =
+            cup_world(out, fmt::format("cup_N{}_K{}_seed{}.toml", N, K, seed), cup_scene(o, N, K, seed), o.scene);
         const auto t0 = std::chrono::steady_clock::now();
         const sim::WorldState pre = preshear(*sc.world, o, solver);
         const double pre_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -601,16 +614,12 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
   io::AtomicOutputSet out(o.out_dir, o.force);
   io::AtomicOutput& csv_file = out.add(o.cup_accuracy ? "sim_cup_accuracy.csv" : "sim_cup.csv");
   const std::vector<int> lengths = builtin ? o.chain_lengths : std::vector<int>{0};
-  std::vector<std::filesystem::path> scenes;
+  // The built-in cup's scenes as values (each written beside the outputs), or the user's.
+  std::vector<sim::SceneSpec> scenes;
+  std::vector<std::string> scene_files;
   for (const int n : lengths) {
-    if (!builtin) {
-      scenes.emplace_back(o.scene);
-      continue;
-    }
-    io::AtomicOutput& f = out.add(fmt::format("cup_N{}.toml", n));
-    f.stream() << cup_scene(o, n, o.cup_sectors, o.seed);
-    f.stream().flush();
-    scenes.push_back(f.temp_path());
+    scenes.push_back(builtin ? cup_scene(o, n, o.cup_sectors, o.seed) : sim::read_scene(o.scene));
+    scene_files.push_back(builtin ? fmt::format("cup_N{}.toml", n) : std::string());
   }
 
   core::Metadata m = header;
@@ -620,7 +629,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
                                       "fastest, {} m/s at the tip of a 10.8 mm vane)",
                                       io::format_number(o.phi0_rad), io::format_number(o.f_Hz),
                                       io::format_number(o.phi0_rad * 2 * std::numbers::pi * o.f_Hz * 0.0108)));
-  if (o.cup_accuracy) return run_cup_accuracy(o, scenes, lengths, out, csv_file, m, progress);
+  if (o.cup_accuracy) return run_cup_accuracy(o, scenes, scene_files, lengths, out, csv_file, m, progress);
   m.emplace_back("timing", "warmup_steps untimed on one thread after the fill, then per thread count the same "
                            "timed steps from that state; wall_s: the timed steps only");
   m.emplace_back("cycle_wall_s", "wall time of one drive cycle (1/f) at this rate: wall_s / steps x 1 / (f h)");
@@ -636,7 +645,7 @@ BenchSimSummary run_cup_bench(const BenchSimOptions& o, const core::Metadata& he
   const std::size_t total = lengths.size() * o.threads.size() * solvers.size();
   std::size_t done = 0;
   for (std::size_t i = 0; i < lengths.size(); ++i) {
-    sim::LoadedScene sc = load_cup(scenes[i], o.scene);
+    sim::LoadedScene sc = cup_world(out, scene_files[i], scenes[i], o.scene);
     sim::World& w = *sc.world;
     const int mobile = mobile_count(w);
     w.set_rotor_drive(0, o.phi0_rad, o.f_Hz, 0.0, w.time());
@@ -688,19 +697,30 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   const double height = o.stir_beads * std::numbers::pi / 6.0 * d * d * d / (0.55 * side * side) + 3 * d;
   io::AtomicOutputSet out(o.out_dir, o.force);
   io::AtomicOutput& csv_file = out.add("sim_" + name + ".csv");
-  io::AtomicOutput& scene_file = out.add(name + ".toml");
-  scene_file.stream() << fmt::format(
-      "# shearzone bench sim --scene {}: the peer benchmark's box, settled (the rod is added by the bench)\n"
-      "[sim]\nduration_s = 0\ntime_step_s = {}\nfriction = 0.2\ntolerance = {}\nmax_iterations = {}\n"
-      "freeze_sweeps = {}\n[output]\nsnapshot_every = 0\n"
-      "[box]\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nfriction = 0.2\n"
-      "[beads]\ndiameter_m = {}\ndensity_kg_per_m3 = 7800\n"
-      "[fill]\ncount = {}\nmin_m = [0, 0, 0]\nmax_m = [{}, {}, {}]\nseed = {}\nsettle = true\n",
-      name, io::format_number(o.time_step_s), io::format_number(o.tolerance), o.max_iterations, o.freeze_sweeps,
-      io::format_number(side), io::format_number(side), io::format_number(height), io::format_number(d),
-      o.stir_beads, io::format_number(side), io::format_number(side), io::format_number(height), o.seed);
-  scene_file.stream().flush();
-  sim::LoadedScene sc = sim::load_scene(scene_file.temp_path(), false);
+  sim::SceneSpec box;  // the settled box (the rod is added by the bench)
+  box.source = "bench sim --scene " + name;
+  box.sim.duration_s = 0.0;
+  box.sim.time_step_s = o.time_step_s;
+  box.sim.friction = 0.2;
+  box.sim.tolerance = o.tolerance;
+  box.sim.max_iterations = o.max_iterations;
+  box.sim.freeze_sweeps = o.freeze_sweeps;
+  box.output.snapshot_every = 0;
+  box.box.min_m = sim::SceneSpec::Numbers{0.0, 0.0, 0.0};
+  box.box.max_m = sim::SceneSpec::Numbers{side, side, height};
+  box.box.friction = 0.2;
+  box.beads.diameter_m = d;
+  box.beads.density_kg_per_m3 = 7800.0;
+  box.fill.count = o.stir_beads;
+  box.fill.min_m = box.box.min_m;
+  box.fill.max_m = box.box.max_m;
+  box.fill.seed = static_cast<std::int64_t>(o.seed);
+  box.fill.settle = true;
+  sim::write_scene(box, out.add(name + ".toml").stream(),
+                   fmt::format("# shearzone bench sim --scene {}: the peer benchmark's box, settled (the rod is "
+                               "added by the bench)\n",
+                               name));
+  sim::LoadedScene sc = sim::build_scene(box, false);
   const sim::WorldState settled = sc.world->state();
 
   // The rod: 1 d below the 99.5th percentile of the bead heights, at x = 3 d.

@@ -7,53 +7,26 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <ostream>
 #include <numbers>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
+#include "shearzone/io/json.hpp"
 #include "shearzone/io/toml_config.hpp"
 #include "shearzone/sim/builder.hpp"
 
 namespace shearzone::sim {
 namespace {
 
-
-const std::vector<std::string> kKeys = {
-    "sim.duration_s",         "sim.time_step_s",        "sim.gravity_m_per_s2",
-    "sim.friction",           "sim.tolerance",          "sim.max_iterations",
-    "sim.alert_margin",       "sim.max_overlap",        "sim.max_rope_excess",
-    "sim.max_angle_excess_deg", "sim.freeze_sweeps",    "sim.threads",
-    "sim.sweep_order",        "sim.anderson_depth",
-    "output.snapshot_every",  "output.checkpoint_every", "output.diagnostics_every",
-    "box.min_m",              "box.max_m",              "box.friction",
-    "box.lid",
-    "cylinder.radius_m",      "cylinder.height_m",      "cylinder.bead_diameter_m",
-    "cylinder.centre_m",      "cylinder.floor_friction", "cylinder.rough_floor",
-    "cylinder.sectors",       "cylinder.sector_chains",
-    "beads.diameter_m",       "beads.density_kg_per_m3", "beads.positions_m",
-    "beads.fixed_positions_m", "beads.kinematic_positions_m",
-    "beads.kinematic_velocity_m_per_s", "beads.kinematic_angular_velocity_rad_per_s",
-    "chains.beads_per_chain", "chains.l_max_m",         "chains.max_angle_deg",
-    "fill.count",             "fill.min_m",             "fill.max_m",
-    "fill.seed",              "fill.clearance",         "fill.settle",
-    "fill.insert_fraction",   "fill.settle_tolerance",  "fill.settle_max_iterations",
-    "fill.settle_max_steps",  "fill.settle_kinetic_energy", "fill.relax_kinetic_energy",
-    "fill.relax_max_steps",   "fill.plateau_ratio",
-    "vane.blades",            "vane.radius_m",          "vane.height_m",
-    "vane.centre_m",          "vane.phi0_rad",          "vane.f_Hz",
-    "vane.phase_rad",         "vane.torque_every_rad",  "fill.height_m",
-    "camera.fps",             "camera.m_per_px",        "camera.spacing_px",
-    "vane.stop_change",       "camera.frames",
-    "protocol.preshear_phi0_rad", "protocol.preshear_f_Hz", "protocol.preshear_s",
-    "protocol.stop_change",   "protocol.phi0_rad",      "protocol.f_Hz",
-    "protocol.cycles",
-    "cylinder.radius_d",      "cylinder.height_d",      "vane.radius_d",
-    "vane.height_d",          "fill.height_d"};
 
 // Lengths that may also be given in bead diameters (beads.diameter_m): key_d for key_m.
 const std::vector<std::string> kLengthKeys = {"cylinder.radius_m", "cylinder.height_m", "vane.radius_m",
@@ -71,26 +44,69 @@ constexpr double kMaxWallBeads = 1e6;          // cylinder wall and floor beads,
 
 double deg(double a) { return a * std::numbers::pi / 180.0; }
 
+/// Everything a scene puts in the world, read and checked before anything is built (the
+/// spec's sections in SI units, the cylinder's and the vane's beads laid out).
+struct SceneBodies {
+  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
+  std::optional<BoxRegion> box;
+  double box_friction = 0.5;
+  bool lid = false;
+  bool cylinder = false;
+  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
+  double cyl_cx = 0.0, cyl_cy = 0.0;
+  bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
+  int sectors = 0;           ///< cylinder.sectors: a periodic wedge of 1/sectors of the cup (0: the whole cup)
+  double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
+  // Beads.
+  double diameter = 0.0, density = 2500.0;
+  std::vector<Vec3> fixed, kinematic, mobile;
+  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
+  ChainOptions chains;
+  // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
+  std::vector<Vec3> vane;
+  Vec3 vane_centre = Vec3::Zero();
+  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3, vane_stop_change = 0.0;
+  // [fill].
+  bool fill = false;
+  Region fill_region;
+  bool settle = false;
+  FillOptions settle_options;
+};
+
+/// A spec's keys resolved: the world's options, bodies, cadence, protocol and camera.
+struct ResolvedScene {
+  std::optional<SceneProtocol> protocol;
+  std::optional<SceneCamera> camera;
+  SceneCadence cadence;
+  Options options;     ///< the world's (a periodic sector's fields set from the cylinder)
+  SceneBodies bodies;  ///< the container, beads, chains, vane and fill
+};
+
+/// The checked getters of a spec's keys by name: defaults, ranges, lengths in bead
+/// diameters, and refusals naming the spec's source, line and key.
 class Scene {
  public:
-  explicit Scene(const std::filesystem::path& path) : t_(io::TomlConfig::load(path)) {
-    t_.require_known(kKeys);
+  using Value = std::variant<double, std::int64_t, bool, std::string, std::vector<double>>;
+  explicit Scene(const SceneSpec& spec) : spec_(spec) {
+    SceneSpec::for_each_key(spec, [this](const char* name, const auto& key) {
+      if (key) values_.emplace(name, Value(*key));
+    });
   }
-  bool has(const std::string& k) const { return t_.has(k) || (is_length(k) && t_.has(in_d(k))); }
+  bool has(const std::string& k) const { return given(k) || (is_length(k) && given(in_d(k))); }
   /// A number; a length key (kLengthKeys) given as key_d instead comes back in metres.
   double num(const std::string& k, double fallback) const {
-    if (is_length(k) && t_.has(in_d(k))) {
-      if (t_.has(k)) fail(in_d(k), fmt::format("give either {} (m) or {} (bead diameters), not both", k, in_d(k)));
-      if (!t_.has("beads.diameter_m"))
+    if (is_length(k) && given(in_d(k))) {
+      if (given(k)) fail(in_d(k), fmt::format("give either {} (m) or {} (bead diameters), not both", k, in_d(k)));
+      if (!given("beads.diameter_m"))
         fail(in_d(k), "a length in bead diameters needs beads.diameter_m");
-      return t_.get_double(in_d(k)) * t_.get_double("beads.diameter_m");
+      return get<double>(in_d(k)) * get<double>("beads.diameter_m");
     }
-    return t_.has(k) ? t_.get_double(k) : fallback;
+    return given(k) ? get<double>(k) : fallback;
   }
   long long integer(const std::string& k, long long fallback, long long min,
                     long long max = std::numeric_limits<long long>::max()) const {
-    if (!t_.has(k)) return fallback;
-    const long long v = t_.get_int(k);
+    if (!given(k)) return fallback;
+    const long long v = get<std::int64_t>(k);
     if (v < min || v > max) {
       if (max == std::numeric_limits<long long>::max()) fail(k, fmt::format("{} (expected >= {})", v, min));
       fail(k, fmt::format("{} (expected in [{}, {}])", v, min, max));
@@ -114,9 +130,15 @@ class Scene {
     if (!(v >= 0.0) || !std::isfinite(v)) fail(k, fmt::format("{} (expected >= 0)", v));
     return v;
   }
-  bool flag(const std::string& k, bool fallback) const { return t_.has(k) ? t_.get_bool(k) : fallback; }
-  std::string text(const std::string& k) const { return t_.get_string(k); }
-  std::vector<double> numbers(const std::string& k) const { return t_.has(k) ? t_.get_doubles(k) : std::vector<double>{}; }
+  bool flag(const std::string& k, bool fallback) const { return given(k) ? get<bool>(k) : fallback; }
+  std::string text(const std::string& k) const { return get<std::string>(k); }
+  std::vector<double> numbers(const std::string& k) const {
+    if (!given(k)) return {};
+    std::vector<double> v = get<std::vector<double>>(k);
+    for (const double x : v)  // a spec built in code may hold what a file cannot
+      if (!std::isfinite(x)) fail(k, fmt::format("{} is not a finite number (expected a number or a list of numbers)", x));
+    return v;
+  }
   std::vector<double> fixed_size(const std::string& k, std::size_t n) const {
     std::vector<double> v = numbers(k);
     if (v.size() != n) fail(k, fmt::format("{} values (expected {})", v.size(), n));
@@ -135,20 +157,31 @@ class Scene {
     for (std::size_t i = 0; i < v.size(); i += 3) out.emplace_back(v[i], v[i + 1], v[i + 2]);
     return out;
   }
+  /// ConfigError "<source>:<line>: key "<key>": <what>" (no line for a spec built in code).
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
     // A length given in bead diameters is named as written.
-    t_.fail(is_length(key) && !t_.has(key) && t_.has(in_d(key)) ? in_d(key) : key, what);
+    const std::string named = is_length(key) && !given(key) && given(in_d(key)) ? in_d(key) : key;
+    if (spec_.lines.empty()) throw ConfigError(fmt::format("{}: key \"{}\": {}", spec_.source, named, what));
+    const auto line = spec_.lines.find(named);
+    throw ConfigError(fmt::format("{}:{}: key \"{}\": {}", spec_.source, line == spec_.lines.end() ? 0 : line->second,
+                                  named, what));
   }
   [[noreturn]] void fail_file(const std::string& what) const {
-    throw ConfigError(fmt::format("{}: {}", t_.source(), what));
+    throw ConfigError(fmt::format("{}: {}", spec_.source, what));
   }
 
  private:
+  bool given(const std::string& k) const { return values_.count(k) != 0; }
+  template <class T>
+  const T& get(const std::string& k) const {
+    return std::get<T>(values_.at(k));  // each key's type is its SceneSpec member's
+  }
   static bool is_length(const std::string& k) {
     return std::find(kLengthKeys.begin(), kLengthKeys.end(), k) != kLengthKeys.end();
   }
   static std::string in_d(const std::string& k) { return k.substr(0, k.size() - 2) + "_d"; }
-  io::TomlConfig t_;
+  const SceneSpec& spec_;
+  std::map<std::string, Value> values_;
 };
 
 /// [protocol]: the paper's fill -> pre-shear -> amplitude branches (one scene, one command).
@@ -613,7 +646,7 @@ void add_vane_rotor(World& w, const SceneBodies& b, int container_bodies) {
 
 /// The world's options, bodies and camera of a scene, every cross-section rule checked
 /// (the drive resolved by the time step, the sector's limits, the camera's frame).
-void read_world(const Scene& s, SceneSpec& spec) {
+void read_world(const Scene& s, ResolvedScene& spec) {
   const std::optional<SceneProtocol>& protocol = spec.protocol;
   Options& opt = spec.options;
   opt = read_options(s);
@@ -701,9 +734,8 @@ void read_world(const Scene& s, SceneSpec& spec) {
   }
 }
 
-}  // namespace
 
-LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgress& progress) {
+LoadedScene build_resolved(const ResolvedScene& spec, bool check_only, const FillProgress& progress) {
   const Options& opt = spec.options;
   const SceneBodies& b = spec.bodies;
   LoadedScene out;
@@ -785,13 +817,12 @@ LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgre
   return out;
 }
 
-namespace {
 
 /// A fresh scene must not start with overlapping beads: the solver would push them
 /// apart in one step (a bead leaving at metres per second) and report nothing.
 /// Pairs of fixed beads (walls) may touch. Throws InputError naming the first bead
 /// (in body order) that overlaps another by more than sim.max_overlap x d.
-void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene) {
+void refuse_initial_overlaps(const World& w, const std::string& scene) {
   const int n = w.body_count();
   if (n < 2) return;
   double dmax = 0;
@@ -826,7 +857,7 @@ void refuse_initial_overlaps(const World& w, const std::filesystem::path& scene)
       throw InputError(fmt::format(
           "{}: beads {} and {} overlap by {:.4g} d at the start (centres {:.6g} m apart, diameters {} "
           "and {} m); expected at most sim.max_overlap = {} d: move them apart",
-          scene.string(), k, worst, worst_rel, (w.position(k) - w.position(worst)).norm(),
+          scene, k, worst, worst_rel, (w.position(k) - w.position(worst)).norm(),
           io::format_number(w.diameter(k)), io::format_number(w.diameter(worst)),
           io::format_number(limit)));
   }
@@ -937,19 +968,83 @@ void check_checkpoint_matches(const LoadedScene& scene, const WorldState& ck, co
                        scene.mobile_beads, mobile));
 }
 
-SceneSpec read_scene(const std::filesystem::path& path) {
-  const Scene scene(path);
+namespace {
+
+/// The spec's keys: one list (SceneSpec::for_each_key) for the reader, the writer and the
+/// file's known keys.
+std::vector<std::string> scene_keys() {
+  std::vector<std::string> keys;
   SceneSpec spec;
-  spec.protocol = read_protocol(scene);
-  spec.cadence = read_cadence(scene, spec.protocol);
-  read_world(scene, spec);
+  SceneSpec::for_each_key(spec, [&keys](const char* name, const auto&) { keys.emplace_back(name); });
+  return keys;
+}
+
+}  // namespace
+
+SceneSpec read_scene(const std::filesystem::path& path) {
+  const io::TomlConfig t = io::TomlConfig::load(path);
+  t.require_known(scene_keys());
+  SceneSpec spec;
+  spec.source = t.source();
+  SceneSpec::for_each_key(spec, [&](const char* name, auto& key) {
+    if (!t.has(name)) return;
+    using T = typename std::decay_t<decltype(key)>::value_type;
+    if constexpr (std::is_same_v<T, double>) key = t.get_double(name);
+    else if constexpr (std::is_same_v<T, std::int64_t>) key = t.get_int(name);
+    else if constexpr (std::is_same_v<T, bool>) key = t.get_bool(name);
+    else if constexpr (std::is_same_v<T, std::string>) key = t.get_string(name);
+    else key = t.get_doubles(name);
+    spec.lines[name] = t.line(name);
+  });
   return spec;
 }
 
-LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {
-  LoadedScene out = build_scene(read_scene(path), check_only, progress);
-  if (!check_only) refuse_initial_overlaps(*out.world, path);
+void write_scene(const SceneSpec& spec, std::ostream& out, const std::string& comment) {
+  out << comment;
+  std::string section;
+  SceneSpec::for_each_key(spec, [&](const char* name, const auto& key) {
+    if (!key) return;
+    const std::string_view n(name);
+    const std::string_view sec = n.substr(0, n.find('.'));
+    if (sec != section) {
+      out << (section.empty() ? "[" : "\n[") << sec << "]\n";
+      section = sec;
+    }
+    out << n.substr(sec.size() + 1) << " = ";
+    using T = typename std::decay_t<decltype(key)>::value_type;
+    if constexpr (std::is_same_v<T, double>) out << io::format_number(*key);
+    else if constexpr (std::is_same_v<T, std::int64_t>) out << *key;
+    else if constexpr (std::is_same_v<T, bool>) out << (*key ? "true" : "false");
+    else if constexpr (std::is_same_v<T, std::string>) out << io::json_string(*key);  // TOML's basic-string escapes
+    else {
+      // Long lists (bead positions) three numbers to a line: a file's lines stay short.
+      const std::vector<double>& v = *key;
+      const bool lines = v.size() > 3;
+      out << '[';
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        if (lines && k % 3 == 0) out << "\n  ";
+        out << io::format_number(v[k]);
+        if (k + 1 < v.size()) out << (lines && (k + 1) % 3 == 0 ? "," : ", ");
+      }
+      out << (lines ? ",\n]" : "]");
+    }
+    out << '\n';
+  });
+}
+
+LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgress& progress) {
+  const Scene s(spec);
+  ResolvedScene r;
+  r.protocol = read_protocol(s);
+  r.cadence = read_cadence(s, r.protocol);
+  read_world(s, r);
+  LoadedScene out = build_resolved(r, check_only, progress);
+  if (!check_only) refuse_initial_overlaps(*out.world, spec.source);
   return out;
+}
+
+LoadedScene load_scene(const std::filesystem::path& path, bool check_only, const FillProgress& progress) {
+  return build_scene(read_scene(path), check_only, progress);
 }
 
 }  // namespace shearzone::sim

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/sim/scene.hpp"
+
 namespace shearzone::pipeline {
 
 /// Extra options of one stage, as command-line words ("--vc", "5e-4", ...).
@@ -46,7 +48,7 @@ struct StudySimGroup {
   double l_max_m = 0.0;
   double max_angle_deg = 180.0;
   long long seed = 1;
-  std::string scene_text;         ///< the generated scene (the cup scene with this point's values)
+  sim::SceneSpec scene;           ///< the generated scene: the cup scene with this point's values
 };
 
 struct StudySlurm {

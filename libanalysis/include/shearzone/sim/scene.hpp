@@ -105,6 +105,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <iosfwd>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -175,45 +177,172 @@ struct SceneProtocol {
   static std::string branch_folder(double phi0_rad);
 };
 
-/// Everything a scene puts in the world, read and checked before anything is built (the
-/// scene file's sections in SI units, the cylinder's and the vane's beads laid out).
-struct SceneBodies {
-  // Container: a box of half-space walls, or a cylinder of fixed beads on a floor plane.
-  std::optional<BoxRegion> box;
-  double box_friction = 0.5;
-  bool lid = false;
-  bool cylinder = false;
-  double cyl_radius = 0.0, cyl_height = 0.0, cyl_bead = 0.0, cyl_floor_friction = 0.5;
-  double cyl_cx = 0.0, cyl_cy = 0.0;
-  bool rough_floor = false;  ///< a layer of fixed beads on the floor, centres at z = 0
-  int sectors = 0;           ///< cylinder.sectors: a periodic wedge of 1/sectors of the cup (0: the whole cup)
-  double floor_top = 0.0;    ///< where the mobile space starts: cylinder.bead_diameter_m / 2 on a rough floor
-  // Beads.
-  double diameter = 0.0, density = 2500.0;
-  std::vector<Vec3> fixed, kinematic, mobile;
-  Vec3 kinematic_velocity = Vec3::Zero(), kinematic_omega = Vec3::Zero();
-  ChainOptions chains;
-  // [vane]: kinematic beads of a rigid rotor about the vertical axis through its centre.
-  std::vector<Vec3> vane;
-  Vec3 vane_centre = Vec3::Zero();
-  double vane_phi0 = 0.0, vane_f = 0.0, vane_phase = 0.0, vane_torque_every = 1e-3, vane_stop_change = 0.0;
-  // [fill].
-  bool fill = false;
-  Region fill_region;
-  bool settle = false;
-  FillOptions settle_options;
+/// A scene file's keys as values: one member per key, in the file's sections and units
+/// (the header above), each absent unless set (absent: the documented default). read_scene
+/// makes one of a file, write_scene writes one as a file, and build_scene checks every
+/// key and every rule between sections and builds its world; so code (a benchmark, a
+/// study, Python) builds a scene as values and the file it writes reads back the same.
+struct SceneSpec {
+  template <class T>
+  using Key = std::optional<T>;
+  using Numbers = std::vector<double>;  ///< a list ([x, y, z], positions x0, y0, z0, ...)
+  struct Sim {
+    Key<double> duration_s, time_step_s;
+    Key<Numbers> gravity_m_per_s2;
+    Key<double> friction, tolerance;
+    Key<std::int64_t> max_iterations;
+    Key<double> alert_margin, max_overlap, max_rope_excess, max_angle_excess_deg;
+    Key<std::int64_t> freeze_sweeps, threads;
+    Key<std::string> sweep_order;
+    Key<std::int64_t> anderson_depth;
+  } sim;
+  struct Output {
+    Key<std::int64_t> snapshot_every, checkpoint_every, diagnostics_every;
+  } output;
+  struct Box {
+    Key<Numbers> min_m, max_m;
+    Key<double> friction;
+    Key<bool> lid;
+  } box;
+  struct Cylinder {
+    Key<double> radius_m, radius_d, height_m, height_d, bead_diameter_m;
+    Key<Numbers> centre_m;
+    Key<double> floor_friction;
+    Key<bool> rough_floor;
+    Key<std::int64_t> sectors;
+    Key<bool> sector_chains;
+  } cylinder;
+  struct Beads {
+    Key<double> diameter_m, density_kg_per_m3;
+    Key<Numbers> positions_m, fixed_positions_m, kinematic_positions_m, kinematic_velocity_m_per_s,
+        kinematic_angular_velocity_rad_per_s;
+  } beads;
+  struct Chains {
+    Key<std::int64_t> beads_per_chain;
+    Key<double> l_max_m, max_angle_deg;
+  } chains;
+  struct Fill {
+    Key<std::int64_t> count;
+    Key<Numbers> min_m, max_m;
+    Key<std::int64_t> seed;
+    Key<double> clearance;
+    Key<bool> settle;
+    Key<double> insert_fraction, settle_tolerance;
+    Key<std::int64_t> settle_max_iterations, settle_max_steps;
+    Key<double> settle_kinetic_energy, relax_kinetic_energy;
+    Key<std::int64_t> relax_max_steps;
+    Key<double> plateau_ratio, height_m, height_d;
+  } fill;
+  struct Vane {
+    Key<std::int64_t> blades;
+    Key<double> radius_m, radius_d, height_m, height_d;
+    Key<Numbers> centre_m;
+    Key<double> phi0_rad, f_Hz, phase_rad, torque_every_rad, stop_change;
+  } vane;
+  struct Camera {
+    Key<double> fps, m_per_px, spacing_px;
+    Key<bool> frames;
+  } camera;
+  struct Protocol {
+    Key<double> preshear_phi0_rad, preshear_f_Hz, preshear_s, stop_change;
+    Key<Numbers> phi0_rad;
+    Key<double> f_Hz, cycles;
+  } protocol;
+
+  /// Where the values came from, for messages: a refused key reads
+  /// "<source>:<line>: key "<name>": ..." with the key's line in `lines` (read_scene
+  /// fills both), or "<source>: key "<name>": ..." for a spec without lines.
+  std::string source = "the scene";
+  std::map<std::string, std::size_t> lines;
+
+  /// Calls f(name, member) for every key, in the order write_scene writes them
+  /// ("sim.duration_s", sim.duration_s), ...: the one list of the scene file's keys.
+  template <class Spec, class F>
+  static void for_each_key(Spec& spec, F&& f);
 };
 
-/// A scene as values: what read_scene makes of a scene file, every key and every rule
-/// between sections checked, and what build_scene makes a world from. The typed boundary
-/// between the TOML and the engine.
-struct SceneSpec {
-  std::optional<SceneProtocol> protocol;
-  std::optional<SceneCamera> camera;
-  SceneCadence cadence;
-  Options options;     ///< the world's (a periodic sector's fields set from the cylinder)
-  SceneBodies bodies;  ///< the container, beads, chains, vane and fill
-};
+template <class Spec, class F>
+void SceneSpec::for_each_key(Spec& s, F&& f) {
+  f("sim.duration_s", s.sim.duration_s);
+  f("sim.time_step_s", s.sim.time_step_s);
+  f("sim.gravity_m_per_s2", s.sim.gravity_m_per_s2);
+  f("sim.friction", s.sim.friction);
+  f("sim.tolerance", s.sim.tolerance);
+  f("sim.max_iterations", s.sim.max_iterations);
+  f("sim.alert_margin", s.sim.alert_margin);
+  f("sim.max_overlap", s.sim.max_overlap);
+  f("sim.max_rope_excess", s.sim.max_rope_excess);
+  f("sim.max_angle_excess_deg", s.sim.max_angle_excess_deg);
+  f("sim.freeze_sweeps", s.sim.freeze_sweeps);
+  f("sim.threads", s.sim.threads);
+  f("sim.sweep_order", s.sim.sweep_order);
+  f("sim.anderson_depth", s.sim.anderson_depth);
+  f("output.snapshot_every", s.output.snapshot_every);
+  f("output.checkpoint_every", s.output.checkpoint_every);
+  f("output.diagnostics_every", s.output.diagnostics_every);
+  f("box.min_m", s.box.min_m);
+  f("box.max_m", s.box.max_m);
+  f("box.friction", s.box.friction);
+  f("box.lid", s.box.lid);
+  f("cylinder.radius_m", s.cylinder.radius_m);
+  f("cylinder.radius_d", s.cylinder.radius_d);
+  f("cylinder.height_m", s.cylinder.height_m);
+  f("cylinder.height_d", s.cylinder.height_d);
+  f("cylinder.bead_diameter_m", s.cylinder.bead_diameter_m);
+  f("cylinder.centre_m", s.cylinder.centre_m);
+  f("cylinder.floor_friction", s.cylinder.floor_friction);
+  f("cylinder.rough_floor", s.cylinder.rough_floor);
+  f("cylinder.sectors", s.cylinder.sectors);
+  f("cylinder.sector_chains", s.cylinder.sector_chains);
+  f("beads.diameter_m", s.beads.diameter_m);
+  f("beads.density_kg_per_m3", s.beads.density_kg_per_m3);
+  f("beads.positions_m", s.beads.positions_m);
+  f("beads.fixed_positions_m", s.beads.fixed_positions_m);
+  f("beads.kinematic_positions_m", s.beads.kinematic_positions_m);
+  f("beads.kinematic_velocity_m_per_s", s.beads.kinematic_velocity_m_per_s);
+  f("beads.kinematic_angular_velocity_rad_per_s", s.beads.kinematic_angular_velocity_rad_per_s);
+  f("chains.beads_per_chain", s.chains.beads_per_chain);
+  f("chains.l_max_m", s.chains.l_max_m);
+  f("chains.max_angle_deg", s.chains.max_angle_deg);
+  f("fill.count", s.fill.count);
+  f("fill.min_m", s.fill.min_m);
+  f("fill.max_m", s.fill.max_m);
+  f("fill.seed", s.fill.seed);
+  f("fill.clearance", s.fill.clearance);
+  f("fill.settle", s.fill.settle);
+  f("fill.insert_fraction", s.fill.insert_fraction);
+  f("fill.settle_tolerance", s.fill.settle_tolerance);
+  f("fill.settle_max_iterations", s.fill.settle_max_iterations);
+  f("fill.settle_max_steps", s.fill.settle_max_steps);
+  f("fill.settle_kinetic_energy", s.fill.settle_kinetic_energy);
+  f("fill.relax_kinetic_energy", s.fill.relax_kinetic_energy);
+  f("fill.relax_max_steps", s.fill.relax_max_steps);
+  f("fill.plateau_ratio", s.fill.plateau_ratio);
+  f("fill.height_m", s.fill.height_m);
+  f("fill.height_d", s.fill.height_d);
+  f("vane.blades", s.vane.blades);
+  f("vane.radius_m", s.vane.radius_m);
+  f("vane.radius_d", s.vane.radius_d);
+  f("vane.height_m", s.vane.height_m);
+  f("vane.height_d", s.vane.height_d);
+  f("vane.centre_m", s.vane.centre_m);
+  f("vane.phi0_rad", s.vane.phi0_rad);
+  f("vane.f_Hz", s.vane.f_Hz);
+  f("vane.phase_rad", s.vane.phase_rad);
+  f("vane.torque_every_rad", s.vane.torque_every_rad);
+  f("vane.stop_change", s.vane.stop_change);
+  f("camera.fps", s.camera.fps);
+  f("camera.m_per_px", s.camera.m_per_px);
+  f("camera.spacing_px", s.camera.spacing_px);
+  f("camera.frames", s.camera.frames);
+  f("protocol.preshear_phi0_rad", s.protocol.preshear_phi0_rad);
+  f("protocol.preshear_f_Hz", s.protocol.preshear_f_Hz);
+  f("protocol.preshear_s", s.protocol.preshear_s);
+  f("protocol.stop_change", s.protocol.stop_change);
+  f("protocol.phi0_rad", s.protocol.phi0_rad);
+  f("protocol.f_Hz", s.protocol.f_Hz);
+  f("protocol.cycles", s.protocol.cycles);
+}
 
 struct LoadedScene {
   std::optional<SceneProtocol> protocol;  ///< the scene has a [protocol]
@@ -233,21 +362,27 @@ struct LoadedScene {
   std::int64_t mobile_beads = 0;  ///< the scene's mobile beads: beads.positions_m and fill.count x N
 };
 
-/// Reads a scene file and builds its world. `check_only` (restart from a checkpoint):
-/// reads and checks every section but places, drops and relaxes nothing. Throws
-/// ConfigError naming file:line and key for a bad value, and InputError for beads that
-/// overlap at the start (a fresh scene only).
 /// Progress of the fill stage (sim::fill's drop and relaxation steps).
 struct FillProgress {
   core::ProgressCallback drop, relax;
 };
 
+/// Reads a scene file and builds its world: build_scene(read_scene(scene), ...).
+/// `check_only` (restart from a checkpoint): reads and checks every section but places,
+/// drops and relaxes nothing. Throws ConfigError naming file:line and key for a bad value,
+/// and InputError for beads that overlap at the start (a fresh scene only).
 LoadedScene load_scene(const std::filesystem::path& scene, bool check_only, const FillProgress& progress = {});
 
-/// The scene file read and checked, nothing built (ConfigError naming file:line and key).
+/// The scene file's keys as values: the file parsed, every key known and of its type
+/// (ConfigError naming file:line and key); the rules between keys are build_scene's.
 SceneSpec read_scene(const std::filesystem::path& scene);
-/// The world of a scene spec (load_scene's second half; it does not refuse overlapping
-/// beads, which load_scene does for a fresh scene file). `check_only`: the container only.
+/// The spec as a scene file (sections in for_each_key's order, numbers in their shortest
+/// exact form), after `comment` ("# ..." lines, may be empty): read_scene gives it back.
+void write_scene(const SceneSpec& spec, std::ostream& out, const std::string& comment = {});
+/// Checks every key and every rule between sections (ConfigError naming the spec's source,
+/// line and key, as for a file) and builds the world: load_scene's second half.
+/// `check_only`: the container only; else beads overlapping at the start are refused
+/// (InputError naming the spec's source).
 LoadedScene build_scene(const SceneSpec& spec, bool check_only, const FillProgress& progress = {});
 
 /// The drive of an amplitude branch (`sim --restart CKPT --phi0 A --f-hz F --cycles K`)
