@@ -49,6 +49,22 @@ TEST_CASE("windows sized to the texture scale by powers of two within the image"
   CHECK(piv::windows_for_texture(base, std::nan(""), {512, 512}) == base);
 }
 
+TEST_CASE("beads of 6.5-10.7 px get a pass of 8 px windows, particles and larger beads do not", "[piv]") {
+  const std::vector<int> base = {64, 32, 16};
+  const auto hw = [](double bead_px) { return bead_px / piv::kBeadDiameterPerHalfWidth; };
+  // 16 px windows span more than 1.5 beads of 8 or 10 px: one more pass, one bead wide.
+  CHECK(piv::windows_for_texture(base, hw(8.0), {512, 512}) == std::vector<int>{64, 32, 16, 8});
+  CHECK(piv::windows_for_texture(base, hw(10.5), {512, 512}) == std::vector<int>{64, 32, 16, 8});
+  // 12 px beads: 16 px windows span 1.33 beads (8 px windows measured no better there).
+  CHECK(piv::windows_for_texture(base, hw(12.0), {512, 512}) == base);
+  // Seeded particles (real pairs measure 2.9-5.3 px) keep 16 px windows.
+  CHECK(piv::windows_for_texture(base, hw(5.3), {512, 512}) == base);
+  CHECK(piv::windows_for_texture(base, hw(3.0), {512, 512}) == base);
+  // Windows already one bead wide are left alone; no window below 8 px is added.
+  CHECK(piv::windows_for_texture({32, 16, 8}, hw(8.0), {512, 512}) == std::vector<int>{32, 16, 8});
+  CHECK(piv::windows_for_texture({16, 8}, hw(7.0), {512, 512}) == std::vector<int>{16, 8});
+}
+
 // The gate of issue 33. Before: -0.5 % at 8 px, -3 % at 16, -8 % at 24, -19 % at 36,
 // -28 % at 48 and -42 % at 64 px (u; v worse), with 84 % valid at 64 px.
 TEST_CASE("bead shifts of 8-64 px beads are unbiased with the default settings", "[piv]") {

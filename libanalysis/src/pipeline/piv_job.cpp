@@ -404,9 +404,15 @@ core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header
         std::isfinite(sum.texture_half_width_px)
             ? fmt::format("sized to the texture: autocorrelation half-width {:.3g} px (shaded beads: about {:.3g} px "
                           "across) in the first frame; the windows {} scaled by a power of two so that the final "
-                          "window is at least {} half-widths",
+                          "window is at least {} half-widths{}",
                           sum.texture_half_width_px, sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth,
-                          fmt::join(o.piv.windows_px, ","), format_number(piv::kFinalWindowPerHalfWidth))
+                          fmt::join(o.piv.windows_px, ","), format_number(piv::kFinalWindowPerHalfWidth),
+                          piv_options.windows_px.size() > o.piv.windows_px.size()
+                              ? fmt::format("; passes of half the final window added (beads of {} px or more: a "
+                                            "final window at most {} beads wide, at least {} px)",
+                                            format_number(piv::kSmallBeadMinPx),
+                                            format_number(piv::kMaxFinalWindowBeads), piv::kMinFinalWindowPx)
+                              : std::string())
             : fmt::format("the windows {} as given: the texture size could not be measured in the first frame",
                           fmt::join(o.piv.windows_px, ",")));
   else

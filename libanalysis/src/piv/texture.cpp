@@ -108,6 +108,11 @@ std::vector<int> windows_for_texture(const std::vector<int>& windows, double hal
     factor *= 2;
   std::vector<int> out(windows);
   for (int& w : out) w *= factor;
+  const double bead_px = half_width_px * kBeadDiameterPerHalfWidth;
+  if (bead_px >= kSmallBeadMinPx)
+    while (out.back() > kMaxFinalWindowBeads * bead_px && out.back() / 2 >= kMinFinalWindowPx &&
+           out.back() / 2 >= kFinalWindowPerHalfWidth * half_width_px)
+      out.push_back(out.back() / 2);
   return out;
 }
 

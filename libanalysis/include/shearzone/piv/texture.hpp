@@ -31,9 +31,26 @@ constexpr double kFinalWindowPerHalfWidth = 2.5;
 /// within a quarter of a tile: 64 px, beads of about 280 px).
 double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask = {});
 
+/// The most bead diameters a final window may span (windows_for_texture): a window
+/// spanning more beads than this averages their independent motions (granular
+/// rattling), and mean |v| reads low: at 8 px per bead, 16 px windows read the closed
+/// loop's r_c 0.5-1 bead diameters low, 8 px windows within 0.22 (docs/sim.md).
+constexpr double kMaxFinalWindowBeads = 1.5;
+/// The smallest texture (as a shaded bead's diameter, px) taken for beads rather than
+/// seeded particles: real particle pairs measure 2.9-5.3 px (OpenPIV, PIVlab jet and sand,
+/// Oseen, Karman, the synthetic vane), rendered and `synth` beads of 8 px 7.1-8.0 px.
+constexpr double kSmallBeadMinPx = 6.5;
+/// The smallest final window a bead-sized rule adds, px.
+constexpr int kMinFinalWindowPx = 8;
+
 /// `windows` (coarse to fine) scaled by the smallest power of two that makes the final
 /// window at least kFinalWindowPerHalfWidth x `half_width_px`, as far as the largest window
-/// stays <= 256 px and <= the image's shorter side. A NaN half-width leaves them as they are.
+/// stays <= 256 px and <= the image's shorter side. Beads of kSmallBeadMinPx or more whose
+/// final window spans more than kMaxFinalWindowBeads of them get passes of half the final
+/// window added (the first windows, and so the displacement range, kept) while the new
+/// final window stays >= kMinFinalWindowPx and >= kFinalWindowPerHalfWidth half-widths:
+/// 64, 32, 16 becomes 64, 32, 16, 8 for beads of 6.5-10.7 px. A NaN half-width leaves them
+/// as they are.
 std::vector<int> windows_for_texture(const std::vector<int>& windows, double half_width_px,
                                      cv::Size image);
 
