@@ -174,39 +174,41 @@ TEST_CASE("closed loop: on the data-samples cup at three amplitudes (no zone, a 
 }
 
 // Issue 33's gate where it is met (docs/sim.md, "Bead size, codec and the closed loop"):
-// the data-samples cup at 15 and 35 px per bead, MPEG-4 and H.264, PIV defaults (windows
-// sized to the beads, gradient residual): the video's r_c within d/4 of the camera's truth
-// with the same status. Measured: -0.09 / -0.18 d (15 px, mp4v / avc1; H.264 is not
-// bit-reproducible: -0.17 to -0.20 d over three runs), -0.10 / -0.09 d (35 px); before:
-// -0.37 to -0.87 d. At 8 px per bead it is not met (about -1 d).
-TEST_CASE("closed loop: at 15 and 35 px per bead, MPEG-4 and H.264, the video's r_c lies within d/4 of the "
-          "camera's truth with the same status",
+// the data-samples cup at 8 px per bead with MPEG-4 and at 15 and 35 px per bead with
+// MPEG-4 and H.264, PIV defaults (windows sized to the beads, gradient residual): the
+// video's r_c within d/4 of the camera's truth with the same status. Measured: -0.22 d (8
+// px, mp4v: its 16 px windows averaged several beads and read -1.02 d before 8 px windows
+// were added), -0.09 / -0.18 d (15 px, mp4v / avc1), -0.10 / -0.09 d (35 px). Not met: 8
+// px with H.264 (-0.65 d: the encoder leaves small motions of beads this small out).
+TEST_CASE("closed loop: at 8 (MPEG-4), 15 and 35 px per bead (MPEG-4 and H.264), the video's r_c lies within d/4 "
+          "of the camera's truth with the same status",
           "[pipeline][sim][render][slow]") {
   TempDir dir("closed_loop_sizes");
   run_cup_protocol(dir, "[0.15]");
   const double d = 0.004;
   constexpr double kMaxErrorOverD = 0.25;  // the issue's gate
-  struct Size {
+  struct Case {
     int w, h;  // the rim fills 90 % of the height: 14.4 px per bead per 192 px
+    const char* codec;
   };
-  for (const Size sz : {Size{268, 200}, Size{624, 468}})
-    for (const char* codec : {"mp4v", "avc1"}) {
-      pipeline::SimCheckOptions o = check_options(dir, 5e-4);
-      o.output_dir = dir / fmt::format("check_{}_{}", sz.h, codec);
-      o.render.width_px = sz.w;
-      o.render.height_px = sz.h;
-      o.render.codec = codec;
-      o.width.bootstrap = 200;
-      const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
-      REQUIRE(rows.size() == 1);
-      const auto& r = rows[0];
-      INFO(sz.w << "x" << sz.h << " " << codec << ": r_c video " << r.video.rc_m << " ("
-                << profile::width_status_name(r.video.status) << "), camera truth " << r.centres.rc_m << " ("
-                << profile::width_status_name(r.centres.status) << "), setting " << r.setting);
-      CHECK(r.centres.status == profile::WidthStatus::kOk);
-      CHECK(r.video.status == r.centres.status);
-      CHECK(std::abs(r.video.rc_m - r.centres.rc_m) <= kMaxErrorOverD * d);
-    }
+  for (const Case c : {Case{142, 106, "mp4v"}, Case{268, 200, "mp4v"}, Case{268, 200, "avc1"}, Case{624, 468, "mp4v"},
+                       Case{624, 468, "avc1"}}) {
+    pipeline::SimCheckOptions o = check_options(dir, 5e-4);
+    o.output_dir = dir / fmt::format("check_{}_{}", c.h, c.codec);
+    o.render.width_px = c.w;
+    o.render.height_px = c.h;
+    o.render.codec = c.codec;
+    o.width.bootstrap = 200;
+    const auto rows = pipeline::run_sim_check(o, core::standard_metadata("test"));
+    REQUIRE(rows.size() == 1);
+    const auto& r = rows[0];
+    INFO(c.w << "x" << c.h << " " << c.codec << ": r_c video " << r.video.rc_m << " ("
+              << profile::width_status_name(r.video.status) << "), camera truth " << r.centres.rc_m << " ("
+              << profile::width_status_name(r.centres.status) << "), setting " << r.setting);
+    CHECK(r.centres.status == profile::WidthStatus::kOk);
+    CHECK(r.video.status == r.centres.status);
+    CHECK(std::abs(r.video.rc_m - r.centres.rc_m) <= kMaxErrorOverD * d);
+  }
 }
 
 TEST_CASE("sim render: a periodic quarter is filmed whole, each bead in its four images, and goes through the "
