@@ -10,7 +10,9 @@
 #include <numbers>
 #include <optional>
 #include <random>
+#include <string>
 #include <thread>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -153,13 +155,11 @@ int cup_chains(const BenchSimOptions& o, int N, int sectors) { return std::max(1
 
 /// The paper's cup as a scene (BenchSimOptions, "cup"), chains of N beads (a sector with
 /// chains beyond the validated 9 beads sets sector_chains: the bench measures them).
-sim::SceneSpec cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
-  const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
-  const double fill_height =
-      o.cup_beads * std::numbers::pi / 6.0 * d * d * d / (0.6 * std::numbers::pi * (R * R - Rv * Rv));
-  const double height = fill_height + 3.0 * d;
+/// A bench scene's [sim] and [output]: no duration (the bench steps the world itself),
+/// the bench's solver options, the paper's steel (mu = 0.2), no snapshots.
+sim::SceneSpec bench_scene(const BenchSimOptions& o, std::string source) {
   sim::SceneSpec s;
-  s.source = fmt::format("bench sim --scene cup (N = {})", N);
+  s.source = std::move(source);
   s.sim.duration_s = 0.0;
   s.sim.time_step_s = o.time_step_s;
   s.sim.friction = 0.2;
@@ -167,13 +167,22 @@ sim::SceneSpec cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint
   s.sim.max_iterations = o.max_iterations;
   s.sim.freeze_sweeps = o.freeze_sweeps;
   s.output.snapshot_every = 0;
+  s.beads.density_kg_per_m3 = 7800.0;
+  return s;
+}
+
+sim::SceneSpec cup_scene(const BenchSimOptions& o, int N, int sectors, std::uint64_t seed) {
+  const double d = 2.4e-3, R = 14.5 * d, Rv = 4.5 * d;
+  const double fill_height =
+      o.cup_beads * std::numbers::pi / 6.0 * d * d * d / (0.6 * std::numbers::pi * (R * R - Rv * Rv));
+  const double height = fill_height + 3.0 * d;
+  sim::SceneSpec s = bench_scene(o, fmt::format("bench sim --scene cup (N = {})", N));
   s.cylinder.radius_m = R;
   s.cylinder.height_m = height;
   s.cylinder.bead_diameter_m = d;
   if (sectors > 1) s.cylinder.sectors = sectors;
   if (sectors > 1 && N > 9) s.cylinder.sector_chains = true;
   s.beads.diameter_m = d;
-  s.beads.density_kg_per_m3 = 7800.0;
   s.chains.beads_per_chain = N;
   s.chains.l_max_m = 0.0004;
   s.chains.max_angle_deg = 40.0;
@@ -697,20 +706,11 @@ BenchSimSummary run_stir_bench(const BenchSimOptions& o, const core::Metadata& h
   const double height = o.stir_beads * std::numbers::pi / 6.0 * d * d * d / (0.55 * side * side) + 3 * d;
   io::AtomicOutputSet out(o.out_dir, o.force);
   io::AtomicOutput& csv_file = out.add("sim_" + name + ".csv");
-  sim::SceneSpec box;  // the settled box (the rod is added by the bench)
-  box.source = "bench sim --scene " + name;
-  box.sim.duration_s = 0.0;
-  box.sim.time_step_s = o.time_step_s;
-  box.sim.friction = 0.2;
-  box.sim.tolerance = o.tolerance;
-  box.sim.max_iterations = o.max_iterations;
-  box.sim.freeze_sweeps = o.freeze_sweeps;
-  box.output.snapshot_every = 0;
+  sim::SceneSpec box = bench_scene(o, "bench sim --scene " + name);  // the settled box (the bench adds the rod)
   box.box.min_m = sim::SceneSpec::Numbers{0.0, 0.0, 0.0};
   box.box.max_m = sim::SceneSpec::Numbers{side, side, height};
   box.box.friction = 0.2;
   box.beads.diameter_m = d;
-  box.beads.density_kg_per_m3 = 7800.0;
   box.fill.count = o.stir_beads;
   box.fill.min_m = box.box.min_m;
   box.fill.max_m = box.box.max_m;
