@@ -34,8 +34,12 @@ double texture_half_width_px(const cv::Mat& image, const cv::Mat& mask = {});
 /// The most bead diameters a final window may span (windows_for_texture): a window
 /// spanning more beads than this averages their independent motions (granular
 /// rattling), and mean |v| reads low: at 8 px per bead, 16 px windows read the closed
-/// loop's r_c 0.5-1 bead diameters low, 8 px windows within 0.22 (docs/sim.md).
-constexpr double kMaxFinalWindowBeads = 1.5;
+/// loop's r_c 0.4-1 bead diameters low, 8 px windows within 0.22 (docs/sim.md). 1.6:
+/// rendered cups of 8 and 10 px beads (texture 7.1 and 8.7 px) gain from 8 px windows;
+/// the demo study's `synth beads` clips of 10 px beads (texture 10.3-10.5 px, beads that
+/// follow a smooth field and do not rattle) lose (r_c 0.24 mm RMS from the truth against
+/// 0.08 mm with 16 px windows).
+constexpr double kMaxFinalWindowBeads = 1.6;
 /// The smallest texture (as a shaded bead's diameter, px) taken for beads rather than
 /// seeded particles: real particle pairs measure 2.9-5.3 px (OpenPIV, PIVlab jet and sand,
 /// Oseen, Karman, the synthetic vane), rendered and `synth` beads of 8 px 7.1-8.0 px.
@@ -49,8 +53,8 @@ constexpr int kMinFinalWindowPx = 8;
 /// final window spans more than kMaxFinalWindowBeads of them get passes of half the final
 /// window added (the first windows, and so the displacement range, kept) while the new
 /// final window stays >= kMinFinalWindowPx and >= kFinalWindowPerHalfWidth half-widths:
-/// 64, 32, 16 becomes 64, 32, 16, 8 for beads of 6.5-10.7 px. A NaN half-width leaves them
-/// as they are.
+/// 64, 32, 16 becomes 64, 32, 16, 8 for textures of 6.5-10 px. A NaN half-width leaves
+/// them as they are.
 std::vector<int> windows_for_texture(const std::vector<int>& windows, double half_width_px,
                                      cv::Size image);
 
