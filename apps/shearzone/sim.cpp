@@ -120,7 +120,7 @@ constexpr double kSmallBeadPx = 14.0;
 void warn_bead_size(double bead_px) {
   if (bead_px < kSmallBeadPx)
     std::fprintf(stderr,
-                 "sim render: note: beads are %.0f px across; at 8-12 px per bead the closed loop read r_c up to 0.4 "
+                 "sim render: note: beads are %.1f px across; at 8-12 px per bead the closed loop read r_c up to 0.4 "
                  "bead diameters low with MPEG-4 and 0.3-0.65 low with H.264 (docs/sim.md, \"Bead size, codec and "
                  "the closed loop\"): film at 15 px per bead or more (--size or --m-per-px)\n",
                  bead_px);
