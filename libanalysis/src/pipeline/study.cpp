@@ -567,14 +567,14 @@ void read_logs(const io::TomlConfig& c, const Reader& r, const std::set<std::str
 
 }
 
-/// [sim]'s cup scene, checked as the simulator reads it, its branches' amplitudes,
-/// frequency, cycles and threads; the scene as checked.
 /// The study's cup scene: its keys as values and the world they check to (the container).
 struct CupScene {
   sim::SceneSpec spec;
   sim::LoadedScene checked;
 };
 
+/// [sim]'s cup scene, checked as the simulator reads it, its branches' amplitudes,
+/// frequency, cycles and threads.
 CupScene read_sim_scene(const io::TomlConfig& c, const Reader& r, Study& s) {
   if (!c.has("sim.scene")) {
     std::string first;
