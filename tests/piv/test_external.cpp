@@ -10,6 +10,7 @@
 
 #include "shearzone/io/image.hpp"
 #include "shearzone/piv/piv.hpp"
+#include "shearzone/piv/texture.hpp"
 
 using namespace shearzone;
 using core::VectorFlag;
@@ -302,3 +303,20 @@ TEST_CASE("the Oseen vortex matches UVmat once its y axis is flipped", "[piv][ex
   CHECK(up <= kUvmatRmsGuardPx);
   CHECK(vs_openpiv <= kOpenpivRmsPx);
 }
+
+// The small-bead pass (piv/texture.hpp) must not take real particle images for beads: its
+// threshold (kSmallBeadMinPx) lies above the textures these pairs measure (2.9-5.3 px as
+// shaded-bead diameters), so their default windows stay 64, 32, 16.
+TEST_CASE("real particle pairs keep the default windows: their texture is not taken for small beads", "[piv]") {
+  const std::vector<int> base = piv::PivOptions{}.windows_px;
+  for (const std::string& f : {kData + "/openpiv-test1/exp1_001_a.bmp", kData + "/fluidimage-oseen/Oseen_center_01.tif",
+                               kData + "/piv-synthetic-vane/vane_shear_640x480_A.png",
+                               kSamples + "/pivlab-sand/Fuerteventura_000000.jpeg"}) {
+    const cv::Mat img = io::read_image_gray(f);
+    const double hw = piv::texture_half_width_px(img);
+    INFO(f << ": half-width " << hw << " px, as a bead " << hw * piv::kBeadDiameterPerHalfWidth << " px");
+    CHECK(hw * piv::kBeadDiameterPerHalfWidth < piv::kSmallBeadMinPx);
+    CHECK(piv::windows_for_texture(base, hw, img.size()) == base);
+  }
+}
+
