@@ -98,6 +98,20 @@ TEST_CASE("a scene spec written as a file reads back as the same spec and builds
   CHECK(back.fill.height_d == 3.5);
   CHECK_FALSE(back.fill.height_m.has_value());
   CHECK(build_scene(back, false).world->state_hash() == build_scene(spec, false).world->state_hash());
+
+  // A string the file must escape (a quote, a backslash, a tab) reads back as written;
+  // build_scene then refuses the value by name.
+  spec.sim.sweep_order = "for\"ward\\ \t";
+  std::ostringstream escaped;
+  write_scene(spec, escaped);
+  {
+    std::ofstream f(file);
+    f << escaped.str();
+  }
+  const SceneSpec odd = read_scene(file);
+  std::filesystem::remove(file);
+  CHECK(odd.sim.sweep_order == spec.sim.sweep_order);
+  CHECK_THROWS_WITH(build_scene(odd, true), Catch::Contains("key \"sim.sweep_order\""));
 }
 
 TEST_CASE("a scene spec built in code is refused as a file is, naming its source and key", "[sim][scene]") {
