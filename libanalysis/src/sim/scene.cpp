@@ -86,10 +86,12 @@ struct ResolvedScene {
 /// diameters, and refusals naming the spec's source, line and key.
 class Scene {
  public:
-  using Value = std::variant<double, std::int64_t, bool, std::string, std::vector<double>>;
+  /// A given key's member of the spec (not a copy: a scene's positions may be millions).
+  using Value = std::variant<const double*, const std::int64_t*, const bool*, const std::string*,
+                             const std::vector<double>*>;
   explicit Scene(const SceneSpec& spec) : spec_(spec) {
     SceneSpec::for_each_key(spec, [this](const char* name, const auto& key) {
-      if (key) values_.emplace(name, Value(*key));
+      if (key) values_.emplace(name, Value(&*key));
     });
   }
   bool has(const std::string& k) const { return given(k) || (is_length(k) && given(in_d(k))); }
@@ -174,7 +176,7 @@ class Scene {
   bool given(const std::string& k) const { return values_.count(k) != 0; }
   template <class T>
   const T& get(const std::string& k) const {
-    return std::get<T>(values_.at(k));  // each key's type is its SceneSpec member's
+    return *std::get<const T*>(values_.at(k));  // each key's type is its SceneSpec member's
   }
   static bool is_length(const std::string& k) {
     return std::find(kLengthKeys.begin(), kLengthKeys.end(), k) != kLengthKeys.end();
