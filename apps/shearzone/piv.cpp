@@ -9,6 +9,7 @@
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
+#include "shearzone/piv/texture.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -81,6 +82,12 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   core::ProgressReporter progress("piv: pairs", ctx.level);
   const auto sum = pipeline::run_piv_job(j, ctx.header(), progress.callback());
   progress.finish();
+  // A bead texture too small for the closed loop to hold (subcommands.hpp): the
+  // figures measured on rendered cups, on stderr.
+  const double texture_px = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
+  if (std::isfinite(texture_px) && texture_px >= piv::kSmallBeadMinPx && texture_px < kSmallTexturePx)
+    note_small_beads("piv", "the texture reads as beads of about", texture_px,
+                     "film at 15 px per bead or more where r_c matters");
   if (ctx.level != core::LogLevel::kQuiet) {
     const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);
     std::string damaged;

@@ -112,18 +112,10 @@ struct RenderCli {
   std::vector<int> size;
 };
 
-/// Small beads in a small image: the closed loop reads r_c low (docs/sim.md, "Bead size,
-/// codec and the closed loop": at 8-12 px per bead up to 0.4 d low with MPEG-4 and
-/// 0.3-0.65 d low with H.264; within 0.25 d from 15 px with either). Large beads need no
-/// note: `piv` sizes its windows to them.
-constexpr double kSmallBeadPx = 14.0;
+/// The small-bead note of `sim render` and `sim check` (subcommands.hpp).
 void warn_bead_size(double bead_px) {
   if (bead_px < kSmallBeadPx)
-    std::fprintf(stderr,
-                 "sim render: note: beads are %.1f px across; at 8-12 px per bead the closed loop read r_c up to 0.4 "
-                 "bead diameters low with MPEG-4 and 0.3-0.65 low with H.264 (docs/sim.md, \"Bead size, codec and "
-                 "the closed loop\"): film at 15 px per bead or more (--size or --m-per-px)\n",
-                 bead_px);
+    note_small_beads("sim render", "beads are", bead_px, "film at 15 px per bead or more (--size or --m-per-px)");
 }
 
 /// The camera and look options that `sim render` and `sim check` share.

@@ -55,4 +55,21 @@ std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 /// `shearzone synth particles|beads`.
 std::vector<Subcommand> add_synth(CLI::App& root, Context& ctx);
 
+/// Small beads in the image: the closed loop reads r_c low (docs/sim.md, "Bead size,
+/// codec and the closed loop": at 8-12 px per bead up to 0.4 d low with MPEG-4 and
+/// 0.3-0.65 d low with H.264; within 0.25 d from 15 px with either). Below this size
+/// `sim render` and `sim check` say so on stderr. Large beads need no note: `piv`
+/// sizes its windows to them.
+constexpr double kSmallBeadPx = 14.0;
+
+/// The same limit on `piv`'s texture size (autocorrelation half-width x
+/// piv::kBeadDiameterPerHalfWidth), which reads rendered beads of 12, 15 and 18 px as
+/// 10.9, 13.9 and 16.5 px (`sim check` on data-samples/sim/vane_cup.toml): 13 px of
+/// texture is about 14 px of bead. Particles measure under piv::kSmallBeadMinPx: no note.
+constexpr double kSmallTexturePx = 13.0;
+
+/// The note above, as "<who>: note: <what> ... px across; ..." on stderr. `advice`
+/// ends the line (how to film larger beads).
+void note_small_beads(const char* who, const char* what, double bead_px, const char* advice);
+
 }  // namespace shearzone::apps
