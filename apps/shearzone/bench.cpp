@@ -4,9 +4,9 @@
 #include <cstdio>
 #include <memory>
 
-#include "shearzone/pipeline/bench_piv.hpp"
-#include "shearzone/pipeline/bench_profile.hpp"
-#include "shearzone/pipeline/bench_sim.hpp"
+#include "shearzone/bench/piv.hpp"
+#include "shearzone/bench/profile.hpp"
+#include "shearzone/bench/sim.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -14,7 +14,7 @@ namespace shearzone::apps {
 std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   CLI::App* bench = root.add_subcommand("bench", "Benchmarks: speed against accuracy, as CSV");
   bench->require_subcommand(1);
-  auto o = std::make_shared<pipeline::BenchPivOptions>();
+  auto o = std::make_shared<bench::BenchPivOptions>();
   auto out = std::make_shared<std::string>();
   CLI::App* p = bench->add_subcommand("piv", "PIV settings grid on 1080p truth + failure map");
   p->add_option("-o,--output", *out, "Output folder for the CSV files")->required();
@@ -24,7 +24,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   p->add_option("--width", o->width_px, "Pair width, px; range: 8..8192")->capture_default_str();
   p->add_option("--height", o->height_px, "Pair height, px; range: 8..8192")->capture_default_str();
-  auto po = std::make_shared<pipeline::BenchProfileOptions>();
+  auto po = std::make_shared<bench::BenchProfileOptions>();
   auto pout = std::make_shared<std::string>();
   CLI::App* pr = bench->add_subcommand(
       "profile", "profile + width on a long synthetic clip (default: 4 min of 1080p): time, memory, r_c vs truth");
@@ -39,7 +39,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   pr->add_option("--lockin-harmonics", po->lockin_harmonics, "Lock-in harmonics (as profile); range: 0 or odd 1..31")
       ->capture_default_str();
   pr->add_flag("--keep-fields", po->keep_fields, "Keep the generated zone_fields.h5 (about 10 bytes per vector)");
-  auto so = std::make_shared<pipeline::BenchSimOptions>();
+  auto so = std::make_shared<bench::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
   CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap; "
                                              "--scene cup: the sheared vane cup");
@@ -125,7 +125,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   return {{p, [p, o, out, &ctx] {
              o->out_dir = *out;
              core::ProgressReporter progress("bench piv", ctx.level);
-             const auto sum = pipeline::run_piv_bench(*o, ctx.header(), progress.callback());
+             const auto sum = bench::run_piv_bench(*o, ctx.header(), progress.callback());
              progress.finish();
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
@@ -138,7 +138,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
           {pr, [pr, po, pout, &ctx] {
              po->out_dir = *pout;
              core::ProgressReporter progress("bench profile", ctx.level);
-             const auto sum = pipeline::run_profile_bench(*po, ctx.header(), progress.callback());
+             const auto sum = bench::run_profile_bench(*po, ctx.header(), progress.callback());
              progress.finish();
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
@@ -150,7 +150,7 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
           {s, [s, so, sout, &ctx] {
              so->out_dir = *sout;
              core::ProgressReporter progress("bench sim", ctx.level);
-             const auto sum = pipeline::run_sim_bench(*so, ctx.header(), progress.callback());
+             const auto sum = bench::run_sim_bench(*so, ctx.header(), progress.callback());
              progress.finish();
              if (ctx.level != core::LogLevel::kQuiet) {
                for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());

@@ -19,7 +19,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
-#include "shearzone/pipeline/study.hpp"
+#include "shearzone/study/study.hpp"
 #include "subcommands.hpp"
 
 #ifndef SHEARZONE_SOURCE_DIR
@@ -226,7 +226,7 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
 }
 
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
-  const pipeline::Study study = pipeline::load_study(
+  const study::Study study = study::load_study(
       s.study, [&root](const std::string& stage, const std::string& key) { return has_option(root, stage, key); },
       [&root](const std::string& stage) { return option_names(root, stage); }, check_stage);
   const fs::path scripts = scripts_dir();
@@ -258,7 +258,7 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
   if (::flock(lock_fd, LOCK_EX | LOCK_NB) != 0)
     throw ConfigError(fmt::format("{}: another `shearzone study run` is running on this folder", s.output));
   try {
-    pipeline::write_study_plan(study, s.output, self, python, scripts);
+    study::write_study_plan(study, s.output, self, python, scripts);
   } catch (...) {
     std::error_code rec;
     if (new_folder) fs::remove_all(s.output, rec);  // a refusal leaves no folder behind

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/grouped_table.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/pipeline/fit_job.hpp"
@@ -27,7 +28,7 @@ CollapseErfJobSummary run_collapse_erf_job(const CollapseErfJobOptions& o,
   o.validate();
   io::AtomicOutputSet outs(o.out_dir, o.force);
   for (const char* f : {"collapsed.csv", "master.csv", "parameters.csv"}) outs.check(f);
-  const GroupedData g = read_grouped(o.input, o.x_column, o.y_column, o.sigma_column,
+  const io::GroupedData g = io::read_grouped(o.input, o.x_column, o.y_column, o.sigma_column,
                                      o.group_column, o.group_rtol);
   std::vector<fit::ErfCollapseGroup> groups;
   for (std::size_t k = 0; k < g.labels.size(); ++k) {

@@ -70,20 +70,4 @@ std::filesystem::path sibling_output(const std::filesystem::path& output, const 
 /// (the caller decides: `usable == 0` is exit 3 in the CLI).
 FitJobSummary run_fit_job(const FitJobOptions& options, const core::Metadata& header);
 
-/// Shared by the fit and collapse jobs: the rows of a table split into groups.
-struct GroupedData {
-  std::vector<std::string> labels;       ///< group label (numeric groups: the mean value)
-  std::vector<double> group_values;      ///< numeric value of each group (NaN if text)
-  std::vector<std::vector<double>> x, y, sigma;
-  std::string x_unit, y_unit;            ///< from the column names' suffixes ("" unknown)
-  std::size_t skipped_rows = 0;          ///< rows skipped for status != ok
-};
-GroupedData read_grouped(const std::filesystem::path& input, const std::string& x_column,
-                         const std::string& y_column, const std::string& sigma_column,
-                         const std::string& group_column, double group_rtol);
-
-/// The unit in a column name: the text after the first '_' ("rc_m" -> "m",
-/// "torque_N_m" -> "N_m"); "" when there is none.
-std::string unit_of_column(const std::string& column);
-
 }  // namespace shearzone::pipeline

@@ -1,4 +1,4 @@
-// shearzone/pipeline/study.hpp: a study file (TOML) -> the plan of a Snakemake workflow.
+// shearzone/study/study.hpp: a study file (TOML) -> the plan of a Snakemake workflow.
 //
 // A study is a lab campaign (clips and torque logs tagged with N, phi0, f) and/or a
 // simulation grid (N x l_max x theta_max x fill seeds x phi0 from a cup scene with
@@ -19,7 +19,7 @@
 
 #include "shearzone/sim/scene.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::study {
 
 /// Extra options of one stage, as command-line words ("--vc", "5e-4", ...).
 using StageArgs = std::vector<std::string>;
@@ -117,4 +117,4 @@ void write_study_plan(const Study& study, const std::filesystem::path& out_dir,
 /// Branch folder name of an amplitude (sim::SceneProtocol::branch_folder).
 std::string study_branch_name(double phi0_rad);
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::study

@@ -1,4 +1,4 @@
-// shearzone/pipeline/bench_profile.hpp: `shearzone bench profile`, the profile and width
+// shearzone/bench/profile.hpp: `shearzone bench profile`, the profile and width
 // stages on a long clip, against truth.
 //
 // Writes a synthetic field file (synth/zone_fields.hpp; by default the 4-minute 1080p
@@ -16,7 +16,7 @@
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 
 struct BenchProfileOptions {
   int pairs = 6000;             ///< 4 minutes at 25 fps
@@ -39,4 +39,4 @@ struct BenchProfileSummary {
 BenchProfileSummary run_profile_bench(const BenchProfileOptions& options, const core::Metadata& header,
                                       const core::ProgressCallback& progress = {});
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench

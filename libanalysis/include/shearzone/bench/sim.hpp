@@ -1,4 +1,4 @@
-// shearzone/pipeline/bench_sim.hpp: the contact-dynamics engine benchmark.
+// shearzone/bench/sim.hpp: the contact-dynamics engine benchmark.
 //
 // Packing (one per bead count, deterministic from the seed): single glass beads
 // (d = 2 mm, ρ = 2500 kg/m³, μ = 0.3 between beads and with the walls) on a jittered
@@ -53,7 +53,7 @@
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 
 struct BenchSimOptions {
   std::vector<int> beads = {2000, 5000, 10000};  ///< bead counts of the speed table
@@ -122,4 +122,4 @@ struct BenchSimSummary {
 BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metadata& header,
                               const core::ProgressCallback& progress = {});
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench

@@ -1,5 +1,5 @@
 // A study file -> the workflow's plan (docs/study.md).
-#include "shearzone/pipeline/study.hpp"
+#include "shearzone/study/study.hpp"
 
 #include <glob.h>
 
@@ -23,7 +23,7 @@
 #include "shearzone/io/toml_config.hpp"
 #include "shearzone/sim/scene.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::study {
 namespace fs = std::filesystem;
 
 namespace {
@@ -857,4 +857,4 @@ void write_study_plan(const Study& s, const fs::path& out, const fs::path& shear
   write_if_changed(out / "study.json", j.str());
 }
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::study

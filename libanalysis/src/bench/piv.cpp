@@ -1,4 +1,4 @@
-#include "shearzone/pipeline/bench_piv.hpp"
+#include "shearzone/bench/piv.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +12,7 @@
 #include "shearzone/piv/piv.hpp"
 #include "shearzone/synth/generator.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 namespace {
 
 constexpr double kBorderPx = 48.0;
@@ -223,4 +223,4 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
   return sum;
 }
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench

@@ -1,4 +1,4 @@
-#include "shearzone/pipeline/bench_profile.hpp"
+#include "shearzone/bench/profile.hpp"
 
 #include <sys/resource.h>
 
@@ -16,7 +16,7 @@
 #include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/synth/zone_fields.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 
 namespace {
 
@@ -110,7 +110,7 @@ BenchProfileSummary run_profile_bench(const BenchProfileOptions& o, const core::
   const double file_mb = static_cast<double>(std::filesystem::file_size(fields)) / (1024.0 * 1024.0);
 
   // 2. profile, streamed.
-  ProfileJobOptions po;
+  pipeline::ProfileJobOptions po;
   po.input = fields;
   po.output = o.out_dir / "profile.csv";
   po.force = true;
@@ -119,7 +119,7 @@ BenchProfileSummary run_profile_bench(const BenchProfileOptions& o, const core::
   po.lockin_harmonics = o.lockin_harmonics;
   const double rss_before = rss_now_mb();
   const auto t_prof = Clock::now();
-  const auto psum = run_profile_job(po, header, [&](std::size_t done, std::size_t total) {
+  const auto psum = pipeline::run_profile_job(po, header, [&](std::size_t done, std::size_t total) {
     if (progress) progress(static_cast<std::size_t>(o.pairs) + done * static_cast<std::size_t>(o.pairs) / total,
                            static_cast<std::size_t>(2 * o.pairs));
   });
@@ -152,14 +152,14 @@ BenchProfileSummary run_profile_bench(const BenchProfileOptions& o, const core::
                    "peak_rss_MB", "estimator", "width_s", "rc_m", "rc_ci_low_m", "rc_ci_high_m", "rc_status",
                    "rc_true_m", "rc_error_m", "v_noise_m_per_s", "lockin_harmonics"});
   for (const char* est : {"mean-abs", "lockin"}) {
-    WidthJobOptions wo;
+    pipeline::WidthJobOptions wo;
     wo.inputs = {po.output};
     wo.output = o.out_dir / fmt::format("widths_{}.csv", est);
     wo.force = true;
     wo.width.v_c_m_per_s = kVc;
     wo.width.estimator = profile::estimator_from_name(est);
     const auto t_w = Clock::now();
-    run_width_job(wo, header);
+    pipeline::run_width_job(wo, header);
     const double w_s = seconds_since(t_w);
     sum.files.push_back(wo.output);
     const auto t = io::read_csv(wo.output);
@@ -185,4 +185,4 @@ BenchProfileSummary run_profile_bench(const BenchProfileOptions& o, const core::
   return sum;
 }
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench

@@ -1,4 +1,4 @@
-// shearzone/pipeline/bench_piv.hpp: the PIV speed-accuracy benchmark.
+// shearzone/bench/piv.hpp: the PIV speed-accuracy benchmark.
 //
 // Two tables, both on synthetic pairs with exact truth (48 px border excluded):
 //  1. Speed against accuracy: a grid of settings (pass list, interpolation, sub-pixel
@@ -19,7 +19,7 @@
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/progress.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 
 struct BenchPivOptions {
   int width_px = 1920;
@@ -38,4 +38,4 @@ struct BenchPivSummary {
 BenchPivSummary run_piv_bench(const BenchPivOptions& options, const core::Metadata& header,
                               const core::ProgressCallback& progress = {});
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench

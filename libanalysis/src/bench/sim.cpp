@@ -1,4 +1,4 @@
-#include "shearzone/pipeline/bench_sim.hpp"
+#include "shearzone/bench/sim.hpp"
 
 #include <algorithm>
 #include <array>
@@ -25,7 +25,7 @@
 #include "shearzone/sim/scene.hpp"
 #include "shearzone/sim/world.hpp"
 
-namespace shearzone::pipeline {
+namespace shearzone::bench {
 namespace {
 
 constexpr double kDiameter = 2e-3;   // m
@@ -1081,4 +1081,4 @@ BenchSimSummary run_sim_bench(const BenchSimOptions& options, const core::Metada
   return run_box_bench(o, header, progress);
 }
 
-}  // namespace shearzone::pipeline
+}  // namespace shearzone::bench
