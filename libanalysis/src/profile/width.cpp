@@ -58,13 +58,17 @@ void WidthOptions::validate() const {
     throw ConfigError(fmt::format("width: confidence {}: expected 0 < c < 1", confidence));
 }
 
+void WidthInput::add_bin(double r, double v_abs_bin, std::size_t n, double v_noise_bin) {
+  r_m.push_back(r);
+  v_abs.push_back(v_abs_bin);
+  n_vectors.push_back(n);
+  v_noise.push_back(v_noise_bin);
+}
+
 WidthInput WidthInput::from_profile(const RadialProfile& p, double R_m) {
   WidthInput w;
   for (const auto& b : p.bins) {
-    w.r_m.push_back(b.r_m);
-    w.v_abs.push_back(b.v_abs);
-    w.n_vectors.push_back(b.n_vectors);
-    w.v_noise.push_back(b.v_noise);
+    w.add_bin(b.r_m, b.v_abs, b.n_vectors, b.v_noise);
     w.radii.mean_m.push_back(b.r_vectors_mean_m);
     w.radii.sd_m.push_back(b.r_vectors_sd_m);
   }

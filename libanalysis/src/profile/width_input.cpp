@@ -19,10 +19,7 @@ WidthInput width_input(const io::ProfileCsv& p) {
   const std::string& path = p.path.string();
   WidthInput in;
   for (const auto& row : p.rows) {
-    in.r_m.push_back(row.r_m);
-    in.v_noise.push_back(row.v_noise);
-    in.n_vectors.push_back(row.n_vectors);
-    in.v_abs.push_back(row.v_abs);
+    in.add_bin(row.r_m, row.v_abs, row.n_vectors, row.v_noise);
     if (p.has_vector_radii) {
       in.radii.mean_m.push_back(row.r_vectors_mean);
       in.radii.sd_m.push_back(row.r_vectors_sd);

@@ -89,6 +89,8 @@ struct WidthInput {
   /// kPivBiasBoundPx m_per_px / dt (the profile's header, velocity_bias_bound_m_per_s).
   double velocity_bias_m_per_s = 0;
   bool has_lockin() const;
+  /// Appends a bin (the next larger radius) to r_m, v_abs, n_vectors and v_noise.
+  void add_bin(double r, double v_abs_bin, std::size_t n, double v_noise_bin);
   static WidthInput from_profile(const RadialProfile& p, double R_m);
 };
 
