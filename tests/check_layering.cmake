@@ -3,7 +3,7 @@
 # find another stage's or pipeline's headers, while its own and core's headers resolve.
 # Run by CTest:  cmake -DCXX=<compiler> -DVIEWS=<build>/libanalysis/include-views
 #                      -DSOURCE=<repo>/libanalysis -DWORK=<dir> -P check_layering.cmake
-set(stages synth piv profile fit laos sim)
+set(stages synth piv track profile fit laos sim)
 set(failures 0)
 file(MAKE_DIRECTORY ${WORK})
 

@@ -1,0 +1,82 @@
+// shearzone/track/track.hpp: bead tracking between two frames, a second estimator of
+// the displacement field beside PIV (docs/track.md).
+//
+// Each bead is measured on its own: its centre is found in frame a (a local maximum
+// of the frame smoothed at the bead's scale), and its displacement to frame b by
+// pyramidal Lucas-Kanade on a window of 3/4 of a bead around it (OpenCV's
+// calcOpticalFlowPyrLK), checked by tracking back from b to a (forward-backward). No
+// window averages the motion of several beads, so beads that rattle independently keep
+// their own |v| (PIV's windows read the mean of such vectors short: docs/sim.md).
+//
+// beads_to_grid() then puts the beads on a grid of cells half a bead wide, each
+// valid cell the mean displacement of the beads whose centre lies in it (almost always
+// one), so that the field files, `profile` and `width` take tracked fields as they take
+// PIV fields.
+//
+// Conventions: pixel (row i, column j) has its centre at (x, y) = (j, i); displacements
+// in px from frame a to frame b, y down; masks are 8-bit, non-zero = masked.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/vector_field.hpp"
+
+namespace shearzone::track {
+
+struct TrackOptions {
+  /// Bead diameter in the image, px (3..200). The window of each bead is three quarters
+  /// of it (odd, at least 7 px) and the detection's smoothing a sixth of it.
+  double bead_diameter_px = 0.0;
+  /// A bead is kept when tracking it back from b lands within this of where it started, px.
+  double fb_tolerance_px = 0.1;
+  /// Pyramid levels above the full image (0..6): displacements up to about half a
+  /// window times 2^levels are found.
+  int pyramid_levels = 3;
+  /// Lucas-Kanade iterations per level and the step below which they stop, px.
+  int max_iterations = 100;
+  double epsilon_px = 1e-4;
+  /// A detection needs a local contrast (peak of the smoothed frame over the lowest
+  /// value within 0.35 bead diameters) of at least this fraction of the frame's
+  /// range (1st to 99th percentile of the smoothed frame, unmasked pixels).
+  double min_contrast = 0.05;
+  void validate() const;
+  core::Metadata to_metadata() const;
+};
+
+/// Bead centres found in a frame, px (sub-pixel: a parabola through the smoothed
+/// frame's peak and its neighbours). A bead is dropped when a masked pixel or the
+/// image's edge lies within half a diameter of its centre.
+std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
+
+/// The beads of frame a and their displacements to frame b.
+struct PairBeads {
+  std::vector<double> x_px, y_px;  ///< centres in frame a
+  std::vector<double> u_px, v_px;  ///< displacement a -> b (0 where !ok)
+  std::vector<double> fb_px;       ///< forward-backward distance (NaN where the tracker lost the bead)
+  std::vector<std::uint8_t> ok;    ///< 1: tracked, back within the tolerance, clear of mask b
+  std::size_t size() const { return x_px.size(); }
+  std::size_t tracked() const;
+};
+
+/// Tracks the beads of `a` into `b` (8-bit or 16-bit grey, the same size; 16-bit frames
+/// are scaled to 8 bits first). A bead whose end lies within half a diameter of a
+/// masked pixel of `mask_b` (the vane moved over it) is not ok.
+PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,
+                     const TrackOptions& options);
+
+/// Cell size of the grid of beads_to_grid for a bead diameter: half a bead, at least 2 px.
+int grid_cell_px(double bead_diameter_px);
+
+/// The beads on a grid of `cell_px` cells over an image of `size`: node (i, j) at the
+/// centre of the cell of pixels [j c, (j + 1) c) x [i c, (i + 1) c). A cell whose centre
+/// is masked in `mask_a`, or that holds no bead centre, is kMasked; one whose beads all
+/// failed is kInvalid; else kValid with the mean displacement of its ok beads. peak and
+/// peak_ratio (correlation measures) are 0.
+core::VectorField beads_to_grid(const PairBeads& beads, cv::Size size, int cell_px, const cv::Mat& mask_a);
+
+}  // namespace shearzone::track
