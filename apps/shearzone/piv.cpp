@@ -22,6 +22,7 @@ struct PivCli {
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
   std::string residual = "gradient";
+  std::string method = "piv";
   std::string grey = "luma";
   std::string preset;
   bool no_deform = false;
@@ -47,6 +48,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
   j.piv.residual = piv::residual_from_name(s.residual);
+  j.method = pipeline::pair_method_from_name(s.method);
+  if (j.method != pipeline::PairMethod::kTrack)
+    for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels"})
+      if (c.count(opt)) throw ConfigError(fmt::format("{} applies to --method track", opt));
   j.size_windows_to_texture = c.count("--windows") == 0;
   j.video_fps = c.count("--fps") > 0 ? j.fps : 0.0;
   j.piv.deform = !s.no_deform;
@@ -85,7 +90,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   // A bead texture too small for the closed loop to hold (subcommands.hpp): the
   // figures measured on rendered cups, on stderr.
   const double texture_px = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
-  if (std::isfinite(texture_px) && texture_px >= piv::kSmallBeadMinPx && texture_px < kSmallTexturePx)
+  if (j.method == pipeline::PairMethod::kPiv && std::isfinite(texture_px) && texture_px >= piv::kSmallBeadMinPx &&
+      texture_px < kSmallTexturePx)
     note_small_beads("piv", "the texture reads as beads of about", texture_px,
                      "film at 15 px per bead or more where r_c matters");
   if (ctx.level != core::LogLevel::kQuiet) {
@@ -109,6 +115,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
                 sum.vectors_per_pair, 100.0 * sum.valid / n, 100.0 * sum.replaced / n,
                 100.0 * sum.masked / n, 100.0 * sum.invalid / n, sum.seconds,
                 sum.pairs / std::max(sum.seconds, 1e-9));
+    if (j.method == pipeline::PairMethod::kTrack)
+      std::printf("piv: beads of %.3g px tracked (%s), one vector per cell of %d px holding a bead\n",
+                  sum.track_bead_diameter_px, j.track.bead_diameter_px != 0 ? "as given" : "from the texture",
+                  sum.track_cell_px);
     const int w0 = sum.windows_px.empty() ? 0 : sum.windows_px.front();
     if (sum.coarse_predictor_pairs > 0)
       std::printf("piv: %zu pair%s moved more than a quarter of the first window (%d px; coarse estimate up "
@@ -143,6 +153,21 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("-o,--output", s->output, "Output: .csv (one pair) or .h5 (any number of pairs)");
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");
   c->add_flag("--force", j.force, "Replace an existing output");
+  // The method
+  c->add_option("--method", s->method,
+                "How each pair is measured: piv (windows correlated) or track (each bead tracked on its own by "
+                "Lucas-Kanade, put on a grid of half-bead cells; docs/track.md)")
+      ->check(CLI::IsMember({"piv", "track"}))
+      ->capture_default_str();
+  c->add_option("--bead-diameter-px", j.track.bead_diameter_px,
+                "--method track: the beads' diameter in the image, px (default: from the first frame's texture); "
+                "range: 3..200");
+  c->add_option("--fb-tolerance-px", j.track.fb_tolerance_px,
+                "--method track: keep a bead when tracking it back lands within this, px; range: 0..10")
+      ->capture_default_str();
+  c->add_option("--track-levels", j.track.pyramid_levels,
+                "--method track: pyramid levels (displacements up to about 3/8 bead x 2^levels); range: 0..6")
+      ->capture_default_str();
   // Correlation
   std::string preset_help = "Named setting of windows, interpolation, peak fit, repeats and predictor "
                             "smoothing (options given explicitly win):";

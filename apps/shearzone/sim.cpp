@@ -150,6 +150,7 @@ struct CheckCli {
   std::string run, output;
   std::vector<int> size, windows, final_windows, passes{3}, spacings{1};
   std::vector<std::string> interpolations;
+  std::vector<std::string> methods{"piv"};
   std::string estimator = "auto";
   bool passes_given = false;
 };
@@ -185,9 +186,15 @@ int run_check(CheckCli& s, const Context& ctx) {
   if (grids.empty()) grids.push_back(j.piv.piv.windows_px);
   std::vector<std::string> interps = s.interpolations;
   if (interps.empty()) interps.push_back("");
-  for (const auto& g : grids)
-    for (const auto& in : interps)
-      for (const int k : s.spacings) j.settings.push_back({g, k, in});
+  for (const auto& m : s.methods) {
+    if (pipeline::pair_method_from_name(m) == pipeline::PairMethod::kTrack) {
+      for (const int k : s.spacings) j.settings.push_back({{}, k, "", pipeline::PairMethod::kTrack});
+      continue;
+    }
+    for (const auto& g : grids)
+      for (const auto& in : interps)
+        for (const int k : s.spacings) j.settings.push_back({g, k, in});
+  }
   core::ProgressReporter progress("sim check: stages", ctx.level);
   const auto rows =
       pipeline::run_sim_check(j, ctx.header(), [&](const std::string& st, std::size_t done, std::size_t total) {
@@ -272,6 +279,12 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx) {
   ck->add_option("--interpolations", k->interpolations,
                  "Grid: image deformation interpolations (bilinear, bicubic, bspline, bspline5; default: piv's)")
       ->delimiter(',');
+  ck->add_option("--methods", k->methods,
+                 "How the video's pairs are measured: piv (the window grid above), track (each bead tracked, one "
+                 "row per spacing; docs/track.md), or both: piv,track")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"piv", "track"}))
+      ->capture_default_str();
   ck->add_option("--spacings", k->spacings, "Grid of pair spacings k: pairs (i, i+k); range: 1..1000")
       ->delimiter(',')
       ->capture_default_str();

@@ -192,3 +192,37 @@ TEST_CASE("cup view: a rigid rotation of packing and vane, filmed and measured b
     CHECK(rings >= 5);
   }
 }
+
+TEST_CASE("cup view: the visible beads are those whose middle no higher bead covers, each with its motion",
+          "[synth]") {
+  synth::CupImage im;
+  im.centre_x_px = 100;
+  im.centre_y_px = 100;
+  im.cup_radius_px = 90;
+  synth::ProjectedBeads a, b;
+  auto add = [](synth::ProjectedBeads& p, std::int64_t id, double x, double y, double top) {
+    p.id.push_back(id);
+    p.x.push_back(x);
+    p.y.push_back(y);
+    p.top.push_back(top);
+    p.diameter.push_back(20);
+    p.albedo.push_back(1);
+  };
+  add(a, 0, 60, 100, 20);   // on top
+  add(a, 1, 64, 100, 10);   // lower, its middle under bead 0: not visible
+  add(a, 2, 120, 100, 10);  // alone
+  add(a, 3, 150, 60, 10);   // alone, but gone in frame b
+  add(a, 4, 195, 100, 10);  // beyond the cup radius
+  add(b, 0, 61, 100.5, 20);
+  add(b, 1, 64, 100, 10);
+  add(b, 2, 119, 102, 10);
+  add(b, 4, 195, 100, 10);
+  const synth::VisibleBeads v = synth::visible_beads(a, b, im, 0, 0.0);
+  REQUIRE(v.x_px.size() == 2);
+  CHECK(v.x_px[0] == 60);
+  CHECK(v.u_px[0] == 1);
+  CHECK(v.v_px[0] == 0.5);
+  CHECK(v.x_px[1] == 120);
+  CHECK(v.u_px[1] == -1);
+  CHECK(v.v_px[1] == 2);
+}

@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <numbers>
@@ -18,10 +19,10 @@
 
 
 #include "shearzone/core/conventions.hpp"
+#include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/core/version.hpp"
-#include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
@@ -38,43 +39,6 @@ namespace shearzone::pipeline {
 namespace {
 
 using io::format_number;
-
-/// phi(t) of the vane: a sinusoid or a log.
-class VaneAngle {
- public:
-  explicit VaneAngle(const VaneMaskOptions& o) : o_(o) {
-    if (o.log_path.empty()) return;
-    io::AngleLog log = io::read_angle_log(o.log_path, 2);
-    time_ = std::move(log.time_s);
-    angle_ = std::move(log.angle_rad);
-  }
-
-  const std::vector<double>& log_times() const { return time_; }
-  const std::vector<double>& log_angles() const { return angle_; }
-  void set_log_offset(double s) { o_.log_offset_s = s; }
-  double log_offset() const { return o_.log_offset_s; }
-  void set_phase(double p) { o_.phase_rad = p; }
-  double phase() const { return o_.phase_rad; }
-
-  /// Blade-0 angle (angle0 + phi) at frame time t, rad.
-  double at(double t_s, const std::string& frame_label) const {
-    const double angle0 = o_.angle0_deg * std::numbers::pi / 180.0;
-    if (time_.empty())
-      return angle0 + o_.phi0_rad * std::sin(2.0 * std::numbers::pi * o_.f_Hz * t_s + o_.phase_rad);
-    const double tl = t_s + o_.log_offset_s;
-    if (tl < time_.front() || tl > time_.back())
-      throw InputError(
-          fmt::format("{}: frame {} at t = {} s (log time {} s) is outside the angle "
-                      "log's range [{}, {}] s; check --log-offset-s",
-                      o_.log_path, frame_label, format_number(t_s), format_number(tl),
-                      format_number(time_.front()), format_number(time_.back())));
-    return angle0 + piv::interpolate_log(time_, angle_, tl);
-  }
-
- private:
-  VaneMaskOptions o_;
-  std::vector<double> time_, angle_;
-};
 
 bool frames_equal(const cv::Mat& a, const cv::Mat& b, double tol) {
   return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) <= tol;
@@ -94,6 +58,11 @@ struct Unique {
   cv::Mat mask;
 };
 
+/// One pair's displacements from its two frames and masks: PIV, or the beads tracked
+/// and put on a grid (the field only).
+using PairEstimator =
+    std::function<piv::PivResult(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b)>;
+
 /// One pair in flight.
 struct PairTask {
   std::shared_ptr<const Unique> a, b;
@@ -108,7 +77,7 @@ struct PairTask {
 /// + 2) pairs in flight (full(), pop_done(true)).
 class PairPool {
  public:
-  PairPool(const piv::PivEngine& engine, int workers) : engine_(engine), capacity_(workers + 2) {
+  PairPool(const PairEstimator& estimate, int workers) : estimate_(estimate), capacity_(workers + 2) {
     for (int i = 0; i < workers; ++i) threads_.emplace_back([this] { work(); });
   }
   ~PairPool() {
@@ -158,7 +127,7 @@ class PairPool {
         t = tasks_[next_++];
       }
       try {
-        t->result = engine_.process(t->a->image, t->b->image, t->a->mask, t->b->mask);
+        t->result = estimate_(t->a->image, t->b->image, t->a->mask, t->b->mask);
       } catch (...) {
         t->error = std::current_exception();
       }
@@ -170,7 +139,7 @@ class PairPool {
     }
   }
 
-  const piv::PivEngine& engine_;
+  const PairEstimator& estimate_;
   const std::size_t capacity_;
   std::mutex m_;
   std::condition_variable todo_, finished_;
@@ -194,9 +163,21 @@ class OmpThreads {
 
 }  // namespace
 
+const char* pair_method_name(PairMethod m) { return m == PairMethod::kTrack ? "track" : "piv"; }
+
+PairMethod pair_method_from_name(const std::string& name) {
+  return core::enum_from_name(name, {PairMethod::kPiv, PairMethod::kTrack}, pair_method_name, "pair method (--method)");
+}
+
 void PivJobOptions::validate() const {
   piv.validate();
   preprocess.validate();
+  if (method == PairMethod::kTrack) {
+    if (preprocess.any())
+      throw ConfigError("--method track takes the frames as they are: no --highpass, --clahe, --background or "
+                        "other preprocessing");
+    if (track.bead_diameter_px != 0) track.validate();
+  }
   if (!(video_fps >= 0 && std::isfinite(video_fps)))
     throw ConfigError(fmt::format("--fps {}: expected a positive finite frame rate", video_fps));
   if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
@@ -296,7 +277,7 @@ void measure_vane(const PivJobOptions& o, std::vector<double>& ts, std::vector<d
 }
 
 /// --phase-auto: the phase of the vane's sinusoid from the angles seen in the frames.
-void find_vane_phase(const PivJobOptions& o, VaneAngle& vane_angle, PivJobSummary& sum) {
+void find_vane_phase(const PivJobOptions& o, piv::VaneDrive& vane_angle, PivJobSummary& sum) {
   std::vector<double> ts, phis;
   measure_vane(o, ts, phis);
   const auto fit = piv::fit_vane_phase(ts, phis, o.vane.f_Hz);
@@ -320,7 +301,7 @@ void find_vane_phase(const PivJobOptions& o, VaneAngle& vane_angle, PivJobSummar
 
 /// The angle log aligned with the video: the vane angle measured in each selected frame
 /// against the log at t + offset.
-void align_angle_log(const PivJobOptions& o, double fps, VaneAngle& vane_angle) {
+void align_angle_log(const PivJobOptions& o, double fps, piv::VaneDrive& vane_angle) {
   std::vector<double> ts, phis;
   measure_vane(o, ts, phis);
   const double off =
@@ -355,7 +336,7 @@ cv::Mat background_image(const PivJobOptions& o) {
 struct FrameMasks {
   const PivJobOptions& o;
   cv::Mat static_mask;
-  const VaneAngle& vane_angle;
+  const piv::VaneDrive& vane_angle;
   [[nodiscard]] cv::Mat of(const io::Frame& fr) const {
     cv::Mat m = static_mask;
     if (o.annulus_outer_px > 0)
@@ -390,13 +371,42 @@ piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, co
   return piv_options;
 }
 
-/// The header of the fields: source, PIV options and how the windows were chosen, masks.
-core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header, const io::FrameSource& source,
-                            const piv::PivOptions& piv_options, const VaneAngle& vane_angle,
-                            const PivJobSummary& sum) {
-  core::Metadata meta = header;
-  meta.emplace_back("source", source.description());
-  meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
+/// Tracking's options: the bead diameter given, or the texture's (measured by
+/// size_windows), and the grid's cell.
+track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum) {
+  track::TrackOptions t = o.track;
+  if (t.bead_diameter_px == 0) {
+    const double d = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
+    if (!(d >= 3 && d <= 200))
+      throw InputError(fmt::format("{}: the texture of the first frame gives no bead size for --method track ({} "
+                                   "px; expected 3..200): give --bead-diameter-px",
+                                   o.inputs.front(), std::isfinite(d) ? fmt::format("{:.3g}", d) : "none"));
+    t.bead_diameter_px = d;
+  }
+  t.validate();
+  sum.track_bead_diameter_px = t.bead_diameter_px;
+  sum.track_cell_px = track::grid_cell_px(t.bead_diameter_px);
+  return t;
+}
+
+/// The pair estimator of the method: PIV's engine, or the beads tracked and gridded.
+PairEstimator pair_estimator(const PivJobOptions& o, const piv::PivOptions& piv_options,
+                             const track::TrackOptions& track_options, int cell_px) {
+  if (o.method == PairMethod::kTrack)
+    return [track_options, cell_px](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
+      piv::PivResult r;
+      r.field = track::beads_to_grid(track::track_pair(a, b, mask_a, mask_b, track_options), a.size(), cell_px, mask_a);
+      return r;
+    };
+  auto engine = std::make_shared<const piv::PivEngine>(piv_options);
+  return [engine](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
+    return engine->process(a, b, mask_a, mask_b);
+  };
+}
+
+/// PIV's part of the header: its options, how the windows were chosen, the footprint.
+void add_piv_window_metadata(core::Metadata& meta, const PivJobOptions& o, const piv::PivOptions& piv_options,
+                             const PivJobSummary& sum) {
   for (auto& kv : piv_options.to_metadata()) meta.push_back(std::move(kv));
   if (o.size_windows_to_texture)
     meta.emplace_back(
@@ -422,6 +432,41 @@ core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header
   if (std::isfinite(sum.texture_half_width_px))
     meta.emplace_back("texture_size_px",
                       fmt::format("{:.4g}", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth));
+}
+
+/// Tracking's part of the header: the tracker's options and the grid.
+void add_track_metadata(core::Metadata& meta, const track::TrackOptions& tracking, const PivJobSummary& sum,
+                        bool diameter_given) {
+  for (auto& kv : tracking.to_metadata()) meta.push_back(std::move(kv));
+  meta.emplace_back("track_bead_diameter_rule",
+                    diameter_given ? std::string("as given (--bead-diameter-px)")
+                                   : fmt::format("the texture of the first frame: autocorrelation half-width {:.3g} "
+                                                 "px x {:.3g}",
+                                                 sum.texture_half_width_px, piv::kBeadDiameterPerHalfWidth));
+  meta.emplace_back("track_grid",
+                    fmt::format("cells of {} px (half a bead); a valid vector is the mean displacement of the beads "
+                                "whose frame-a centre lies in its cell; masked: under a mask or no bead; invalid: "
+                                "its beads lost or back more than {} px from where they started; peak and "
+                                "peak_ratio 0 (no correlation)",
+                                sum.track_cell_px, format_number(tracking.fb_tolerance_px)));
+  // What a vector is a mean over: `profile` reads it (a root attribute of .h5 fields).
+  meta.emplace_back("track_cell_px", std::to_string(sum.track_cell_px));
+}
+
+/// The header of the fields: source, the method's options (PIV: how the windows were
+/// chosen; tracking: the bead size and the grid), preprocessing, pairs, masks.
+core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header, const io::FrameSource& source,
+                            const piv::PivOptions& piv_options, const track::TrackOptions& tracking,
+                            const piv::VaneDrive& vane_angle, const PivJobSummary& sum) {
+  core::Metadata meta = header;
+  meta.emplace_back("source", source.description());
+  meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
+  if (o.method == PairMethod::kTrack) {  // (absent: piv, as in the files written before tracking)
+    meta.emplace_back("pair_method", pair_method_name(o.method));
+    add_track_metadata(meta, tracking, sum, o.track.bead_diameter_px != 0);
+  } else {
+    add_piv_window_metadata(meta, o, piv_options, sum);
+  }
   for (auto& kv : o.preprocess.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("pairs", fmt::format("unique frames (i, i+{}), stride {}, frames {}..{}", o.pair_spacing,
                                          o.stride, o.first_frame,
@@ -456,7 +501,7 @@ core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header
 /// fields.h5's root attributes: what profile and width read (docs/formats.md).
 void set_field_attributes(io::FieldFileWriter& fields, const PivJobOptions& o, const io::FrameSource& source,
                           const core::Metadata& meta, const piv::PivOptions& piv_options,
-                          const VaneAngle& vane_angle, const PivJobSummary& sum) {
+                          const piv::VaneDrive& vane_angle, const PivJobSummary& sum) {
   fields.set_attribute("fps", source.fps());
   fields.set_attribute("source", source.description());
   fields.set_attribute("options", metadata_text(meta));
@@ -464,9 +509,15 @@ void set_field_attributes(io::FieldFileWriter& fields, const PivJobOptions& o, c
   for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
   fields.set_attribute("conventions", conv);
   fields.set_attribute("shearzone_version", kVersion);
-  fields.set_attribute("piv_final_window_px", static_cast<double>(piv_options.windows_px.back()));
-  if (std::isfinite(sum.texture_half_width_px))
-    fields.set_attribute("texture_size_px", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth);
+  if (o.method == PairMethod::kTrack) {
+    fields.set_attribute("pair_method", std::string(pair_method_name(o.method)));
+    fields.set_attribute("track_cell_px", static_cast<double>(sum.track_cell_px));
+    fields.set_attribute("track_bead_diameter_px", sum.track_bead_diameter_px);
+  } else {
+    fields.set_attribute("piv_final_window_px", static_cast<double>(piv_options.windows_px.back()));
+    if (std::isfinite(sum.texture_half_width_px))
+      fields.set_attribute("texture_size_px", sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth);
+  }
   fields.set_attribute("duplicates_skipped", static_cast<std::int64_t>(sum.duplicates));
   fields.set_attribute("damaged_frames_skipped", static_cast<std::int64_t>(sum.damaged.size()));
   {
@@ -509,7 +560,8 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   if (!o.mask_image.empty()) {
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
   }
-  VaneAngle vane_angle(o.vane);
+  piv::VaneDrive vane_angle({o.vane.angle0_deg, o.vane.phi0_rad, o.vane.f_Hz, o.vane.phase_rad, o.vane.log_path,
+                             o.vane.log_offset_s});
   PivJobSummary sum;
   sum.phase_rad = o.vane.phase_rad;
   if (o.vane.phase_auto) find_vane_phase(o, vane_angle, sum);
@@ -518,7 +570,8 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   const cv::Mat background = o.preprocess.background ? background_image(o) : cv::Mat();
   const FrameMasks masks{o, static_mask, vane_angle};
   const piv::PivOptions piv_options = size_windows(o, masks, background, sum);
-  const piv::PivEngine engine(piv_options);
+  const track::TrackOptions tracking = o.method == PairMethod::kTrack ? track_options(o, sum) : o.track;
+  const PairEstimator estimate = pair_estimator(o, piv_options, tracking, sum.track_cell_px);
   const bool csv = io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
@@ -526,7 +579,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   std::size_t unique_count = 0;
   io::AtomicOutput out(o.output, o.force);
   io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
-  const core::Metadata meta = piv_metadata(o, header, *source, piv_options, vane_angle, sum);
+  const core::Metadata meta = piv_metadata(o, header, *source, piv_options, tracking, vane_angle, sum);
 
   std::size_t pair_index = 0;
   const std::int64_t hint = source->size_hint();
@@ -539,7 +592,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   sum.pairs_in_parallel = sum.threads > 1 && !csv && (hint <= 0 || est_pairs >= 2);
   const OmpThreads omp_threads(sum.pairs_in_parallel ? 1 : sum.threads);
   std::unique_ptr<PairPool> pool;
-  if (sum.pairs_in_parallel) pool = std::make_unique<PairPool>(engine, sum.threads);
+  if (sum.pairs_in_parallel) pool = std::make_unique<PairPool>(estimate, sum.threads);
 
   // Step 3: write a finished pair.
   auto write_pair = [&](const Unique& a, const Unique& b, const piv::PivResult& r) {
@@ -620,7 +673,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       pool->submit(window.front(), window.back());
       drain(false);
     } else {
-      write_pair(a, b, engine.process(a.image, b.image, a.mask, b.mask));
+      write_pair(a, b, estimate(a.image, b.image, a.mask, b.mask));
     }
   }
   if (pool) drain(true);

@@ -86,21 +86,34 @@ cv::Mat first_frame(const std::string& path) {
 /// (profile::piv_footprint_var_m2) and piv's displacement bias bound over the pair's
 /// time step (profile::piv_velocity_bias_bound).
 void add_velocity_bounds(core::Metadata& meta, const io::FieldReader& src, double m_per_px, double dt_s) {
+  const double cell = src.attribute("track_cell_px");
   const double W = src.attribute("piv_final_window_px");
-  if (!(set(W) && W > 0 && W < 1e5)) return;
-  const double d = src.attribute("texture_size_px");
-  const double d_px = set(d) && d > 0 && d < 1e5 ? d : 0.0;
-  meta.emplace_back("velocity_footprint_var_m2", format_number(profile::piv_footprint_var_m2(W, d_px, m_per_px)));
-  meta.emplace_back("velocity_footprint",
-                    fmt::format("(W^2 / 12 + d^2 / 4) m_per_px^2: piv's final window W = {} px, texture d = {} px "
-                                "({}); width bounds how far r_c reads high by it",
-                                format_number(W), format_number(d_px),
-                                d_px > 0 ? "texture_size_px of the field file" : "unknown: 0"));
+  const bool tracked = set(cell) && cell > 0 && cell < 1e5;
+  if (tracked) {
+    // Tracked beads: each vector the mean of the bead centres in its cell (no texture term).
+    meta.emplace_back("velocity_footprint_var_m2", format_number(profile::piv_footprint_var_m2(cell, 0.0, m_per_px)));
+    meta.emplace_back("velocity_footprint",
+                      fmt::format("c^2 / 12 m_per_px^2: tracked beads, each vector the mean of the beads whose centre "
+                                  "lies in a cell of c = {} px; width bounds how far r_c reads high by it",
+                                  format_number(cell)));
+  } else if (set(W) && W > 0 && W < 1e5) {
+    const double d = src.attribute("texture_size_px");
+    const double d_px = set(d) && d > 0 && d < 1e5 ? d : 0.0;
+    meta.emplace_back("velocity_footprint_var_m2", format_number(profile::piv_footprint_var_m2(W, d_px, m_per_px)));
+    meta.emplace_back("velocity_footprint",
+                      fmt::format("(W^2 / 12 + d^2 / 4) m_per_px^2: piv's final window W = {} px, texture d = {} px "
+                                  "({}); width bounds how far r_c reads high by it",
+                                  format_number(W), format_number(d_px),
+                                  d_px > 0 ? "texture_size_px of the field file" : "unknown: 0"));
+  } else {
+    return;
+  }
   meta.emplace_back("velocity_bias_bound_m_per_s", format_number(profile::piv_velocity_bias_bound(m_per_px, dt_s)));
   meta.emplace_back("velocity_bias_bound",
-                    fmt::format("piv's displacement bias, at most {} px per pair (docs/piv.md), over dt = {} s; "
+                    fmt::format("{}'s displacement bias, at most {} px per pair (docs/{}.md), over dt = {} s; "
                                 "width bounds how far it moves r_c",
-                                format_number(profile::kPivBiasBoundPx), format_number(dt_s)));
+                                tracked ? "the tracker" : "piv",
+                                format_number(profile::kPivBiasBoundPx), tracked ? "track" : "piv", format_number(dt_s)));
 }
 
 }  // namespace

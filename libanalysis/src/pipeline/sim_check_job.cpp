@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -22,6 +23,7 @@
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/piv/options.hpp"
+#include "shearzone/track/track.hpp"
 
 namespace shearzone::pipeline {
 namespace {
@@ -86,6 +88,7 @@ double profile_rms_diff(const fs::path& a_path, const fs::path& b_path) {
 }  // namespace
 
 std::string SimCheckSetting::label() const {
+  if (method == PairMethod::kTrack) return "track_k" + std::to_string(spacing);
   std::string s = "w";
   for (std::size_t k = 0; k < windows_px.size(); ++k) s += (k ? "-" : "") + std::to_string(windows_px[k]);
   if (!interpolation.empty()) s += "_" + interpolation;
@@ -98,9 +101,10 @@ void SimCheckOptions::validate() const {
   if (!(truth_spacing_px >= 1 && truth_spacing_px <= 1024))
     throw ConfigError(fmt::format("--truth-spacing-px {}: expected 1..1024 px", truth_spacing_px));
   for (const auto& s : settings) {
-    if (s.windows_px.empty()) throw ConfigError("a PIV setting needs window sizes");
     if (!(s.spacing >= 1 && s.spacing <= 1000))
       throw ConfigError(fmt::format("--spacings {}: expected 1..1000", s.spacing));
+    if (s.method == PairMethod::kTrack) continue;
+    if (s.windows_px.empty()) throw ConfigError("a PIV setting needs window sizes");
     piv::PivOptions p = piv.piv;  // the PIV's own checks, before hours of rendering
     p.windows_px = s.windows_px;
     if (!s.interpolation.empty()) p.interpolation = piv::interpolation_from_name(s.interpolation);
@@ -185,20 +189,18 @@ struct FilmedBranch {
 
 /// The camera's truth (the surface beads' centre motion) as a field file on a grid of
 /// o.truth_spacing_px, with the geometry attributes the lab pipeline reads.
-void write_centres_truth(const SimCheckOptions& o, const FilmedBranch& fb, const fs::path& path) {
+/// A truth's field file: one field per frame pair (k, k + 1) from `field_of(k)`, and the
+/// root attributes `profile` reads (the geometry and the drive).
+void write_truth(const SimCheckOptions& o, const FilmedBranch& fb, const fs::path& path, const char* source,
+                 const std::function<core::VectorField(std::size_t)>& field_of) {
   const synth::CupImage& im = fb.rs.image;
   const sim::FilmedCup& cup = fb.cup;
-  std::vector<double> gx, gy;
-  for (double x = 0.5 * o.truth_spacing_px - 0.5; x < fb.rs.camera.width_px - 0.5; x += o.truth_spacing_px)
-    gx.push_back(x);
-  for (double y = 0.5 * o.truth_spacing_px - 0.5; y < fb.rs.camera.height_px - 0.5; y += o.truth_spacing_px)
-    gy.push_back(y);
   io::AtomicOutput f(path, o.force);
   {
     io::FieldFileWriter w(f.temp_path());
     for (std::size_t k = 0; k + 1 < fb.rs.frames; ++k)
-      w.append(synth::visible_motion(fb.proj[k], fb.proj[k + 1], gx, gy, im, cup.vane_blades, fb.vane_angles[k]),
-               static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps, 1.0 / cup.fps);
+      w.append(field_of(k), static_cast<std::int64_t>(k), static_cast<std::int64_t>(k + 1), k / cup.fps,
+               1.0 / cup.fps);
     w.set_attribute("centre_x_px", im.centre_x_px);
     w.set_attribute("centre_y_px", im.centre_y_px);
     w.set_attribute("cup_radius_px", im.cup_radius_px);
@@ -212,10 +214,39 @@ void write_centres_truth(const SimCheckOptions& o, const FilmedBranch& fb, const
     }
     w.set_attribute("fps", cup.fps);
     w.set_attribute("noise_sigma_px", 0.0);
-    w.set_attribute("source", "shearzone sim check: the camera's truth (surface beads' centre motion)");
+    w.set_attribute("source", source);
     w.close();
   }
   f.commit();
+}
+
+/// The camera's truth per node of a grid of `truth_spacing_px` (synth::visible_motion).
+void write_centres_truth(const SimCheckOptions& o, const FilmedBranch& fb, const fs::path& path) {
+  std::vector<double> gx, gy;
+  for (double x = 0.5 * o.truth_spacing_px - 0.5; x < fb.rs.camera.width_px - 0.5; x += o.truth_spacing_px)
+    gx.push_back(x);
+  for (double y = 0.5 * o.truth_spacing_px - 0.5; y < fb.rs.camera.height_px - 0.5; y += o.truth_spacing_px)
+    gy.push_back(y);
+  write_truth(o, fb, path, "shearzone sim check: the camera's truth (surface beads' centre motion)",
+              [&](std::size_t k) {
+                return synth::visible_motion(fb.proj[k], fb.proj[k + 1], gx, gy, fb.rs.image, fb.cup.vane_blades,
+                                             fb.vane_angles[k]);
+              });
+}
+
+/// The camera's truth bead by bead (synth::visible_beads: each visible bead's centre
+/// motion, counted once, at its centre) on the tracker's grid of `cell_px` cells: the
+/// reference of a tracking setting, binned as the tracker bins.
+void write_beads_truth(const SimCheckOptions& o, const FilmedBranch& fb, int cell_px, const fs::path& path) {
+  const cv::Size size(fb.rs.camera.width_px, fb.rs.camera.height_px);
+  write_truth(o, fb, path, "shearzone sim check: the camera's truth bead by bead (visible beads' centre motion)",
+              [&](std::size_t k) {
+                const synth::VisibleBeads v = synth::visible_beads(fb.proj[k], fb.proj[k + 1], fb.rs.image,
+                                                                   fb.cup.vane_blades, fb.vane_angles[k]);
+                track::PairBeads beads{v.x_px, v.y_px, v.u_px, v.v_px, std::vector<double>(v.x_px.size(), 0.0),
+                                       std::vector<std::uint8_t>(v.x_px.size(), 1)};
+                return track::beads_to_grid(beads, size, cell_px, cv::Mat());
+              });
 }
 
 /// The PIV's noise floor, as in the lab: a static clip (frame 0's packing and vane,
@@ -332,7 +363,8 @@ SimCheckRow run_setting(const SimCheckOptions& o, const core::Metadata& header, 
   p.inputs = {fb.video.string()};
   p.output = sout / "fields.h5";
   p.force = o.force;
-  p.piv.windows_px = st.windows_px;
+  p.method = st.method;
+  if (st.method == PairMethod::kPiv) p.piv.windows_px = st.windows_px;
   if (!st.interpolation.empty()) p.piv.interpolation = piv::interpolation_from_name(st.interpolation);
   p.pair_spacing = st.spacing;
   p.validate();
@@ -353,10 +385,17 @@ SimCheckRow run_setting(const SimCheckOptions& o, const core::Metadata& header, 
   }
   row.piv_s = since(t);
   row.pairs = ps.pairs;
-  if (ps.windows_px != st.windows_px) {  // sized to the texture: say which were used
+  if (st.method == PairMethod::kPiv && ps.windows_px != st.windows_px) {  // sized to the texture: say which were used
     SimCheckSetting used = st;
     used.windows_px = ps.windows_px;
     row.setting = used.label();
+  }
+  if (st.method == PairMethod::kTrack) {
+    // The tracker's reference: the camera's truth bead by bead, on its grid.
+    say(fmt::format("{}: truth bead by bead for {}", name, st.label()));
+    write_beads_truth(o, fb, ps.track_cell_px, sout / "truth_beads.h5");
+    row.centres = profile_and_width(o, header, cup.bead_diameter_m, sout / "truth_beads.h5",
+                                    sout / "truth_beads_profile.csv", sout / "truth_beads_width.csv", nullptr, nullptr);
   }
   const std::size_t not_masked = ps.pairs * ps.vectors_per_pair - ps.masked;
   row.invalid_fraction = not_masked > 0 ? static_cast<double>(ps.invalid) / static_cast<double>(not_masked) : 0;
@@ -373,7 +412,9 @@ SimCheckRow run_setting(const SimCheckOptions& o, const core::Metadata& header, 
   row.video = profile_and_width(o, header, cup.bead_diameter_m, p.output, sout / "profile.csv", sout / "width.csv",
                                 &row.profile_s, &row.width_s, ps0.output);
   if (fs::exists(sout / "profile.csv")) {
-    row.profile_rms_diff_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_centres_profile.csv");
+    row.profile_rms_diff_m_per_s =
+        profile_rms_diff(sout / "profile.csv", st.method == PairMethod::kTrack ? sout / "truth_beads_profile.csv"
+                                                                                : bout / "truth_centres_profile.csv");
     row.profile_rms_diff_surface_m_per_s = profile_rms_diff(sout / "profile.csv", bout / "truth_surface_profile.csv");
   } else {
     row.profile_rms_diff_m_per_s = row.profile_rms_diff_surface_m_per_s = core::kUnset;
@@ -389,7 +430,8 @@ void write_closed_loop(const SimCheckOptions& o, const core::Metadata& header, c
   meta.emplace_back("v_c_m_per_s", io::format_number(o.width.v_c_m_per_s));
   meta.emplace_back("rc_video", "r_c of piv -> profile -> width on the rendered video (geometry from the camera)");
   meta.emplace_back("rc_centres", "r_c of the camera's truth: the surface beads' centre motion on the same camera "
-                                  "(what PIV of shiny spheres can at best see)");
+                                  "(what PIV of shiny spheres can at best see); for track_k settings, the same "
+                                  "truth bead by bead, each visible bead once at its centre, on the tracker's grid");
   meta.emplace_back("rc_surface", "r_c of the simulator's surface field (surface.h5: material points, spin "
                                   "included)");
   meta.emplace_back("rc_error_over_d", "(rc_video - rc_surface) / d; rc_error_centres_over_d: (rc_video - "

@@ -4,10 +4,16 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
+
+#include <fmt/format.h>
 
 #include "shearzone/core/check.hpp"
+#include "shearzone/core/error.hpp"
 #include "shearzone/core/sine_fit.hpp"
 #include "shearzone/core/unset.hpp"
+#include "shearzone/io/angle_log.hpp"
+#include "shearzone/io/csv.hpp"
 #include "shearzone/piv/piv.hpp"
 
 namespace shearzone::piv {
@@ -123,6 +129,25 @@ VanePhaseFit fit_vane_phase(const std::vector<double>& t, const std::vector<doub
   out.offset_rad = s.C;
   out.rms_rad = std::sqrt(s.rss / static_cast<double>(n));
   return out;
+}
+
+VaneDrive::VaneDrive(Options o) : o_(std::move(o)) {
+  if (o_.log_path.empty()) return;
+  io::AngleLog log = io::read_angle_log(o_.log_path, 2);
+  time_ = std::move(log.time_s);
+  angle_ = std::move(log.angle_rad);
+}
+
+double VaneDrive::at(double t_s, const std::string& frame_label) const {
+  const double angle0 = o_.angle0_deg * std::numbers::pi / 180.0;
+  if (time_.empty()) return angle0 + o_.phi0_rad * std::sin(2.0 * std::numbers::pi * o_.f_Hz * t_s + o_.phase_rad);
+  const double tl = t_s + o_.log_offset_s;
+  if (tl < time_.front() || tl > time_.back())
+    throw InputError(fmt::format("{}: frame {} at t = {} s (log time {} s) is outside the angle log's range [{}, {}] "
+                                 "s; check --log-offset-s",
+                                 o_.log_path, frame_label, io::format_number(t_s), io::format_number(tl),
+                                 io::format_number(time_.front()), io::format_number(time_.back())));
+  return angle0 + interpolate_log(time_, angle_, tl);
 }
 
 }  // namespace shearzone::piv

@@ -146,38 +146,81 @@ cv::Mat render_cup_frame(const DownCamera& cam, const CupGeometry& cup, double s
   return out;
 }
 
+namespace {
+
+/// The top-most bead of a frame over a point (render_beads' depth rule), from buckets
+/// of the discs one diameter wide.
+class TopBead {
+ public:
+  explicit TopBead(const ProjectedBeads& a) : a_(a) {
+    for (const double d : a.diameter) cell_ = std::max(cell_, d);
+    // A dense grid of cells over the discs' extent (the beads lie within the image,
+    // give or take a diameter: project_beads drops the rest).
+    for (std::size_t k = 0; k < a.x.size(); ++k) {
+      const auto [kx, ky] = key(a.x[k], a.y[k]);
+      if (k == 0 || kx < cx0_) cx0_ = kx;
+      if (k == 0 || ky < cy0_) cy0_ = ky;
+      if (k == 0 || kx > cx1_) cx1_ = kx;
+      if (k == 0 || ky > cy1_) cy1_ = ky;
+    }
+    ncx_ = cx1_ - cx0_ + 1;
+    buckets_.resize(static_cast<std::size_t>(std::max(0L, ncx_ * (cy1_ - cy0_ + 1))));
+    for (std::size_t k = 0; k < a.x.size(); ++k) {
+      const auto [kx, ky] = key(a.x[k], a.y[k]);
+      buckets_[static_cast<std::size_t>((ky - cy0_) * ncx_ + (kx - cx0_))].push_back(k);
+    }
+  }
+
+  /// The index of the top-most bead covering (x, y); none: a.x.size().
+  std::size_t at(double x, double y) const {
+    const auto [cx, cy] = key(x, y);
+    double best = -1e300;
+    std::size_t seen = a_.x.size();
+    for (long dy = -1; dy <= 1; ++dy)
+      for (long dx = -1; dx <= 1; ++dx) {
+        const long kx = cx + dx, ky = cy + dy;
+        if (kx < cx0_ || kx > cx1_ || ky < cy0_ || ky > cy1_) continue;
+        for (const std::size_t k : buckets_[static_cast<std::size_t>((ky - cy0_) * ncx_ + (kx - cx0_))]) {
+          const double R = 0.5 * a_.diameter[k];
+          const double rho2 = (x - a_.x[k]) * (x - a_.x[k]) + (y - a_.y[k]) * (y - a_.y[k]);
+          if (rho2 >= R * R) continue;
+          const double h = a_.top[k] - R + std::sqrt(R * R - rho2);
+          if (h > best) {
+            best = h;
+            seen = k;
+          }
+        }
+      }
+    return seen;
+  }
+
+ private:
+  std::pair<long, long> key(double x, double y) const {
+    return {static_cast<long>(std::floor(x / cell_)), static_cast<long>(std::floor(y / cell_))};
+  }
+  const ProjectedBeads& a_;
+  double cell_ = 1.0;
+  long cx0_ = 0, cy0_ = 0, cx1_ = -1, cy1_ = -1, ncx_ = 0;
+  std::vector<std::vector<std::size_t>> buckets_;
+};
+
+/// Masked for the camera's truth: beyond the cup radius or on the vane.
+bool masked_at(double x, double y, const CupImage& im, int blades, double vane_angle_a) {
+  return std::hypot(x - im.centre_x_px, y - im.centre_y_px) > im.cup_radius_px ||
+         (blades > 0 &&
+          inside_vane(x, y, im.centre_x_px, im.centre_y_px, vane_angle_a, blades, im.vane_half_width_px,
+                      im.vane_radius_px));
+}
+
+}  // namespace
+
 core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& b, const std::vector<double>& xs,
                                  const std::vector<double>& ys, const CupImage& im, int blades, double vane_angle_a) {
   core::VectorField f;
   f.x_px = xs;
   f.y_px = ys;
   f.resize_to_grid();
-  // Buckets of the frame-a discs.
-  double cell = 1.0;
-  for (const double d : a.diameter) cell = std::max(cell, d);
-  auto key = [cell](double x, double y) {
-    return std::pair<long, long>(static_cast<long>(std::floor(x / cell)), static_cast<long>(std::floor(y / cell)));
-  };
-  // A dense grid of cells over the discs' extent (the beads lie within the image, give
-  // or take a diameter: project_beads drops the rest).
-  long cx0 = 0, cy0 = 0, cx1 = -1, cy1 = -1;
-  for (std::size_t k = 0; k < a.x.size(); ++k) {
-    const auto [kx, ky] = key(a.x[k], a.y[k]);
-    if (k == 0 || kx < cx0) cx0 = kx;
-    if (k == 0 || ky < cy0) cy0 = ky;
-    if (k == 0 || kx > cx1) cx1 = kx;
-    if (k == 0 || ky > cy1) cy1 = ky;
-  }
-  const long ncx = cx1 - cx0 + 1, ncy = cy1 - cy0 + 1;
-  std::vector<std::vector<std::size_t>> buckets(static_cast<std::size_t>(std::max(0L, ncx * ncy)));
-  auto bucket = [&](long kx, long ky) -> const std::vector<std::size_t>* {
-    if (kx < cx0 || kx > cx1 || ky < cy0 || ky > cy1) return nullptr;
-    return &buckets[static_cast<std::size_t>((ky - cy0) * ncx + (kx - cx0))];
-  };
-  for (std::size_t k = 0; k < a.x.size(); ++k) {
-    const auto [kx, ky] = key(a.x[k], a.y[k]);
-    buckets[static_cast<std::size_t>((ky - cy0) * ncx + (kx - cx0))].push_back(k);
-  }
+  const TopBead top(a);
   std::map<std::int64_t, std::size_t> in_b;
   for (std::size_t k = 0; k < b.id.size(); ++k) in_b.emplace(b.id[k], k);
   for (std::size_t i = 0; i < ys.size(); ++i) {
@@ -187,33 +230,12 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
       f.u_px[n] = f.v_px[n] = 0.0f;
       f.peak[n] = 1.0f;
       f.peak_ratio[n] = 10.0f;
-      if (std::hypot(x - im.centre_x_px, y - im.centre_y_px) > im.cup_radius_px ||
-          (blades > 0 && inside_vane(x, y, im.centre_x_px, im.centre_y_px, vane_angle_a, blades,
-                                            im.vane_half_width_px, im.vane_radius_px))) {
+      if (masked_at(x, y, im, blades, vane_angle_a)) {
         f.flag[n] = core::VectorFlag::kMasked;
         continue;
       }
-      const auto [cx, cy] = key(x, y);
-      double best = -1e300;
-      std::int64_t seen = -1;
-      std::size_t seen_k = 0;
-      for (long dy = -1; dy <= 1; ++dy)
-        for (long dx = -1; dx <= 1; ++dx) {
-          const std::vector<std::size_t>* members = bucket(cx + dx, cy + dy);
-          if (members == nullptr) continue;
-          for (const std::size_t k : *members) {
-            const double R = 0.5 * a.diameter[k];
-            const double rho2 = (x - a.x[k]) * (x - a.x[k]) + (y - a.y[k]) * (y - a.y[k]);
-            if (rho2 >= R * R) continue;
-            const double h = a.top[k] - R + std::sqrt(R * R - rho2);
-            if (h > best) {
-              best = h;
-              seen = a.id[k];
-              seen_k = k;
-            }
-          }
-        }
-      const auto hit = seen >= 0 ? in_b.find(seen) : in_b.end();
+      const std::size_t seen_k = top.at(x, y);
+      const auto hit = seen_k < a.x.size() ? in_b.find(a.id[seen_k]) : in_b.end();
       if (hit == in_b.end()) {
         f.flag[n] = core::VectorFlag::kInvalid;
         continue;
@@ -224,6 +246,30 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
     }
   }
   return f;
+}
+
+VisibleBeads visible_beads(const ProjectedBeads& a, const ProjectedBeads& b, const CupImage& im, int blades,
+                           double vane_angle_a) {
+  VisibleBeads v;
+  const TopBead top(a);
+  std::map<std::int64_t, std::size_t> in_b;
+  for (std::size_t k = 0; k < b.id.size(); ++k) in_b.emplace(b.id[k], k);
+  for (std::size_t k = 0; k < a.x.size(); ++k) {
+    if (masked_at(a.x[k], a.y[k], im, blades, vane_angle_a)) continue;
+    // Its middle in view: the centre and four points a quarter diameter from it are its own.
+    const double q = 0.25 * a.diameter[k];
+    bool own = true;
+    for (const auto& [dx, dy] : {std::pair{0.0, 0.0}, {q, 0.0}, {-q, 0.0}, {0.0, q}, {0.0, -q}})
+      own = own && top.at(a.x[k] + dx, a.y[k] + dy) == k;
+    if (!own) continue;
+    const auto hit = in_b.find(a.id[k]);
+    if (hit == in_b.end()) continue;
+    v.x_px.push_back(a.x[k]);
+    v.y_px.push_back(a.y[k]);
+    v.u_px.push_back(b.x[hit->second] - a.x[k]);
+    v.v_px.push_back(b.y[hit->second] - a.y[k]);
+  }
+  return v;
 }
 
 }  // namespace shearzone::synth

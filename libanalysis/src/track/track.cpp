@@ -22,6 +22,11 @@ namespace {
 /// at 16 px; tests/track/test_track.cpp).
 int window_px(double d) { return std::max(7, 2 * static_cast<int>(std::lround(0.375 * d)) + 1); }
 
+/// Near a mask or the image's edge a bead's window shrinks to stay clear of it (static
+/// pixels of a wall or a vane in the window would pull the bead towards their motion),
+/// down to this half-width.
+constexpr int kMinHalfWindowPx = 3;
+
 /// Frames as LK takes them: 8-bit (16-bit scaled by 1/256).
 cv::Mat as_8bit(const cv::Mat& m) {
   if (m.type() == CV_8UC1) return m;
@@ -33,21 +38,29 @@ cv::Mat as_8bit(const cv::Mat& m) {
   throw InputError(fmt::format("track: frames must be 8- or 16-bit grey (OpenCV type {})", m.type()));
 }
 
-/// Pixels within `radius` of a masked pixel or of the image's edge (255), as a mask.
-cv::Mat keep_out(const cv::Mat& mask, cv::Size size, double radius) {
-  const int r = std::max(1, static_cast<int>(std::ceil(radius)));
-  cv::Mat out = cv::Mat::zeros(size, CV_8U);
-  if (!mask.empty()) {
-    cv::Mat m;
-    cv::compare(mask, 0, m, cv::CMP_NE);
-    cv::dilate(m, out, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
+/// Each pixel's distance to the nearest masked pixel or beyond the image's edge, px
+/// (CV_32F): how wide a window centred there may be and stay clear of both.
+cv::Mat clearance(const cv::Mat& mask, cv::Size size) {
+  cv::Mat free_px(size, CV_8U, cv::Scalar(255));
+  if (!mask.empty()) free_px.setTo(0, mask);
+  cv::Mat dist;
+  cv::distanceTransform(free_px, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
+  for (int i = 0; i < size.height; ++i) {
+    float* row = dist.ptr<float>(i);
+    for (int j = 0; j < size.width; ++j)
+      row[j] = std::min(row[j], static_cast<float>(std::min({i + 1, j + 1, size.height - i, size.width - j})));
   }
-  out.rowRange(0, std::min(r, size.height)).setTo(255);
-  out.rowRange(std::max(0, size.height - r), size.height).setTo(255);
-  out.colRange(0, std::min(r, size.width)).setTo(255);
-  out.colRange(std::max(0, size.width - r), size.width).setTo(255);
-  return out;
+  return dist;
 }
+
+float clearance_at(const cv::Mat& c, double x, double y) {
+  const int i = static_cast<int>(std::lround(y)), j = static_cast<int>(std::lround(x));
+  if (i < 0 || j < 0 || i >= c.rows || j >= c.cols) return 0.0f;
+  return c.at<float>(i, j);
+}
+
+/// A detection needs this much clearance: a quarter bead, and room for the smallest window.
+double min_clearance(double d) { return std::max(kMinHalfWindowPx + 0.5, 0.25 * d); }
 
 /// Vertex of the parabola through (-1, a), (0, b), (1, c), clamped to +-0.5.
 double parabola_vertex(double a, double b, double c) {
@@ -75,7 +88,9 @@ void TrackOptions::validate() const {
 
 core::Metadata TrackOptions::to_metadata() const {
   return {{"track_bead_diameter_px", fmt::format("{:.4g}", bead_diameter_px)},
-          {"track_window_px", std::to_string(window_px(bead_diameter_px))},
+          {"track_window_px", fmt::format("{} (smaller near a mask or the edge, down to {}: each bead's window stays "
+                                          "clear of them)",
+                                          window_px(bead_diameter_px), 2 * kMinHalfWindowPx + 1)},
           {"track_pyramid_levels", std::to_string(pyramid_levels)},
           {"track_fb_tolerance_px", fmt::format("{}", fb_tolerance_px)},
           {"track_lk", fmt::format("pyramidal Lucas-Kanade (OpenCV calcOpticalFlowPyrLK), at most {} iterations "
@@ -100,7 +115,9 @@ std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask,
   cv::Mat hi, lo;
   cv::dilate(s, hi, disk);
   cv::erode(s, lo, disk);
-  const cv::Mat out = keep_out(mask, s.size(), 0.5 * d);
+  const cv::Mat clear = clearance(mask, s.size());
+  cv::Mat out;
+  cv::compare(clear, min_clearance(d), out, cv::CMP_LT);  // 255: no bead centre here
 
   // The frame's range: 1st to 99th percentile of the smoothed frame where beads may lie.
   std::vector<float> vals;
@@ -180,29 +197,40 @@ PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, 
   r.fb_px.assign(n, std::numeric_limits<double>::quiet_NaN());
   r.ok.assign(n, 0);
   if (n == 0) return r;
-  std::vector<cv::Point2f> p(n), q, back;
   for (std::size_t k = 0; k < n; ++k) {
     r.x_px[k] = centres[k].x;
     r.y_px[k] = centres[k].y;
-    p[k] = cv::Point2f(static_cast<float>(centres[k].x), static_cast<float>(centres[k].y));
   }
-  const int w = window_px(o.bead_diameter_px);
+  // Each bead's window: 3/4 of a bead, smaller where a mask or the edge is nearer (its
+  // half-width at most the clearance less half a pixel). LK runs once per window size.
+  const int h_full = (window_px(o.bead_diameter_px) - 1) / 2;
+  const cv::Mat clear_a = clearance(mask_a, a8.size()), clear_b = clearance(mask_b, b8.size());
+  std::vector<int> half(n);
+  for (std::size_t k = 0; k < n; ++k)
+    half[k] = std::min(h_full, static_cast<int>(std::floor(clearance_at(clear_a, r.x_px[k], r.y_px[k]) - 0.5)));
   const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.max_iterations, o.epsilon_px);
-  std::vector<std::uint8_t> st, st_back;
-  std::vector<float> err;
-  cv::calcOpticalFlowPyrLK(a8, b8, p, q, st, err, {w, w}, o.pyramid_levels, crit);
-  cv::calcOpticalFlowPyrLK(b8, a8, q, back, st_back, err, {w, w}, o.pyramid_levels, crit);
-  const cv::Mat out_b = keep_out(mask_b, b8.size(), 0.5 * o.bead_diameter_px);
-  for (std::size_t k = 0; k < n; ++k) {
-    if (!st[k] || !st_back[k]) continue;
-    r.fb_px[k] = std::hypot(static_cast<double>(back[k].x) - p[k].x, static_cast<double>(back[k].y) - p[k].y);
-    const int qi = static_cast<int>(std::lround(q[k].y)), qj = static_cast<int>(std::lround(q[k].x));
-    const bool clear =
-        qi >= 0 && qj >= 0 && qi < b8.rows && qj < b8.cols && out_b.at<std::uint8_t>(qi, qj) == 0;
-    if (!(r.fb_px[k] <= o.fb_tolerance_px) || !clear) continue;
-    r.u_px[k] = static_cast<double>(q[k].x) - p[k].x;
-    r.v_px[k] = static_cast<double>(q[k].y) - p[k].y;
-    r.ok[k] = 1;
+  for (int h = kMinHalfWindowPx; h <= h_full; ++h) {
+    std::vector<std::size_t> group;
+    for (std::size_t k = 0; k < n; ++k)
+      if (half[k] == h) group.push_back(k);
+    if (group.empty()) continue;
+    std::vector<cv::Point2f> p, q, back;
+    for (std::size_t k : group) p.emplace_back(static_cast<float>(r.x_px[k]), static_cast<float>(r.y_px[k]));
+    std::vector<std::uint8_t> st, st_back;
+    std::vector<float> err;
+    cv::calcOpticalFlowPyrLK(a8, b8, p, q, st, err, {2 * h + 1, 2 * h + 1}, o.pyramid_levels, crit);
+    cv::calcOpticalFlowPyrLK(b8, a8, q, back, st_back, err, {2 * h + 1, 2 * h + 1}, o.pyramid_levels, crit);
+    for (std::size_t g = 0; g < group.size(); ++g) {
+      const std::size_t k = group[g];
+      if (!st[g] || !st_back[g]) continue;
+      r.fb_px[k] = std::hypot(static_cast<double>(back[g].x) - p[g].x, static_cast<double>(back[g].y) - p[g].y);
+      // The window at the end clear of mask b too (the vane has not moved over it).
+      const bool clear = clearance_at(clear_b, q[g].x, q[g].y) >= h + 0.5;
+      if (!(r.fb_px[k] <= o.fb_tolerance_px) || !clear) continue;
+      r.u_px[k] = static_cast<double>(q[g].x) - p[g].x;
+      r.v_px[k] = static_cast<double>(q[g].y) - p[g].y;
+      r.ok[k] = 1;
+    }
   }
   return r;
 }

@@ -27,6 +27,7 @@
 #include "shearzone/io/image.hpp"
 #include "shearzone/piv/options.hpp"
 #include "shearzone/piv/preprocess.hpp"
+#include "shearzone/track/track.hpp"
 
 namespace shearzone::pipeline {
 
@@ -53,7 +54,17 @@ struct VaneMaskOptions {
   bool phase_auto = false;
 };
 
+/// How each pair's displacements are measured: PIV (windows correlated) or bead
+/// tracking (track/track.hpp: each bead on its own, put on a grid of half-bead cells).
+enum class PairMethod { kPiv, kTrack };
+const char* pair_method_name(PairMethod m);  ///< "piv", "track"
+PairMethod pair_method_from_name(const std::string& name);
+
 struct PivJobOptions {
+  PairMethod method = PairMethod::kPiv;
+  /// Tracking's options (method kTrack); bead_diameter_px 0: the texture's size in the
+  /// first frame (piv/texture.hpp), as for the windows.
+  track::TrackOptions track;
   piv::PivOptions piv;
   piv::PreprocessOptions preprocess;
   std::vector<std::string> inputs;  ///< images, a glob, or one video
@@ -101,7 +112,9 @@ struct PivJobSummary {
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
   double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
   double texture_half_width_px = std::numeric_limits<double>::quiet_NaN();  ///< measured (size_windows_to_texture)
-  std::vector<int> windows_px;  ///< the windows used
+  std::vector<int> windows_px;  ///< the windows used (PIV)
+  double track_bead_diameter_px = 0.0;  ///< the bead diameter tracked (method kTrack)
+  int track_cell_px = 0;        ///< the grid's cell (method kTrack)
   std::size_t coarse_predictor_pairs = 0;  ///< pairs whose first pass took the coarse field
   std::size_t refused_pairs = 0;           ///< pairs refused by the coarse estimate (all invalid)
   double coarse_max_displacement_px = 0.0; ///< largest coarse displacement over the pairs

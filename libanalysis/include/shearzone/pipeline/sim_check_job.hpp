@@ -31,14 +31,16 @@
 
 namespace shearzone::pipeline {
 
-/// One PIV setting of the grid: the window sizes per pass, the pair spacing k (pairs
+/// One setting of the grid: the window sizes per pass, the pair spacing k (pairs
 /// (i, i + k) of the video's frames) and the image deformation's interpolation (empty:
-/// the PIV options').
+/// the PIV options'), or bead tracking at spacing k.
 struct SimCheckSetting {
   std::vector<int> windows_px;
   int spacing = 1;
   std::string interpolation;
-  [[nodiscard]] std::string label() const;  ///< "w64-32-16_k1", "w64-32-16_bilinear_k1"
+  /// PIV (the windows above) or bead tracking (`piv --method track`: no windows).
+  PairMethod method = PairMethod::kPiv;
+  [[nodiscard]] std::string label() const;  ///< "w64-32-16_k1", "w64-32-16_bilinear_k1", "track_k1"
 };
 
 struct SimCheckOptions {

@@ -8,6 +8,7 @@
 // Assumes a uniform vane; a textured or specular vane needs the offset given by hand.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -39,5 +40,33 @@ struct VanePhaseFit {
   double phase_rad = 0, amplitude_rad = 0, offset_rad = 0, rms_rad = 0;
 };
 VanePhaseFit fit_vane_phase(const std::vector<double>& t_s, const std::vector<double>& angle_rad, double f_Hz);
+
+/// phi(t) of the vane as its mask follows it: blade 0 at angle0 + phi0 sin(2 pi f t +
+/// phase), or at angle0 + a rheometer log's angle at t + offset (io::read_angle_log, linear
+/// between rows). The phase and the offset may be set once found from the video.
+class VaneDrive {
+ public:
+  struct Options {
+    double angle0_deg = 0, phi0_rad = 0, f_Hz = 0, phase_rad = 0;
+    std::string log_path;  ///< empty: the sinusoid
+    double log_offset_s = 0;
+  };
+  explicit VaneDrive(Options o);
+
+  const std::vector<double>& log_times() const { return time_; }
+  const std::vector<double>& log_angles() const { return angle_; }
+  void set_log_offset(double s) { o_.log_offset_s = s; }
+  double log_offset() const { return o_.log_offset_s; }
+  void set_phase(double p) { o_.phase_rad = p; }
+  double phase() const { return o_.phase_rad; }
+
+  /// Blade-0 angle (angle0 + phi) at frame time t, rad. InputError naming the log and
+  /// `frame_label` when t + offset lies outside the log.
+  double at(double t_s, const std::string& frame_label) const;
+
+ private:
+  Options o_;
+  std::vector<double> time_, angle_;
+};
 
 }  // namespace shearzone::piv

@@ -103,4 +103,15 @@ core::VectorField visible_motion(const ProjectedBeads& a, const ProjectedBeads& 
                                  const std::vector<double>& y_px, const CupImage& image, int vane_blades,
                                  double vane_angle_a);
 
+/// The beads whose middle is visible in frame a (no higher bead over the centre or the
+/// four points a quarter diameter from it: a bead a tracker can find), not
+/// masked (cup radius, vane at `vane_angle_a`) and present in frame b: their projected
+/// centres in a and displacements to b (px). What a bead tracker can at best recover, bead
+/// by bead: the reference of `piv --method track` in `sim check`.
+struct VisibleBeads {
+  std::vector<double> x_px, y_px, u_px, v_px;
+};
+VisibleBeads visible_beads(const ProjectedBeads& a, const ProjectedBeads& b, const CupImage& image, int vane_blades,
+                           double vane_angle_a);
+
 }  // namespace shearzone::synth

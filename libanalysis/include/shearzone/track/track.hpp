@@ -50,7 +50,7 @@ struct TrackOptions {
 
 /// Bead centres found in a frame, px (sub-pixel: a parabola through the smoothed
 /// frame's peak and its neighbours). A bead is dropped when a masked pixel or the
-/// image's edge lies within half a diameter of its centre.
+/// image's edge lies within a quarter diameter (at least 3.5 px) of its centre.
 std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
 
 /// The beads of frame a and their displacements to frame b.
@@ -64,8 +64,10 @@ struct PairBeads {
 };
 
 /// Tracks the beads of `a` into `b` (8-bit or 16-bit grey, the same size; 16-bit frames
-/// are scaled to 8 bits first). A bead whose end lies within half a diameter of a
-/// masked pixel of `mask_b` (the vane moved over it) is not ok.
+/// are scaled to 8 bits first). Each bead's window is 3/4 of a bead, or smaller where a
+/// masked pixel or the edge is nearer (it stays clear of them: a wall or a vane in the
+/// window would pull the bead towards their motion), at least 7 px. A bead whose window
+/// at its end reaches a masked pixel of `mask_b` (the vane moved over it) is not ok.
 PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,
                      const TrackOptions& options);
 
