@@ -103,8 +103,10 @@ std::size_t PairBeads::tracked() const {
   return static_cast<std::size_t>(std::count(ok.begin(), ok.end(), std::uint8_t{1}));
 }
 
-std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& o) {
-  o.validate();
+namespace {
+
+/// detect_beads with the mask's clearance (clearance()) already at hand.
+std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image, const cv::Mat& clear, const TrackOptions& o) {
   const double d = o.bead_diameter_px;
   cv::Mat f;
   as_8bit(image).convertTo(f, CV_32F);
@@ -115,7 +117,6 @@ std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask,
   cv::Mat hi, lo;
   cv::dilate(s, hi, disk);
   cv::erode(s, lo, disk);
-  const cv::Mat clear = clearance(mask, s.size());
   cv::Mat out;
   cv::compare(clear, min_clearance(d), out, cv::CMP_LT);  // 255: no bead centre here
 
@@ -182,29 +183,34 @@ std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask,
   return centres;
 }
 
+}  // namespace
+
+std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& o) {
+  o.validate();
+  return detect_with_clearance(image, clearance(mask, image.size()), o);
+}
+
 PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,
                      const TrackOptions& o) {
   o.validate();
   if (a.size() != b.size()) throw InputError("track: the two frames differ in size");
   const cv::Mat a8 = as_8bit(a), b8 = as_8bit(b);
-  const std::vector<cv::Point2d> centres = detect_beads(a8, mask_a, o);
+  const cv::Mat clear_a = clearance(mask_a, a8.size()), clear_b = clearance(mask_b, b8.size());
+  const std::vector<cv::Point2d> centres = detect_with_clearance(a8, clear_a, o);
   PairBeads r;
   const std::size_t n = centres.size();
-  r.x_px.resize(n);
-  r.y_px.resize(n);
+  for (const cv::Point2d& c : centres) {
+    r.x_px.push_back(c.x);
+    r.y_px.push_back(c.y);
+  }
   r.u_px.assign(n, 0.0);
   r.v_px.assign(n, 0.0);
   r.fb_px.assign(n, std::numeric_limits<double>::quiet_NaN());
   r.ok.assign(n, 0);
   if (n == 0) return r;
-  for (std::size_t k = 0; k < n; ++k) {
-    r.x_px[k] = centres[k].x;
-    r.y_px[k] = centres[k].y;
-  }
   // Each bead's window: 3/4 of a bead, smaller where a mask or the edge is nearer (its
   // half-width at most the clearance less half a pixel). LK runs once per window size.
   const int h_full = (window_px(o.bead_diameter_px) - 1) / 2;
-  const cv::Mat clear_a = clearance(mask_a, a8.size()), clear_b = clearance(mask_b, b8.size());
   std::vector<int> half(n);
   for (std::size_t k = 0; k < n; ++k)
     half[k] = std::min(h_full, static_cast<int>(std::floor(clearance_at(clear_a, r.x_px[k], r.y_px[k]) - 0.5)));
