@@ -187,8 +187,6 @@ struct FilmedBranch {
   double render_s = 0.0, truth_s = 0.0;
 };
 
-/// The camera's truth (the surface beads' centre motion) as a field file on a grid of
-/// o.truth_spacing_px, with the geometry attributes the lab pipeline reads.
 /// A truth's field file: one field per frame pair (k, k + 1) from `field_of(k)`, and the
 /// root attributes `profile` reads (the geometry and the drive).
 void write_truth(const SimCheckOptions& o, const FilmedBranch& fb, const fs::path& path, const char* source,
@@ -241,10 +239,11 @@ void write_beads_truth(const SimCheckOptions& o, const FilmedBranch& fb, int cel
   const cv::Size size(fb.rs.camera.width_px, fb.rs.camera.height_px);
   write_truth(o, fb, path, "shearzone sim check: the camera's truth bead by bead (visible beads' centre motion)",
               [&](std::size_t k) {
-                const synth::VisibleBeads v = synth::visible_beads(fb.proj[k], fb.proj[k + 1], fb.rs.image,
-                                                                   fb.cup.vane_blades, fb.vane_angles[k]);
-                track::PairBeads beads{v.x_px, v.y_px, v.u_px, v.v_px, std::vector<double>(v.x_px.size(), 0.0),
-                                       std::vector<std::uint8_t>(v.x_px.size(), 1)};
+                synth::VisibleBeads v = synth::visible_beads(fb.proj[k], fb.proj[k + 1], fb.rs.image,
+                                                             fb.cup.vane_blades, fb.vane_angles[k]);
+                const std::size_t n = v.x_px.size();
+                track::PairBeads beads{std::move(v.x_px), std::move(v.y_px), std::move(v.u_px), std::move(v.v_px),
+                                       std::vector<double>(n, 0.0), std::vector<std::uint8_t>(n, 1)};
                 return track::beads_to_grid(beads, size, cell_px, cv::Mat());
               });
 }

@@ -120,7 +120,9 @@ std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image, const cv::M
   cv::Mat out;
   cv::compare(clear, min_clearance(d), out, cv::CMP_LT);  // 255: no bead centre here
 
-  // The frame's range: 1st to 99th percentile of the smoothed frame where beads may lie.
+  // The frame's range: 1st to 99th percentile of the smoothed frame where beads may lie
+  // (order statistics by nth_element, not core::percentile: that sorts a copy of the
+  // frame's millions of pixels, every frame).
   std::vector<float> vals;
   vals.reserve(s.total());
   for (int i = 0; i < s.rows; ++i)
