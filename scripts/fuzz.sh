@@ -17,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 SECONDS_PER_TARGET="${1:-30}"
 BUILD_DIR="${BUILD_DIR:-build/fuzz}"
-TARGETS="${TARGETS:-csv toml log image video field_h5 profile_csv}"
+TARGETS="${TARGETS:-csv toml log image video field_h5 profile_csv track_h5 track}"
 "scripts/setup.sh"
 
 CC=clang-14 CXX=clang++-14 cmake -S . -B "$BUILD_DIR" -G Ninja \
@@ -42,6 +42,8 @@ seed "$C/image" data-samples/pivlab-sand/*.jpeg tests/data/openpiv-test1/*.bmp \
 seed "$C/video" tests/data/regressions/*.mp4
 seed "$C/field_h5" tests/data/regressions/*.h5
 seed "$C/profile_csv" data-samples/widths/*.csv tests/data/profiles/*.csv
+seed "$C/track_h5" tests/data/regressions/*.h5 tests/data/tracks/*.h5
+seed "$C/track" tests/data/regressions/*.pgm
 
 status=0
 for t in $TARGETS; do

@@ -18,6 +18,7 @@ namespace {
 struct PivCli {
   pipeline::PivJobOptions job;
   std::string output;
+  std::string tracks;
   std::string config;
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
@@ -36,6 +37,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   configure(c, s.config, {"output"});
   auto& j = s.job;
   j.output = s.output;
+  j.tracks_output = s.tracks;
   if (!s.preset.empty()) {
     // The preset sets what the command line and the config file leave unset.
     const piv::PivPreset& pr = piv::piv_preset(s.preset);
@@ -50,7 +52,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.residual = piv::residual_from_name(s.residual);
   j.method = pipeline::pair_method_from_name(s.method);
   if (j.method != pipeline::PairMethod::kTrack)
-    for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels"})
+    for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels", "--tracks"})
       if (c.count(opt)) throw ConfigError(fmt::format("{} applies to --method track", opt));
   j.size_windows_to_texture = c.count("--windows") == 0;
   j.video_fps = c.count("--fps") > 0 ? j.fps : 0.0;
@@ -125,6 +127,17 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
       std::printf("piv: beads of %.3g px tracked (%s), one vector per cell of %d px holding a bead\n",
                   sum.track_bead_diameter_px, j.track.bead_diameter_px != 0 ? "as given" : "from the texture",
                   sum.track_cell_px);
+    if (j.method == pipeline::PairMethod::kTrack && sum.pairs > 0) {
+      auto pct = [](std::size_t a, std::size_t b) { return 100.0 * static_cast<double>(a) / static_cast<double>(std::max<std::size_t>(b, 1)); };
+      std::printf("piv: %.1f beads per pair, %.1f%% tracked; %s; %lld tracks%s\n",
+                  static_cast<double>(sum.beads) / static_cast<double>(sum.pairs), pct(sum.beads_tracked, sum.beads),
+                  sum.beads_linkable > 0
+                      ? fmt::format("{:.1f}% of the beads of a pair continue a track of the pair before",
+                                    pct(sum.beads_linked, sum.beads_linkable)).c_str()
+                      : "no pair continues another (tracks need --stride equal to --spacing)",
+                  static_cast<long long>(sum.tracks),
+                  j.tracks_output.empty() ? "" : (" -> " + j.tracks_output.string()).c_str());
+    }
     const int w0 = sum.windows_px.empty() ? 0 : sum.windows_px.front();
     if (sum.coarse_predictor_pairs > 0)
       std::printf("piv: %zu pair%s moved more than a quarter of the first window (%d px; coarse estimate up "
@@ -171,6 +184,9 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--fb-tolerance-px", j.track.fb_tolerance_px,
                 "--method track: keep a bead when tracking it back lands within this, px; range: 0..10")
       ->capture_default_str();
+  c->add_option("--tracks", s->tracks,
+                "--method track: also write every bead of every pair, linked into tracks, to this .h5 or .csv "
+                "(track id, frames, centre, displacement, velocity, flags; docs/track.md)");
   c->add_option("--track-levels", j.track.pyramid_levels,
                 "--method track: pyramid levels (displacements up to about 3/8 bead x 2^levels); range: 0..6")
       ->capture_default_str();

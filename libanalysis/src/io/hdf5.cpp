@@ -208,10 +208,32 @@ void H5File::write(const std::string& d, const std::vector<std::size_t>& dims,
   write_raw(d, dims, H5T_NATIVE_UINT8, H5T_STD_U8LE, p);
 }
 
+namespace {
+hid_t file_type_of(H5File::Type type) {
+  switch (type) {
+    case H5File::Type::kFloat32: return H5T_IEEE_F32LE;
+    case H5File::Type::kFloat64: return H5T_IEEE_F64LE;
+    case H5File::Type::kInt64: return H5T_STD_I64LE;
+    case H5File::Type::kUInt8: return H5T_STD_U8LE;
+  }
+  return H5T_IEEE_F32LE;
+}
+}  // namespace
+
 void H5File::create_appendable(const std::string& dataset,
                                const std::vector<std::size_t>& record_dims, Type type,
                                int compression_level) {
-  std::vector<hsize_t> dims{0}, maxdims{H5S_UNLIMITED}, chunk{1};
+  create_chunked(dataset, record_dims, type, 1, compression_level);
+}
+
+void H5File::create_column(const std::string& dataset, Type type, std::size_t chunk_records,
+                           int compression_level) {
+  create_chunked(dataset, {}, type, std::max<std::size_t>(chunk_records, 1), compression_level);
+}
+
+void H5File::create_chunked(const std::string& dataset, const std::vector<std::size_t>& record_dims, Type type,
+                            std::size_t chunk_records, int compression_level) {
+  std::vector<hsize_t> dims{0}, maxdims{H5S_UNLIMITED}, chunk{chunk_records};
   for (std::size_t d : record_dims) {
     dims.push_back(d);
     maxdims.push_back(d);
@@ -224,19 +246,13 @@ void H5File::create_appendable(const std::string& dataset,
   if (compression_level > 0) H5Pset_deflate(dcpl.get(), static_cast<unsigned>(compression_level));
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE));
   H5Pset_create_intermediate_group(lcpl.get(), 1);
-  hid_t file_type = H5T_IEEE_F32LE;
-  switch (type) {
-    case Type::kFloat32: file_type = H5T_IEEE_F32LE; break;
-    case Type::kFloat64: file_type = H5T_IEEE_F64LE; break;
-    case Type::kInt64: file_type = H5T_STD_I64LE; break;
-    case Type::kUInt8: file_type = H5T_STD_U8LE; break;
-  }
-  Handle dset(H5Dcreate2(id_, dataset.c_str(), file_type, space.get(), lcpl.get(), dcpl.get(),
+  Handle dset(H5Dcreate2(id_, dataset.c_str(), file_type_of(type), space.get(), lcpl.get(), dcpl.get(),
                          H5P_DEFAULT));
   if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": cannot create (exists already?)", dataset));
 }
 
-void H5File::append_raw(const std::string& dataset, std::int64_t mem_type, const void* record) {
+void H5File::append_raw(const std::string& dataset, std::int64_t mem_type, const void* records, std::size_t count) {
+  if (count == 0) return;
   Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
   if (!dset.ok()) fail(path_, fmt::format("dataset \"{}\": not found for append", dataset));
   Handle space(H5Dget_space(dset.get()));
@@ -244,16 +260,17 @@ void H5File::append_raw(const std::string& dataset, std::int64_t mem_type, const
   std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
   H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
   std::vector<hsize_t> new_dims = dims;
-  new_dims[0] += 1;
+  new_dims[0] += count;
   if (H5Dset_extent(dset.get(), new_dims.data()) < 0)
     fail(path_, fmt::format("dataset \"{}\": cannot extend", dataset));
   Handle fspace(H5Dget_space(dset.get()));
-  std::vector<hsize_t> start(static_cast<std::size_t>(rank), 0), count = dims;
+  const hsize_t n = count;
+  std::vector<hsize_t> start(static_cast<std::size_t>(rank), 0), count_dims = dims;
   start[0] = dims[0];
-  count[0] = 1;
-  H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr);
-  Handle mspace(H5Screate_simple(rank, count.data(), nullptr));
-  if (H5Dwrite(dset.get(), mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, record) < 0)
+  count_dims[0] = n;
+  H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start.data(), nullptr, count_dims.data(), nullptr);
+  Handle mspace(H5Screate_simple(rank, count_dims.data(), nullptr));
+  if (H5Dwrite(dset.get(), mem_type, mspace.get(), fspace.get(), H5P_DEFAULT, records) < 0)
     fail(path_, fmt::format("dataset \"{}\": append failed (disk full?)", dataset));
 }
 
@@ -264,6 +281,13 @@ void H5File::append(const std::string& d, const std::int64_t* r) {
 }
 void H5File::append(const std::string& d, const std::uint8_t* r) {
   append_raw(d, H5T_NATIVE_UINT8, r);
+}
+void H5File::append(const std::string& d, const double* r, std::size_t n) { append_raw(d, H5T_NATIVE_DOUBLE, r, n); }
+void H5File::append(const std::string& d, const std::int64_t* r, std::size_t n) {
+  append_raw(d, H5T_NATIVE_INT64, r, n);
+}
+void H5File::append(const std::string& d, const std::uint8_t* r, std::size_t n) {
+  append_raw(d, H5T_NATIVE_UINT8, r, n);
 }
 
 std::size_t memory_budget_bytes() {

@@ -29,6 +29,7 @@
 #include "shearzone/io/file.hpp"
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/image.hpp"
+#include "shearzone/io/track_file.hpp"
 #include "shearzone/io/video.hpp"
 #include "shearzone/piv/mask.hpp"
 #include "shearzone/piv/texture.hpp"
@@ -58,15 +59,18 @@ struct Unique {
   cv::Mat mask;
 };
 
-/// One pair's displacements from its two frames and masks: PIV, or the beads tracked
-/// and put on a grid (the field only).
+/// One pair's displacements: PIV's result, or the beads tracked and their grid.
+struct PairResult {
+  piv::PivResult piv;
+  track::PairBeads beads;
+};
 using PairEstimator =
-    std::function<piv::PivResult(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b)>;
+    std::function<PairResult(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b)>;
 
 /// One pair in flight.
 struct PairTask {
   std::shared_ptr<const Unique> a, b;
-  piv::PivResult result;
+  PairResult result;
   std::exception_ptr error;
   bool done = false;
 };
@@ -177,6 +181,13 @@ void PivJobOptions::validate() const {
       throw ConfigError("--method track takes the frames as they are: no --highpass, --clahe, --background or "
                         "other preprocessing");
     if (track.bead_diameter_px != 0) track.validate();
+  }
+  if (!tracks_output.empty()) {
+    if (method != PairMethod::kTrack) throw ConfigError("--tracks needs --method track");
+    if (!io::is_track_file_path(tracks_output))
+      throw ConfigError(fmt::format("--tracks {}: expected an .h5 or .csv file", tracks_output.string()));
+    if (std::filesystem::weakly_canonical(tracks_output) == std::filesystem::weakly_canonical(output))
+      throw ConfigError(fmt::format("--tracks {}: the same file as the output", tracks_output.string()));
   }
   if (!(video_fps >= 0 && std::isfinite(video_fps)))
     throw ConfigError(fmt::format("--fps {}: expected a positive finite frame rate", video_fps));
@@ -394,13 +405,14 @@ PairEstimator pair_estimator(const PivJobOptions& o, const piv::PivOptions& piv_
                              const track::TrackOptions& track_options, int cell_px) {
   if (o.method == PairMethod::kTrack)
     return [track_options, cell_px](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
-      piv::PivResult r;
-      r.field = track::beads_to_grid(track::track_pair(a, b, mask_a, mask_b, track_options), a.size(), cell_px, mask_a);
+      PairResult r;
+      r.beads = track::track_pair(a, b, mask_a, mask_b, track_options);
+      r.piv.field = track::beads_to_grid(r.beads, a.size(), cell_px, mask_a);
       return r;
     };
   auto engine = std::make_shared<const piv::PivEngine>(piv_options);
   return [engine](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
-    return engine->process(a, b, mask_a, mask_b);
+    return PairResult{engine->process(a, b, mask_a, mask_b), {}};
   };
 }
 
@@ -498,8 +510,10 @@ core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header
   return meta;
 }
 
-/// fields.h5's root attributes: what profile and width read (docs/formats.md).
-void set_field_attributes(io::FieldFileWriter& fields, const PivJobOptions& o, const io::FrameSource& source,
+/// fields.h5's root attributes: what profile and width read (docs/formats.md); a
+/// tracks file carries the same.
+template <class Writer>
+void set_field_attributes(Writer& fields, const PivJobOptions& o, const io::FrameSource& source,
                           const core::Metadata& meta, const piv::PivOptions& piv_options,
                           const piv::VaneDrive& vane_angle, const PivJobSummary& sum) {
   fields.set_attribute("fps", source.fps());
@@ -555,6 +569,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
   o.validate();
   io::check_output_allowed(o.output, o.force);
+  if (!o.tracks_output.empty()) io::check_output_allowed(o.tracks_output, o.force);
   auto source = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
   cv::Mat static_mask;
   if (!o.mask_image.empty()) {
@@ -580,6 +595,14 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   io::AtomicOutput out(o.output, o.force);
   io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
   const core::Metadata meta = piv_metadata(o, header, *source, piv_options, tracking, vane_angle, sum);
+  // Tracks: the beads of each pair, linked, written as the pairs are.
+  std::unique_ptr<io::AtomicOutput> tracks_out;
+  std::unique_ptr<io::TrackFileWriter> tracks;
+  track::Linker linker(o.method == PairMethod::kTrack ? tracking.bead_diameter_px : 1.0);
+  if (!o.tracks_output.empty()) {
+    tracks_out = std::make_unique<io::AtomicOutput>(o.tracks_output, o.force);
+    tracks = std::make_unique<io::TrackFileWriter>(tracks_out->temp_path(), meta);
+  }
 
   std::size_t pair_index = 0;
   const std::int64_t hint = source->size_hint();
@@ -595,9 +618,16 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   if (sum.pairs_in_parallel) pool = std::make_unique<PairPool>(estimate, sum.threads);
 
   // Step 3: write a finished pair.
-  auto write_pair = [&](const Unique& a, const Unique& b, const piv::PivResult& r) {
+  auto write_pair = [&](const Unique& a, const Unique& b, const PairResult& pair) {
+    const piv::PivResult& r = pair.piv;
     const core::VectorField& f = r.field;
     const double dt = b.frame.t_s - a.frame.t_s;
+    if (o.method == PairMethod::kTrack) {
+      const core::TrackedBeads rows = linker.link(pair.beads, a.frame.index, b.frame.index, a.frame.t_s, dt);
+      sum.beads += rows.size();
+      sum.beads_tracked += pair.beads.tracked();
+      if (tracks) tracks->append(rows);
+    }
     sum.vectors_per_pair = f.size();
     sum.valid += f.count(core::VectorFlag::kValid);
     sum.replaced += f.count(core::VectorFlag::kReplaced);
@@ -689,7 +719,15 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     set_field_attributes(fields, o, *source, meta, piv_options, vane_angle, sum);
     fields.close();
   }
+  if (tracks) {
+    set_field_attributes(*tracks, o, *source, meta, piv_options, vane_angle, sum);
+    tracks->close();
+    tracks_out->commit();
+  }
   out.commit();
+  sum.tracks = linker.tracks();
+  sum.beads_linkable = linker.linkable();
+  sum.beads_linked = linker.linked();
   sum.log_offset_s = vane_angle.log_offset();
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return sum;

@@ -77,10 +77,17 @@ class H5File {
   enum class Type { kFloat32, kFloat64, kInt64, kUInt8 };
   void create_appendable(const std::string& dataset, const std::vector<std::size_t>& record_dims,
                          Type type, int compression_level = 0);
+  /// A 1-D table column [n] that grows by many records at a time (append(dataset,
+  /// records, count)), chunked by `chunk_records` and gzip-compressed at `level`.
+  void create_column(const std::string& dataset, Type type, std::size_t chunk_records, int compression_level);
   void append(const std::string& dataset, const float* record);
   void append(const std::string& dataset, const double* record);
   void append(const std::string& dataset, const std::int64_t* record);
   void append(const std::string& dataset, const std::uint8_t* record);
+  /// Appends `count` records at once (a column's rows of one pair).
+  void append(const std::string& dataset, const double* records, std::size_t count);
+  void append(const std::string& dataset, const std::int64_t* records, std::size_t count);
+  void append(const std::string& dataset, const std::uint8_t* records, std::size_t count);
 
   /// Dimensions of a dataset.
   std::vector<std::size_t> dims(const std::string& dataset) const;
@@ -132,7 +139,9 @@ class H5File {
   void read_raw(const std::string& dataset, std::int64_t mem_type, void* data) const;
   void read_record_raw(const std::string& dataset, std::size_t index, std::int64_t mem_type,
                        void* out) const;
-  void append_raw(const std::string& dataset, std::int64_t mem_type, const void* record);
+  void create_chunked(const std::string& dataset, const std::vector<std::size_t>& record_dims, Type type,
+                      std::size_t chunk_records, int compression_level);
+  void append_raw(const std::string& dataset, std::int64_t mem_type, const void* records, std::size_t count = 1);
   void read_into(const std::string& dataset, float* out) const;
   void read_into(const std::string& dataset, double* out) const;
   void read_into(const std::string& dataset, std::int64_t* out) const;

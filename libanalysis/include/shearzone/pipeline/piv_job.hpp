@@ -69,6 +69,9 @@ struct PivJobOptions {
   piv::PreprocessOptions preprocess;
   std::vector<std::string> inputs;  ///< images, a glob, or one video
   std::filesystem::path output;     ///< .csv (one pair) or .h5
+  /// Tracking only: the beads of every pair, linked into tracks (track::Linker), to
+  /// .h5 or .csv (io/track_file.hpp); empty: none.
+  std::filesystem::path tracks_output;
   bool force = false;
   double fps = 25.0;                ///< time base of image sequences, Hz
   /// > 0: a video's frames are timed index / video_fps, its time stamps unused (the
@@ -115,6 +118,10 @@ struct PivJobSummary {
   std::vector<int> windows_px;  ///< the windows used (PIV)
   double track_bead_diameter_px = 0.0;  ///< the bead diameter tracked (method kTrack)
   int track_cell_px = 0;        ///< the grid's cell (method kTrack)
+  std::size_t beads = 0, beads_tracked = 0;  ///< over all pairs (method kTrack)
+  /// Beads of the pairs that continue the previous one, and those that continue a track.
+  std::size_t beads_linkable = 0, beads_linked = 0;
+  std::int64_t tracks = 0;      ///< tracks started
   std::size_t coarse_predictor_pairs = 0;  ///< pairs whose first pass took the coarse field
   std::size_t refused_pairs = 0;           ///< pairs refused by the coarse estimate (all invalid)
   double coarse_max_displacement_px = 0.0; ///< largest coarse displacement over the pairs

@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/tracked_beads.hpp"
 #include "shearzone/core/vector_field.hpp"
 
 namespace shearzone::track {
@@ -80,5 +81,36 @@ int grid_cell_px(double bead_diameter_px);
 /// failed is kInvalid; else kValid with the mean displacement of its ok beads. peak and
 /// peak_ratio (correlation measures) are 0.
 core::VectorField beads_to_grid(const PairBeads& beads, cv::Size size, int cell_px, const cv::Mat& mask_a);
+
+/// Links the beads of consecutive pairs into tracks. A bead of a pair's frame a
+/// continues a track of the previous pair when that pair's frame b is this frame a and
+/// the bead's centre is the mutual nearest, within a quarter bead, of where a tracked
+/// bead of that pair ended (its centre plus its displacement): both are the same
+/// bead's detection and Lucas-Kanade's estimate of it, while the nearest other bead is
+/// at least half a bead away (detect_beads keeps one per half bead). Any other bead
+/// starts a new track (it appeared, came out from under the vane, or its previous
+/// displacement failed its checks); a track ends where its bead is not tracked.
+class Linker {
+ public:
+  explicit Linker(double bead_diameter_px);
+  /// The rows of one pair (frames frame_a -> frame_b, t_a_s, dt_s), with track ids.
+  /// Pairs come in time order; ids count from 0 in order of appearance.
+  core::TrackedBeads link(const PairBeads& beads, std::int64_t frame_a, std::int64_t frame_b, double t_a_s,
+                          double dt_s);
+  /// Tracks started so far.
+  std::int64_t tracks() const { return next_id_; }
+  /// Beads of the pairs that continued the previous pair (frame a its frame b), and
+  /// how many of those continued a track: the fraction linked.
+  std::size_t linkable() const { return linkable_; }
+  std::size_t linked() const { return linked_; }
+
+ private:
+  double gate_px_;
+  std::int64_t prev_frame_b_ = -1;
+  std::vector<cv::Point2d> ends_;        // where the previous pair's tracked beads ended
+  std::vector<std::int64_t> end_ids_;    // their tracks
+  std::int64_t next_id_ = 0;
+  std::size_t linkable_ = 0, linked_ = 0;
+};
 
 }  // namespace shearzone::track

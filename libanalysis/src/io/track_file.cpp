@@ -1,0 +1,155 @@
+// Tracked beads on disk (io/track_file.hpp).
+#include "shearzone/io/track_file.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/conventions.hpp"
+#include "shearzone/core/error.hpp"
+#include "shearzone/core/version.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/io/hdf5.hpp"
+
+namespace shearzone::io {
+namespace {
+
+std::string lower_extension(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return e;
+}
+
+/// HDF5 rows go in chunks of this many beads (a 1080p frame of 35 px beads holds
+/// about 1 700), compressed at gzip level 1 as the field files.
+constexpr std::size_t kChunkRows = 4096;
+
+const char* const kInt64Columns[] = {"track_id", "frame_a", "frame_b"};
+const char* const kDoubleColumns[] = {"t_a_s", "dt_s", "x_px", "y_px", "u_px", "v_px", "fb_px"};
+const char* const kFlagColumns[] = {"tracked", "linked"};
+
+const std::vector<std::int64_t>& int64_column(const core::TrackedBeads& t, int i) {
+  return i == 0 ? t.track_id : i == 1 ? t.frame_a : t.frame_b;
+}
+const std::vector<double>& double_column(const core::TrackedBeads& t, int i) {
+  const std::vector<double>* cols[] = {&t.t_a_s, &t.dt_s, &t.x_px, &t.y_px, &t.u_px, &t.v_px, &t.fb_px};
+  return *cols[i];
+}
+std::vector<double>& double_column(core::TrackedBeads& t, int i) {
+  return const_cast<std::vector<double>&>(double_column(static_cast<const core::TrackedBeads&>(t), i));
+}
+
+}  // namespace
+
+bool is_track_file_path(const std::filesystem::path& path) {
+  const std::string e = lower_extension(path);
+  return e == ".h5" || e == ".csv";
+}
+
+TrackFileWriter::TrackFileWriter(const std::filesystem::path& path, const core::Metadata& header)
+    : csv_(lower_extension(path) == ".csv") {
+  if (csv_) {
+    file_ = std::make_unique<std::ofstream>(path, std::ios::binary);
+    if (!*file_) throw InputError(fmt::format("{}: cannot create", path.string()));
+    core::Metadata m = header;
+    for (auto& kv : core::convention_metadata()) m.push_back(std::move(kv));
+    csv_writer_ = std::make_unique<CsvWriter>(
+        *file_, m,
+        std::vector<std::string>{"track_id", "frame_a", "frame_b", "t_a_s", "dt_s", "x_px", "y_px", "u_px", "v_px",
+                                 "vx_px_per_s", "vy_px_per_s", "fb_px", "tracked", "linked"});
+    return;
+  }
+  h5_ = std::make_unique<H5File>(H5File::create(path));
+  for (const char* c : kInt64Columns)
+    h5_->create_column(std::string("/beads/") + c, H5File::Type::kInt64, kChunkRows, 1);
+  for (const char* c : kDoubleColumns)
+    h5_->create_column(std::string("/beads/") + c, H5File::Type::kFloat64, kChunkRows, 1);
+  for (const char* c : kFlagColumns)
+    h5_->create_column(std::string("/beads/") + c, H5File::Type::kUInt8, kChunkRows, 1);
+  std::string text, conv;
+  for (const auto& [k, v] : header) text += k + ": " + v + "\n";
+  for (const auto& [k, v] : core::convention_metadata()) conv += k + ": " + v + "\n";
+  h5_->set_attribute("/", "options", text);
+  h5_->set_attribute("/", "conventions", conv);
+  h5_->set_attribute("/", "shearzone_version", kVersion);
+}
+
+TrackFileWriter::~TrackFileWriter() = default;
+
+void TrackFileWriter::append(const core::TrackedBeads& t) {
+  const std::size_t n = t.size();
+  for (std::size_t k = 0; k < n; ++k) max_id_ = std::max(max_id_, t.track_id[k]);
+  rows_ += static_cast<std::int64_t>(n);
+  if (csv_) {
+    auto num = [](double v) { return CsvWriter::format_number(v); };
+    auto opt = [](double v) { return format_number_or_empty(v); };
+    for (std::size_t k = 0; k < n; ++k)
+      csv_writer_->row(std::vector<std::string>{
+          std::to_string(t.track_id[k]), std::to_string(t.frame_a[k]), std::to_string(t.frame_b[k]),
+          num(t.t_a_s[k]), num(t.dt_s[k]), num(t.x_px[k]), num(t.y_px[k]), opt(t.u_px[k]), opt(t.v_px[k]),
+          opt(t.u_px[k] / t.dt_s[k]), opt(t.v_px[k] / t.dt_s[k]), opt(t.fb_px[k]), std::to_string(t.tracked[k]),
+          std::to_string(t.linked[k])});
+    return;
+  }
+  if (n == 0) return;
+  for (int i = 0; i < 3; ++i) h5_->append(std::string("/beads/") + kInt64Columns[i], int64_column(t, i).data(), n);
+  for (int i = 0; i < 7; ++i) h5_->append(std::string("/beads/") + kDoubleColumns[i], double_column(t, i).data(), n);
+  h5_->append("/beads/tracked", t.tracked.data(), n);
+  h5_->append("/beads/linked", t.linked.data(), n);
+}
+
+void TrackFileWriter::set_attribute(const std::string& name, std::int64_t value) {
+  if (h5_) h5_->set_attribute("/", name, value);
+}
+void TrackFileWriter::set_attribute(const std::string& name, double value) {
+  if (h5_) h5_->set_attribute("/", name, value);
+}
+void TrackFileWriter::set_attribute(const std::string& name, const std::string& value) {
+  if (h5_) h5_->set_attribute("/", name, value);
+}
+
+void TrackFileWriter::close() {
+  if (csv_) {
+    file_->flush();
+    if (!*file_) throw InputError("tracks: write failed (disk full?)");
+    file_->close();
+    return;
+  }
+  h5_->set_attribute("/", "beads", rows_);
+  h5_->set_attribute("/", "tracks", max_id_ + 1);
+  h5_->close();
+}
+
+core::TrackedBeads read_track_file(const std::filesystem::path& path, std::string* options) {
+  const H5File h5 = H5File::open_read(path);
+  core::TrackedBeads t;
+  std::size_t n = std::numeric_limits<std::size_t>::max();
+  auto check_length = [&](const char* name, std::size_t size) {
+    if (n == std::numeric_limits<std::size_t>::max()) n = size;
+    if (size != n)
+      throw InputError(fmt::format("{}: dataset \"/beads/{}\" holds {} rows; \"/beads/track_id\" {}",
+                                   path.string(), name, size, n));
+  };
+  for (int i = 0; i < 3; ++i) {
+    auto a = h5.read<std::int64_t>(std::string("/beads/") + kInt64Columns[i]);
+    check_length(kInt64Columns[i], a.data.size());
+    (i == 0 ? t.track_id : i == 1 ? t.frame_a : t.frame_b) = std::move(a.data);
+  }
+  for (int i = 0; i < 7; ++i) {
+    auto a = h5.read<double>(std::string("/beads/") + kDoubleColumns[i]);
+    check_length(kDoubleColumns[i], a.data.size());
+    double_column(t, i) = std::move(a.data);
+  }
+  for (const char* c : kFlagColumns) {
+    auto a = h5.read<std::uint8_t>(std::string("/beads/") + c);
+    check_length(c, a.data.size());
+    (std::string(c) == "tracked" ? t.tracked : t.linked) = std::move(a.data);
+  }
+  if (options) *options = h5.has_attribute("/", "options") ? h5.attribute_string("/", "options") : std::string();
+  return t;
+}
+
+}  // namespace shearzone::io

@@ -1,0 +1,96 @@
+// Tracked beads on disk (io/track_file.hpp): HDF5 written pair by pair and read back,
+// the CSV's columns and empty cells.
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/hdf5.hpp"
+#include "shearzone/io/track_file.hpp"
+#include "support/temp_dir.hpp"
+
+using namespace shearzone;
+using Catch::Matchers::Contains;
+
+namespace {
+
+core::TrackedBeads rows(std::int64_t first_id, std::int64_t frame, std::size_t n) {
+  core::TrackedBeads t;
+  for (std::size_t k = 0; k < n; ++k) {
+    t.track_id.push_back(first_id + static_cast<std::int64_t>(k));
+    t.frame_a.push_back(frame);
+    t.frame_b.push_back(frame + 1);
+    t.t_a_s.push_back(0.04 * static_cast<double>(frame));
+    t.dt_s.push_back(0.04);
+    t.x_px.push_back(10.25 + static_cast<double>(k));
+    t.y_px.push_back(20.5);
+    const bool ok = k % 2 == 0;
+    t.u_px.push_back(ok ? 0.125 : std::numeric_limits<double>::quiet_NaN());
+    t.v_px.push_back(ok ? -0.5 : std::numeric_limits<double>::quiet_NaN());
+    t.fb_px.push_back(ok ? 0.01 : std::numeric_limits<double>::quiet_NaN());
+    t.tracked.push_back(ok ? 1 : 0);
+    t.linked.push_back(frame > 0 ? 1 : 0);
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("tracks file: HDF5 rows appended pair by pair read back exactly, with the counts", "[io][tracks]") {
+  testing::TempDir dir("tracks_h5");
+  const auto path = dir / "tracks.h5";
+  {
+    io::TrackFileWriter w(path, {{"pair_method", "track"}});
+    w.append(rows(0, 0, 3));
+    w.append(core::TrackedBeads{});  // a pair without beads
+    w.append(rows(0, 1, 5000));      // more than a chunk
+    w.close();
+  }
+  std::string options;
+  const core::TrackedBeads t = io::read_track_file(path, &options);
+  REQUIRE(t.size() == 5003);
+  CHECK(t.track_id[3] == 0);
+  CHECK(t.frame_a[3] == 1);
+  CHECK(t.x_px[4] == 11.25);
+  CHECK(t.u_px[0] == 0.125);
+  CHECK(std::isnan(t.u_px[1]));
+  CHECK(t.tracked[1] == 0);
+  CHECK(t.linked[3] == 1);
+  CHECK_THAT(options, Contains("pair_method: track"));
+  const io::H5File h5 = io::H5File::open_read(path);
+  CHECK(h5.attribute_int("/", "beads") == 5003);
+  CHECK(h5.attribute_int("/", "tracks") == 5000);
+  CHECK_THAT(h5.attribute_string("/", "conventions"), Contains("y down"));
+}
+
+TEST_CASE("tracks file: the CSV has units in its columns, the velocity, and empty cells for what is not measured",
+          "[io][tracks]") {
+  testing::TempDir dir("tracks_csv");
+  const auto path = dir / "beads.csv";
+  {
+    io::TrackFileWriter w(path, {{"pair_method", "track"}});
+    w.append(rows(7, 2, 2));
+    w.close();
+  }
+  const std::string s = testing::read_file(path);
+  CHECK_THAT(s, Contains("# pair_method: track"));
+  CHECK_THAT(s, Contains("# convention_image_axes:"));
+  CHECK_THAT(s, Contains("track_id,frame_a,frame_b,t_a_s,dt_s,x_px,y_px,u_px,v_px,vx_px_per_s,vy_px_per_s,fb_px,"
+                         "tracked,linked\n"));
+  CHECK_THAT(s, Contains("7,2,3,0.08,0.04,10.25,20.5,0.125,-0.5,3.125,-12.5,0.01,1,1\n"));
+  CHECK_THAT(s, Contains("8,2,3,0.08,0.04,11.25,20.5,,,,,,0,1\n"));
+}
+
+TEST_CASE("tracks file: a file without the beads' columns is refused with the file and the dataset", "[io][tracks]") {
+  testing::TempDir dir("tracks_bad");
+  const auto path = dir / "other.h5";
+  {
+    io::H5File h5 = io::H5File::create(path);
+    const std::vector<std::int64_t> ids{1, 2};
+    h5.write("/beads/track_id", {2}, ids);
+    h5.close();
+  }
+  CHECK_THROWS_WITH(io::read_track_file(path), Contains("other.h5") && Contains("/beads/frame_a"));
+}
