@@ -81,6 +81,10 @@ void add_common_options(CLI::App& c, SynthCli& s) {
                "Vane frequency f, Hz: displacement per frame scaled by cos(2 pi f t); "
                "range: 0 <= x < fps/2")
       ->capture_default_str();
+  c.add_option("--jitter-px", o.sequence.jitter_px,
+               "Random motion about the field: each frame every tracer takes an extra Gaussian step of this "
+               "standard deviation per component, px (a known granular temperature); range: 0..20")
+      ->capture_default_str();
   c.add_option("--vane", s.vane,
                "Draw a vane: BLADES,HALF_WIDTH_PX,RADIUS_PX; range: BLADES a whole number "
                "in 1..64, 0 < HALF_WIDTH_PX < RADIUS_PX")

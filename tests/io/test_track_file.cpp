@@ -94,3 +94,10 @@ TEST_CASE("tracks file: a file without the beads' columns is refused with the fi
   }
   CHECK_THROWS_WITH(io::read_track_file(path), Contains("other.h5") && Contains("/beads/frame_a"));
 }
+
+TEST_CASE("tracks file: a corrupt heap that declares 16 GB is refused, not allocated", "[io][tracks]") {
+  // Found by fuzz_track_h5: one bit of a 40 kB tracks file made HDF5 ask for 17 179 869 360 bytes.
+  const auto path = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "regressions" / "h5_tracks_local_heap_16gb.h5";
+  CHECK_THROWS_WITH(io::read_track_file(path), Contains("h5_tracks_local_heap_16gb.h5") &&
+                                                   Contains("local heap at byte 1384 declares 17179869360 bytes"));
+}

@@ -28,7 +28,8 @@ void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const 
               {"r_m", "v_abs_m_per_s", "v_theta_m_per_s", "v_r_m_per_s", "v_abs_rms_m_per_s", "v_abs_sem_m_per_s",
                "v_noise_m_per_s", "n_vectors", "n_masked", "n_invalid", "v_theta_amp_m_per_s",
                "v_theta_amp_se_m_per_s", "v_theta_lag_deg", "v_theta_inphase_m_per_s", "v_abs_lockin_m_per_s",
-               "v_abs_lockin_se_m_per_s", "v_noise_lockin_m_per_s", "lockin_n_eff", "r_vectors_mean_m", "r_vectors_sd_m"});
+               "v_abs_lockin_se_m_per_s", "v_noise_lockin_m_per_s", "lockin_n_eff", "r_vectors_mean_m", "r_vectors_sd_m",
+               "dv_theta_measured_m_per_s", "dv_theta_m_per_s"});
   for (const auto& b : rows) {
     const bool have = b.n_vectors > 0;
     auto cell = [&](double v) { return have ? format_number_or_empty(v) : std::string(); };
@@ -38,7 +39,7 @@ void write_profile_csv(std::ostream& out, const core::Metadata& metadata, const 
                                    std::to_string(b.n_invalid), cell(b.amp), cell(b.amp_se), cell(b.lag_deg),
                                    cell(b.in_phase), cell(b.v_abs_lockin), cell(b.v_abs_lockin_se),
                                    cell(b.v_noise_lockin), cell(b.n_eff), cell(b.r_vectors_mean),
-                                   cell(b.r_vectors_sd)});
+                                   cell(b.r_vectors_sd), cell(b.dv_theta_measured), cell(b.dv_theta)});
   }
 }
 

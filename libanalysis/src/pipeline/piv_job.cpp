@@ -3,14 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <deque>
-#include <exception>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <numbers>
-#include <thread>
+#include <optional>
 #include <utility>
 
 #include <omp.h>
@@ -21,6 +18,7 @@
 #include "shearzone/core/conventions.hpp"
 #include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/ordered_pool.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/core/version.hpp"
 #include "shearzone/io/atomic_output.hpp"
@@ -67,91 +65,12 @@ struct PairResult {
 using PairEstimator =
     std::function<PairResult(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b)>;
 
-/// One pair in flight.
-struct PairTask {
+/// One pair in flight: its frames and, once done, its result.
+struct PairJob {
   std::shared_ptr<const Unique> a, b;
   PairResult result;
-  std::exception_ptr error;
-  bool done = false;
 };
-
-/// Runs pairs on worker threads (one pair per thread, its windows serial) and hands
-/// them back in submission order, so the output is the same as one pair at a time.
-/// The caller decodes the next frames meanwhile, and keeps at most `capacity` (workers
-/// + 2) pairs in flight (full(), pop_done(true)).
-class PairPool {
- public:
-  PairPool(const PairEstimator& estimate, int workers) : estimate_(estimate), capacity_(workers + 2) {
-    for (int i = 0; i < workers; ++i) threads_.emplace_back([this] { work(); });
-  }
-  ~PairPool() {
-    {
-      std::lock_guard lock(m_);
-      stop_ = true;
-    }
-    todo_.notify_all();
-    for (auto& t : threads_) t.join();
-  }
-  PairPool(const PairPool&) = delete;
-  PairPool& operator=(const PairPool&) = delete;
-
-  /// Whether `capacity` pairs are queued or running: pop one before submitting more.
-  bool full() {
-    std::lock_guard lock(m_);
-    return tasks_.size() >= capacity_;
-  }
-  void submit(std::shared_ptr<const Unique> a, std::shared_ptr<const Unique> b) {
-    auto t = std::make_shared<PairTask>();
-    t->a = std::move(a);
-    t->b = std::move(b);
-    std::lock_guard lock(m_);
-    tasks_.push_back(std::move(t));
-    todo_.notify_one();
-  }
-  /// The oldest pair once done (waiting for it if `wait`); nullptr if none is ready.
-  std::shared_ptr<PairTask> pop_done(bool wait) {
-    std::unique_lock lock(m_);
-    if (wait) finished_.wait(lock, [&] { return tasks_.empty() || tasks_.front()->done; });
-    if (tasks_.empty() || !tasks_.front()->done) return nullptr;
-    auto t = std::move(tasks_.front());
-    tasks_.pop_front();
-    --next_;
-    return t;
-  }
-
- private:
-  void work() {
-    omp_set_num_threads(1);  // this thread's pairs run their windows serially
-    for (;;) {
-      std::shared_ptr<PairTask> t;
-      {
-        std::unique_lock lock(m_);
-        todo_.wait(lock, [&] { return stop_ || next_ < tasks_.size(); });
-        if (stop_) return;
-        t = tasks_[next_++];
-      }
-      try {
-        t->result = estimate_(t->a->image, t->b->image, t->a->mask, t->b->mask);
-      } catch (...) {
-        t->error = std::current_exception();
-      }
-      {
-        std::lock_guard lock(m_);
-        t->done = true;
-      }
-      finished_.notify_all();
-    }
-  }
-
-  const PairEstimator& estimate_;
-  const std::size_t capacity_;
-  std::mutex m_;
-  std::condition_variable todo_, finished_;
-  std::deque<std::shared_ptr<PairTask>> tasks_;  // submission order
-  std::size_t next_ = 0;                         // index in tasks_ of the next to start
-  bool stop_ = false;
-  std::vector<std::thread> threads_;
-};
+using PairPool = core::OrderedPool<PairJob>;
 
 /// Sets this thread's OpenMP thread count for its lifetime.
 class OmpThreads {
@@ -615,7 +534,10 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   sum.pairs_in_parallel = sum.threads > 1 && !csv && (hint <= 0 || est_pairs >= 2);
   const OmpThreads omp_threads(sum.pairs_in_parallel ? 1 : sum.threads);
   std::unique_ptr<PairPool> pool;
-  if (sum.pairs_in_parallel) pool = std::make_unique<PairPool>(estimate, sum.threads);
+  if (sum.pairs_in_parallel)  // one pair per thread, its windows serial
+    pool = std::make_unique<PairPool>(
+        [&estimate](PairJob& j) { j.result = estimate(j.a->image, j.b->image, j.a->mask, j.b->mask); }, sum.threads,
+        [] { omp_set_num_threads(1); });
 
   // Step 3: write a finished pair.
   auto write_pair = [&](const Unique& a, const Unique& b, const PairResult& pair) {
@@ -651,12 +573,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     ++sum.pairs;
     if (progress) progress(pair_index, std::max(est_pairs, pair_index));
   };
-  auto write_task = [&](const PairTask& t) {
-    if (t.error) std::rethrow_exception(t.error);
-    write_pair(*t.a, *t.b, t.result);
-  };
-  auto drain = [&](bool wait) {
-    while (auto t = pool->pop_done(wait)) write_task(*t);
+  auto write_done = [&](std::optional<PairJob> j) {  // a finished pair, if any
+    if (j) write_pair(*j->a, *j->b, j->result);
+    return j.has_value();
   };
 
   io::Frame frame;
@@ -699,14 +618,17 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
                                    b.frame.gray.cols, b.frame.gray.rows, a.frame.label,
                                    a.frame.gray.cols, a.frame.gray.rows));
     if (pool) {
-      while (pool->full()) write_task(*pool->pop_done(true));
-      pool->submit(window.front(), window.back());
-      drain(false);
+      while (pool->full()) write_done(pool->pop_done(true));
+      pool->submit({window.front(), window.back(), {}});
+      while (write_done(pool->pop_done(false))) {
+      }
     } else {
       write_pair(a, b, estimate(a.image, b.image, a.mask, b.mask));
     }
   }
-  if (pool) drain(true);
+  if (pool)
+    while (write_done(pool->pop_done(true))) {
+    }
   if (sum.pairs == 0)
     throw InputError(fmt::format("{}: no frame pair to process ({} frames read, {} duplicates, "
                                  "pair spacing {}, frames {}..{})",

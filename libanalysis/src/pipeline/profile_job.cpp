@@ -486,6 +486,15 @@ void add_phase_metadata(core::Metadata& m, const ProfileJobOptions& o, const pro
   m.emplace_back("n_groups", std::to_string(p.n_groups));
   m.emplace_back("noise_lag1_rho", p.grouping == profile::Grouping::kCycles || p.grouping == profile::Grouping::kNone ? "" : fmt::format("{:.3f}", p.rho));
   m.emplace_back("noise_sigma_m_per_s", format_number(p.noise_sigma_m_per_s));
+  m.emplace_back("dv_theta_m_per_s",
+                 fmt::format("the velocity fluctuation about the local mean (granular temperature sqrt(T)): within "
+                             "each pair, the RMS of the bin's v_theta about a straight line in r fitted to them, pooled "
+                             "over pairs (n - 2 degrees of freedom each), with noise_sigma_m_per_s removed in "
+                             "quadrature; empty where the measured value (dv_theta_measured_m_per_s) is not above "
+                             "{:.3g} noise_sigma, and everywhere unless the noise comes from --noise-ref (a static "
+                             "clip) or the file's noise_sigma_px (the region's v_r scatter holds the beads' own "
+                             "fluctuation). For PIV, only what a window's mean keeps of the beads' own motion",
+                             std::sqrt(profile::kFluctuationAboveNoise)));
   if (p.lockin) {
     m.emplace_back("lockin_harmonics", std::to_string(p.lockin_harmonics));
     m.emplace_back("lockin_harmonics_requested", std::to_string(o.lockin_harmonics));
@@ -512,14 +521,21 @@ void add_phase_metadata(core::Metadata& m, const ProfileJobOptions& o, const pro
   }
 }
 
-/// profile.csv's rows: a bin each.
-std::vector<io::ProfileCsvRow> profile_rows(const profile::RadialProfile& p) {
+/// profile.csv's rows: a bin each; the fluctuation less the noise where it stands
+/// above it (profile/radial_profile.hpp, ProfileBin::dv_theta), when the noise was
+/// measured apart from the beads' motion (`noise_measured`: a static reference or
+/// the file's own noise; the region's v_r scatter holds the beads' own fluctuation).
+std::vector<io::ProfileCsvRow> profile_rows(const profile::RadialProfile& p, bool noise_measured) {
   std::vector<io::ProfileCsvRow> rows;
   for (const auto& b : p.bins) {
     io::ProfileCsvRow r{b.r_m, b.v_abs, b.v_theta, b.v_r, b.v_abs_rms, b.v_abs_sem, b.v_noise, b.n_vectors,
                         b.n_masked, b.n_invalid};
     r.r_vectors_mean = b.r_vectors_mean_m;
     r.r_vectors_sd = b.r_vectors_sd_m;
+    r.dv_theta_measured = b.dv_theta;
+    const double noise2 = p.noise_sigma_m_per_s * p.noise_sigma_m_per_s;
+    if (noise_measured && b.dv_theta * b.dv_theta > profile::kFluctuationAboveNoise * noise2)
+      r.dv_theta = std::sqrt(b.dv_theta * b.dv_theta - noise2);
     if (b.lockin.ok) {
       r.amp = b.lockin.amplitude;
       r.amp_se = b.lockin.amplitude_se;
@@ -606,7 +622,7 @@ ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metada
     m.emplace_back("phase_range_deg", format_number(plo) + "," + format_number(phi));
     add_phase_metadata(m, o, p, drive, acc.lockin_harmonics);
     outs.push_back(std::make_unique<io::AtomicOutput>(path, o.force));
-    io::write_profile_csv(outs.back()->stream(), m, profile_rows(p));
+    io::write_profile_csv(outs.back()->stream(), m, profile_rows(p, noise.reference || set(noise.known_m_per_s)));
     outs.push_back(std::make_unique<io::AtomicOutput>(io::profile_groups_path(path), o.force));
     core::Metadata gm = header;
     gm.emplace_back("profile", path.filename().string());

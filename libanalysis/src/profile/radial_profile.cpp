@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -73,6 +74,11 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
   double* pst = pair_st_.data() + n_pairs_ * nb;
   double* pn = pair_n_.data() + n_pairs_ * nb;
   const double scale = opt_.m_per_px / dt_s;  // px per pair -> m/s
+  // This pair's moments per bin of v_theta and dr (radius - bin centre) for the fluctuation.
+  struct Moments {
+    double n = 0, d = 0, dd = 0, v = 0, vv = 0, vd = 0;
+  };
+  std::vector<Moments> mom(nb);
   for (std::size_t i = 0; i < f.ny(); ++i)
     for (std::size_t j = 0; j < f.nx(); ++j) {
       const double x = f.x_px[j], y = f.y_px[i];
@@ -102,6 +108,13 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
       const double dr = r_m - opt_.bin_centre_m(b);
       s.s_dr += dr;
       s.s_dr2 += dr * dr;
+      Moments& mo = mom[b];
+      mo.n += 1;
+      mo.d += dr;
+      mo.dd += dr * dr;
+      mo.v += pc.v_theta;
+      mo.vv += pc.v_theta * pc.v_theta;
+      mo.vd += pc.v_theta * dr;
       ++s.n;
       ps[b] += a;
       pst[b] += pc.v_theta;
@@ -111,6 +124,15 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
       ns.s2 += pc.v_r * pc.v_r;
       ++ns.n;
     }
+  // Residual sum of squares of v_theta about the pair's least-squares line in dr.
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Moments& mo = mom[b];
+    if (mo.n < 3) continue;
+    const double svv = mo.vv - mo.v * mo.v / mo.n, sdd = mo.dd - mo.d * mo.d / mo.n, svd = mo.vd - mo.v * mo.d / mo.n;
+    const bool slope = sdd > 1e-12 * mo.dd + std::numeric_limits<double>::min();
+    bins_[b].fluct_ss += std::max(0.0, slope ? svv - svd * svd / sdd : svv);
+    bins_[b].fluct_dof += slope ? mo.n - 2 : mo.n - 1;
+  }
   ++n_pairs_;
 }
 
@@ -154,6 +176,7 @@ RadialProfile ProfileAccumulator::finish_common() const {
     const double dr = s.s_dr / n;
     o.r_vectors_mean_m = o.r_m + dr;
     o.r_vectors_sd_m = std::sqrt(std::max(0.0, s.s_dr2 / n - dr * dr));
+    if (s.fluct_dof > 0) o.dv_theta = std::sqrt(s.fluct_ss / s.fluct_dof);
   }
   if (opt_.lockin_harmonics > 0 && n_pairs_ > 0 && p.pairs.phase_known()) {
     const LockinFit fit(p.pairs, opt_.lockin_harmonics);

@@ -124,6 +124,8 @@ void SynthOptions::validate() const {
   require(sequence.oscillate_f_Hz >= 0 && sequence.oscillate_f_Hz < 0.5 * sequence.fps,
           "SequenceOptions::oscillate_f_Hz", sequence.oscillate_f_Hz,
           "must satisfy 0 <= f < fps/2 (Nyquist)");
+  require(sequence.jitter_px >= 0 && sequence.jitter_px <= 20, "SequenceOptions::jitter_px (--jitter-px)", sequence.jitter_px,
+          "must satisfy 0 <= jitter <= 20 px");
   require(vane.blades >= 0 && vane.blades <= 64, "VaneOptions::blades", vane.blades,
           "must satisfy 0 <= blades <= 64");
   if (vane.blades > 0) {
@@ -163,6 +165,10 @@ core::Metadata SynthOptions::to_metadata() const {
   m.emplace_back("frames", std::to_string(sequence.frames));
   m.emplace_back("fps_Hz", format_number(sequence.fps));
   m.emplace_back("oscillate_f_Hz", format_number(sequence.oscillate_f_Hz));
+  if (sequence.jitter_px > 0)
+    m.emplace_back("jitter_px", fmt::format("{} (each frame a Gaussian step of this per component about the field; "
+                                            "the truth is the field)",
+                                            format_number(sequence.jitter_px)));
   if (vane.blades > 0) {
     m.emplace_back("vane", fmt::format("blades={}, half_width_px={}, radius_px={}", vane.blades,
                                        format_number(vane.half_width_px), format_number(vane.radius_px)));
@@ -184,7 +190,8 @@ SynthOptions resolved(SynthOptions o) {
 }  // namespace
 
 FrameGenerator::FrameGenerator(SynthOptions options)
-    : opt_(resolved(std::move(options))), field_(opt_.field) {
+    : opt_(resolved(std::move(options))), field_(opt_.field),
+      jitter_rng_(splitmix64(opt_.image.seed ^ 0x6a09e667f3bcc908ULL)) {
   place_tracers();
 }
 
@@ -308,6 +315,13 @@ void FrameGenerator::advance(int k) {
     throw ConfigError(
         "synth: the displacement changes too fast in space for the midpoint rule (it needs "
         "|grad d| < 2 per frame); reduce omega, U0 or increase w");
+  if (opt_.sequence.jitter_px > 0) {  // serial: the same steps for any thread count
+    std::normal_distribution<double> step(0.0, opt_.sequence.jitter_px);
+    for (std::size_t i = 0; i < x_.size(); ++i) {
+      x_[i] += step(jitter_rng_);
+      y_[i] += step(jitter_rng_);
+    }
+  }
 }
 
 void FrameGenerator::wrap() {

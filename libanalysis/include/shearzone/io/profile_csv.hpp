@@ -69,6 +69,9 @@ struct ProfileCsvRow {
   // The radii of the vectors averaged, m (NaN: no vector, or a file written before the
   // columns existed).
   double r_vectors_mean = core::kUnset, r_vectors_sd = core::kUnset;
+  // The velocity fluctuation of v_theta, m/s: as measured, and with the measurement
+  // noise removed (NaN: none, or not above the noise).
+  double dv_theta_measured = core::kUnset, dv_theta = core::kUnset;
 };
 
 /// One (pair, bin) mean of the groups file.

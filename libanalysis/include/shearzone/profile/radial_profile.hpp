@@ -65,6 +65,10 @@ struct ProfileOptions {
 };
 
 inline constexpr double kNoValue = core::kUnset;
+/// The fluctuation is reported less the noise only where its square exceeds this many
+/// times the noise's (the beads' own fluctuation at least as large as the noise); below,
+/// a noise estimate off by 10 % would move it by more than 10 %.
+inline constexpr double kFluctuationAboveNoise = 2.0;
 
 struct ProfileBin {
   double r_m = 0;
@@ -78,6 +82,12 @@ struct ProfileBin {
   /// from the bin centre, and width interpolates at it.
   double r_vectors_mean_m = kNoValue, r_vectors_sd_m = kNoValue;
   LockinBin lockin;                        ///< phase-locked v_theta (ok = false: none)
+  /// The velocity fluctuation about the local mean (granular temperature sqrt(T)), m/s,
+  /// measurement noise included (NaN: too few vectors): within each pair, the RMS of
+  /// the bin's v_theta about a straight line in r fitted to them (so neither the
+  /// mean's change across the bin nor its change from pair to pair counts), pooled
+  /// over the pairs with n - 2 degrees of freedom each (pairs with >= 3 vectors).
+  double dv_theta = kNoValue;
 };
 
 struct RadialProfile {
@@ -127,6 +137,7 @@ class ProfileAccumulator {
   struct Sums {
     double s_abs = 0, s_abs2 = 0, s_theta = 0, s_r = 0;
     double s_dr = 0, s_dr2 = 0;  // radius - bin centre of the vectors averaged, m
+    double fluct_ss = 0, fluct_dof = 0;  // v_theta about each pair's line in r: squares, degrees of freedom
     std::size_t n = 0, masked = 0, invalid = 0;
   };
   struct NoiseSums {

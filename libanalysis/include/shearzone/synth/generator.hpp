@@ -24,6 +24,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <random>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -75,6 +76,11 @@ struct SequenceOptions {
   int frames = 2;               ///< number of frames K (>= 2); 2 writes a pair A, B
   double fps = 25.0;            ///< frame rate, Hz (> 0)
   double oscillate_f_Hz = 0.0;  ///< vane frequency f, Hz (0: steady field)
+  /// Random motion about the field: each frame every tracer takes an extra Gaussian
+  /// step of this standard deviation per component, px (0..20; 0: none). A pair of
+  /// consecutive frames then has a velocity fluctuation of exactly this per component
+  /// about the field (granular temperature; the truth files hold the field only).
+  double jitter_px = 0.0;
 };
 
 struct VaneOptions {
@@ -153,6 +159,7 @@ class FrameGenerator {
   double dom_x0_ = 0, dom_y0_ = 0, dom_x1_ = 0, dom_y1_ = 0;
   bool periodic_ = false;
   int next_ = 0;
+  std::mt19937_64 jitter_rng_;  // the jitter's steps, seeded from the image seed
 };
 
 /// "particles" or "beads".
