@@ -247,9 +247,10 @@ def make_inputs(bin_, work):
     # A profile whose vectors' spread in one bin is negative (a hand-edited file).
     lines = open(os.path.join(work, "profile.csv")).read().split("\n")
     header = next(i for i, l in enumerate(lines) if l.startswith("r_m,"))
-    row = next(i for i in range(header + 1, len(lines)) if lines[i] and lines[i].split(",")[-1])
+    col = lines[header].split(",").index("r_vectors_sd_m")
+    row = next(i for i in range(header + 1, len(lines)) if lines[i] and lines[i].split(",")[col])
     cells = lines[row].split(",")
-    cells[-1] = "-0.001"
+    cells[col] = "-0.001"
     lines[row] = ",".join(cells)
     open(os.path.join(work, "profile_bad_radii.csv"), "w").write("\n".join(lines))
     # ... and profiles with one header value the width must refuse.
