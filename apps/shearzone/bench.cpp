@@ -1,12 +1,14 @@
 // `shearzone bench piv`: the PIV speed-accuracy chart and failure map (CSV).
 // `shearzone bench profile`: profile and width on a long synthetic clip: time, memory, r_c.
 // `shearzone bench sim`: engine speed against bead count, accuracy against h and the cap.
+// `shearzone bench track`: the bead tracker's speed against accuracy on 1080p truth (CSV).
 #include <cstdio>
 #include <memory>
 
 #include "shearzone/bench/piv.hpp"
 #include "shearzone/bench/profile.hpp"
 #include "shearzone/bench/sim.hpp"
+#include "shearzone/bench/track.hpp"
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
@@ -39,6 +41,20 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   pr->add_option("--lockin-harmonics", po->lockin_harmonics, "Lock-in harmonics (as profile); range: 0 or odd 1..31")
       ->capture_default_str();
   pr->add_flag("--keep-fields", po->keep_fields, "Keep the generated zone_fields.h5 (about 10 bytes per vector)");
+  auto to = std::make_shared<bench::BenchTrackOptions>();
+  auto tout = std::make_shared<std::string>();
+  CLI::App* t = bench->add_subcommand("track", "Bead tracking on 1080p truth: time and error per bead size");
+  t->add_option("-o,--output", *tout, "Output folder for the CSV file")->required();
+  t->add_flag("--force", to->force, "Replace existing files");
+  t->add_flag("--quick", to->quick, "960x540 pair of 35 px beads (a smoke run)");
+  t->add_option("--repeats", to->timing_repeats, "Timed runs per bead size (median); range: 1..1000")
+      ->capture_default_str();
+  t->add_option("--width", to->width_px, "Pair width, px; range: 64..8192")->capture_default_str();
+  t->add_option("--height", to->height_px, "Pair height, px; range: 64..8192")->capture_default_str();
+  t->add_option("--diameters", to->diameters_px, "Bead diameters, px; range: each 3..200, at most a quarter of the "
+                                                 "shorter side")
+      ->delimiter(',')
+      ->capture_default_str();
   auto so = std::make_shared<bench::BenchSimOptions>();
   auto sout = std::make_shared<std::string>();
   CLI::App* s = bench->add_subcommand("sim", "Contact-dynamics engine: speed vs beads, accuracy vs h and cap; "
@@ -145,6 +161,18 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
                for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
              }
              (void)pr;
+             return kExitOk;
+           }},
+          {t, [t, to, tout, &ctx] {
+             to->out_dir = *tout;
+             core::ProgressReporter progress("bench track", ctx.level);
+             const auto sum = bench::run_track_bench(*to, ctx.header(), progress.callback());
+             progress.finish();
+             if (ctx.level != core::LogLevel::kQuiet) {
+               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
+               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
+             }
+             (void)t;
              return kExitOk;
            }},
           {s, [s, so, sout, &ctx] {

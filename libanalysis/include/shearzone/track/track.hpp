@@ -42,7 +42,7 @@ struct TrackOptions {
   int max_iterations = 100;
   double epsilon_px = 1e-4;
   /// A detection needs a local contrast (peak of the smoothed frame over the lowest
-  /// value within 0.35 bead diameters) of at least this fraction of the frame's
+  /// value within a square of side 0.7 bead diameters) of at least this fraction of the frame's
   /// range (1st to 99th percentile of the smoothed frame, unmasked pixels).
   double min_contrast = 0.05;
   void validate() const;

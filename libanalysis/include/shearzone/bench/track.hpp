@@ -1,0 +1,40 @@
+// shearzone/bench/track.hpp: the bead tracker's speed against accuracy.
+//
+// One table on synthetic pairs with exact truth: for each bead diameter, a
+// width x height `synth beads` pair of an oscillating-cup-like shear zone (rigid core a
+// fifth of the shorter side, decay 2 d, d/4 px per frame at the core), tracked with the
+// defaults. Columns: bead diameter, beads detected, seconds for the detection alone and
+// for the whole pair (detection, Lucas-Kanade forward and back), pairs per second, the
+// beads tracked, and the displacement error against the tracer under each bead (a
+// tracer within d/4, no second one within d/2): bias per component and RMS.
+// Timings are wall-clock medians over `repeats` runs with the threads OpenCV gives.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "shearzone/core/metadata.hpp"
+#include "shearzone/core/progress.hpp"
+
+namespace shearzone::bench {
+
+struct BenchTrackOptions {
+  int width_px = 1920;
+  int height_px = 1080;
+  std::vector<double> diameters_px{16, 24, 35, 50};
+  int timing_repeats = 3;  ///< runs per diameter; the median time counts
+  bool quick = false;      ///< 960x540 and 35 px beads only (a smoke run)
+  std::filesystem::path out_dir;
+  bool force = false;
+};
+
+struct BenchTrackSummary {
+  std::vector<std::filesystem::path> files;
+  std::vector<std::string> lines;  ///< one per diameter, for the terminal
+};
+
+BenchTrackSummary run_track_bench(const BenchTrackOptions& options, const core::Metadata& header,
+                                  const core::ProgressCallback& progress = {});
+
+}  // namespace shearzone::bench

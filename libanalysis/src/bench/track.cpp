@@ -1,0 +1,146 @@
+// The bead tracker's speed against accuracy (bench/track.hpp).
+#include "shearzone/bench/track.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/io/atomic_output.hpp"
+#include "shearzone/io/csv.hpp"
+#include "shearzone/synth/generator.hpp"
+#include "shearzone/track/track.hpp"
+
+namespace shearzone::bench {
+namespace {
+
+struct Score {
+  std::size_t matched = 0;
+  double bias_u = 0, bias_v = 0, rms = 0;
+};
+
+/// Each tracked bead against the tracer under it: within d/4, no second tracer within
+/// d/2 (two beads almost on top of each other: which one shows is not defined).
+Score score(const track::PairBeads& r, const std::vector<double>& xa, const std::vector<double>& ya,
+            const std::vector<double>& xb, const std::vector<double>& yb, double d) {
+  const double cell = 0.5 * d;
+  auto key = [&](double v) { return static_cast<long>(std::floor(v / cell)); };
+  std::map<std::pair<long, long>, std::vector<std::size_t>> cells;
+  for (std::size_t t = 0; t < xa.size(); ++t) cells[{key(xa[t]), key(ya[t])}].push_back(t);
+  double su = 0, sv = 0, s2 = 0;
+  Score s;
+  for (std::size_t k = 0; k < r.size(); ++k) {
+    if (!r.ok[k]) continue;
+    std::size_t best = xa.size();
+    double best2 = 0.0625 * d * d;
+    int near = 0;
+    for (long di = -1; di <= 1; ++di)
+      for (long dj = -1; dj <= 1; ++dj) {
+        const auto it = cells.find({key(r.x_px[k]) + dj, key(r.y_px[k]) + di});
+        if (it == cells.end()) continue;
+        for (std::size_t t : it->second) {
+          const double d2 = std::pow(xa[t] - r.x_px[k], 2) + std::pow(ya[t] - r.y_px[k], 2);
+          near += d2 < cell * cell;
+          if (d2 < best2) best2 = d2, best = t;
+        }
+      }
+    if (best == xa.size() || near > 1) continue;
+    const double eu = r.u_px[k] - (xb[best] - xa[best]), ev = r.v_px[k] - (yb[best] - ya[best]);
+    su += eu;
+    sv += ev;
+    s2 += eu * eu + ev * ev;
+    ++s.matched;
+  }
+  if (s.matched) {
+    const auto n = static_cast<double>(s.matched);
+    s.bias_u = su / n;
+    s.bias_v = sv / n;
+    s.rms = std::sqrt(s2 / (2 * n));
+  }
+  return s;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+std::string fixed(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
+
+}  // namespace
+
+BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metadata& header,
+                                  const core::ProgressCallback& progress) {
+  if (o.timing_repeats < 1 || o.timing_repeats > 1000)
+    throw ConfigError(fmt::format("bench track: --repeats {}: expected 1..1000", o.timing_repeats));
+  const int w = o.quick ? 960 : o.width_px, h = o.quick ? 540 : o.height_px;
+  if (w < 64 || h < 64 || w > 8192 || h > 8192)
+    throw ConfigError(fmt::format("bench track: pair {}x{} px: expected 64..8192 a side", w, h));
+  const std::vector<double> diameters = o.quick ? std::vector<double>{35} : o.diameters_px;
+  if (diameters.empty()) throw ConfigError("bench track: --diameters: expected at least one");
+  for (double d : diameters)
+    if (!(d >= 3 && d <= 200 && 4 * d <= std::min(w, h)))
+      throw ConfigError(fmt::format("bench track: bead diameter {} px: expected 3..200 and a quarter of the "
+                                    "shorter side at most",
+                                    d));
+  io::AtomicOutputSet out(o.out_dir, o.force);
+  out.check("track_speed_accuracy.csv");
+  core::Metadata meta = header;
+  meta.emplace_back("bench", fmt::format("synthetic {}x{} synth-beads pairs of a shear zone (rigid core {} px, "
+                                         "decay 2 d, U0 d/4 px per frame), default tracking options; time = median "
+                                         "of {} runs; errors against the tracer within d/4 of each tracked bead",
+                                         w, h, std::min(w, h) / 5, o.timing_repeats));
+  io::CsvWriter csv(out.add("track_speed_accuracy.csv").stream(), meta,
+                    {"bead_diameter_px", "beads", "detect_s", "seconds_per_pair_s", "pairs_per_s", "tracked_percent",
+                     "matched", "bias_u_px", "bias_v_px", "rms_error_px"});
+  BenchTrackSummary sum;
+  std::size_t done = 0;
+  for (double d : diameters) {
+    synth::SynthOptions s;
+    s.texture = synth::TextureKind::kBeads;
+    s.beads.diameter_px = d;
+    s.image.width_px = w;
+    s.image.height_px = h;
+    s.image.seed = 2024;
+    s.field.kind = synth::FieldKind::kShearZone;
+    s.field.r0_px = std::min(w, h) / 5.0;
+    s.field.w_px = 2 * d;
+    s.field.U0_px = d / 4;
+    synth::FrameGenerator gen(s);
+    const std::vector<double> xa = gen.tracer_x(), ya = gen.tracer_y();
+    const cv::Mat a = gen.next();
+    const std::vector<double> xb = gen.tracer_x(), yb = gen.tracer_y();
+    const cv::Mat b = gen.next();
+    track::TrackOptions to;
+    to.bead_diameter_px = d;
+    std::vector<double> t_detect, t_pair;
+    std::size_t beads = 0;
+    track::PairBeads r;
+    for (int k = 0; k < o.timing_repeats; ++k) {
+      auto t0 = std::chrono::steady_clock::now();
+      beads = track::detect_beads(a, cv::Mat(), to).size();
+      t_detect.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      t0 = std::chrono::steady_clock::now();
+      r = track::track_pair(a, b, cv::Mat(), cv::Mat(), to);
+      t_pair.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    const double td = median(t_detect), tp = median(t_pair);
+    const Score sc = score(r, xa, ya, xb, yb, d);
+    const double tracked = 100.0 * static_cast<double>(r.tracked()) / static_cast<double>(std::max<std::size_t>(beads, 1));
+    csv.row(std::vector<std::string>{io::format_number(d), std::to_string(beads), fixed(td, 4), fixed(tp, 4),
+                                     fixed(1.0 / tp, 2), fixed(tracked, 2), std::to_string(sc.matched),
+                                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.rms, 4)});
+    sum.lines.push_back(fmt::format("beads of {} px: {} per pair, {:.3f} s per pair ({:.2f} pairs/s; detection "
+                                    "{:.3f} s), {:.1f} % tracked, RMS {:.4f} px",
+                                    io::format_number(d), beads, tp, 1.0 / tp, td, tracked, sc.rms));
+    if (progress) progress(++done, diameters.size());
+  }
+  out.commit_all();
+  sum.files = out.final_paths();
+  return sum;
+}
+
+}  // namespace shearzone::bench
