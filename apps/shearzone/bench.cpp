@@ -12,6 +12,24 @@
 #include "subcommands.hpp"
 
 namespace shearzone::apps {
+namespace {
+
+/// Runs a benchmark with its progress on the terminal, then lists the files it wrote
+/// and its summary lines (`lines`, where the summary has them).
+template <class Run>
+auto run_bench(Context& ctx, const char* name, Run run) {
+  core::ProgressReporter progress(name, ctx.level);
+  auto sum = run(progress.callback());
+  progress.finish();
+  if (ctx.level != core::LogLevel::kQuiet) {
+    for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
+    if constexpr (requires { sum.lines; })
+      for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
+  }
+  return sum;
+}
+
+}  // namespace
 
 std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   CLI::App* bench = root.add_subcommand("bench", "Benchmarks: speed against accuracy, as CSV");
@@ -138,55 +156,30 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
   s->add_option("--accuracy-beads", so->accuracy_beads,
                 "Bead count of the accuracy packing; range: 1..1000000")
       ->capture_default_str();
-  return {{p, [p, o, out, &ctx] {
+  return {{p, [o, out, &ctx] {
              o->out_dir = *out;
-             core::ProgressReporter progress("bench piv", ctx.level);
-             const auto sum = bench::run_piv_bench(*o, ctx.header(), progress.callback());
-             progress.finish();
+             const auto sum = run_bench(ctx, "bench piv", [&](auto cb) { return bench::run_piv_bench(*o, ctx.header(), cb); });
              if (ctx.level != core::LogLevel::kQuiet) {
-               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
                if (!sum.best_line.empty()) std::printf("%s\n", sum.best_line.c_str());
                std::printf("plot: /usr/bin/python3 scripts/plot_bench_piv.py %s\n", o->out_dir.string().c_str());
              }
-             (void)p;
              return kExitOk;
            }},
-          {pr, [pr, po, pout, &ctx] {
+          {pr, [po, pout, &ctx] {
              po->out_dir = *pout;
-             core::ProgressReporter progress("bench profile", ctx.level);
-             const auto sum = bench::run_profile_bench(*po, ctx.header(), progress.callback());
-             progress.finish();
-             if (ctx.level != core::LogLevel::kQuiet) {
-               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
-               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
-             }
-             (void)pr;
+             (void)run_bench(ctx, "bench profile", [&](auto cb) { return bench::run_profile_bench(*po, ctx.header(), cb); });
              return kExitOk;
            }},
-          {t, [t, to, tout, &ctx] {
+          {t, [to, tout, &ctx] {
              to->out_dir = *tout;
-             core::ProgressReporter progress("bench track", ctx.level);
-             const auto sum = bench::run_track_bench(*to, ctx.header(), progress.callback());
-             progress.finish();
-             if (ctx.level != core::LogLevel::kQuiet) {
-               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
-               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
-             }
-             (void)t;
+             (void)run_bench(ctx, "bench track", [&](auto cb) { return bench::run_track_bench(*to, ctx.header(), cb); });
              return kExitOk;
            }},
-          {s, [s, so, sout, &ctx] {
+          {s, [so, sout, &ctx] {
              so->out_dir = *sout;
-             core::ProgressReporter progress("bench sim", ctx.level);
-             const auto sum = bench::run_sim_bench(*so, ctx.header(), progress.callback());
-             progress.finish();
-             if (ctx.level != core::LogLevel::kQuiet) {
-               for (const auto& f : sum.files) std::printf("wrote %s\n", f.string().c_str());
-               for (const auto& l : sum.lines) std::printf("%s\n", l.c_str());
-               if (so->scene.empty())
-                 std::printf("plot: /usr/bin/python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
-             }
-             (void)s;
+             (void)run_bench(ctx, "bench sim", [&](auto cb) { return bench::run_sim_bench(*so, ctx.header(), cb); });
+             if (ctx.level != core::LogLevel::kQuiet && so->scene.empty())
+               std::printf("plot: /usr/bin/python3 scripts/plot_bench_sim.py %s\n", so->out_dir.string().c_str());
              return kExitOk;
            }}};
 }

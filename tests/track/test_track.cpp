@@ -38,14 +38,11 @@ struct Errors {
 /// Tracks frame 0 -> 1 of `s` and compares each tracked bead with the tracer nearest
 /// its centre (within a quarter diameter: the visible bead, not one hidden below it).
 Errors track_against_truth(const synth::SynthOptions& s) {
-  synth::FrameGenerator gen(s);
-  const std::vector<double> xa = gen.tracer_x(), ya = gen.tracer_y();
-  const cv::Mat a = gen.next();
-  const std::vector<double> xb = gen.tracer_x(), yb = gen.tracer_y();
-  const cv::Mat b = gen.next();
+  const synth::TracedPair pair = synth::traced_pair(s);
+  const std::vector<double>&xa = pair.xa, &ya = pair.ya, &xb = pair.xb, &yb = pair.yb;
   track::TrackOptions o;
   o.bead_diameter_px = s.beads.diameter_px;
-  const track::PairBeads r = track::track_pair(a, b, cv::Mat(), cv::Mat(), o);
+  const track::PairBeads r = track::track_pair(pair.a, pair.b, cv::Mat(), cv::Mat(), o);
   Errors e;
   e.detected = r.size();
   e.tracked = r.tracked();
@@ -157,36 +154,6 @@ TEST_CASE("tracking options out of range are refused", "[track]") {
 
 namespace {
 
-/// The tracer (bead id) nearest each point within `radius` px, or -1 where there is
-/// none or where a second tracer lies within twice the radius (two beads almost on top
-/// of each other, one all but hidden: which one the camera shows is not defined). Buckets
-/// of twice the radius over the frame's tracers.
-std::vector<long> nearest_tracer(const std::vector<double>& tx, const std::vector<double>& ty,
-                                 const std::vector<double>& x, const std::vector<double>& y, double radius) {
-  const double cell = 2 * radius;
-  auto key = [&](double a) { return static_cast<long>(std::floor(a / cell)); };
-  std::map<std::pair<long, long>, std::vector<long>> cells;
-  for (std::size_t t = 0; t < tx.size(); ++t) cells[{key(tx[t]), key(ty[t])}].push_back(static_cast<long>(t));
-  std::vector<long> out(x.size(), -1);
-  for (std::size_t k = 0; k < x.size(); ++k) {
-    double best = radius * radius;
-    int near = 0;
-    for (long di = -1; di <= 1; ++di)
-      for (long dj = -1; dj <= 1; ++dj) {
-        const auto it = cells.find({key(x[k]) + dj, key(y[k]) + di});
-        if (it == cells.end()) continue;
-        for (long t : it->second) {
-          const auto u = static_cast<std::size_t>(t);
-          const double d2 = std::pow(tx[u] - x[k], 2) + std::pow(ty[u] - y[k], 2);
-          near += d2 < cell * cell;
-          if (d2 < best) best = d2, out[k] = t;
-        }
-      }
-    if (near > 1) out[k] = -1;
-  }
-  return out;
-}
-
 struct LinkCount {
   std::size_t rows = 0, linked = 0;      // detections in pairs 2.. and those continuing a track
   std::size_t judged = 0, wrong = 0;     // linked rows with a tracer on both sides, and those of another bead
@@ -212,7 +179,7 @@ LinkCount link_against_truth(synth::SynthOptions s, int frames) {
     const cv::Mat b = gen.next();
     const track::PairBeads p = track::track_pair(a, b, cv::Mat(), cv::Mat(), o);
     const core::TrackedBeads rows = linker.link(p, k, k + 1, k / 25.0, 1 / 25.0);
-    const std::vector<long> who = nearest_tracer(tx, ty, rows.x_px, rows.y_px, 0.25 * o.bead_diameter_px);
+    const std::vector<long> who = synth::tracer_under(tx, ty, rows.x_px, rows.y_px, 0.25 * o.bead_diameter_px);
     std::map<long, std::int64_t> tracked_now;
     for (std::size_t r = 0; r < rows.size(); ++r) {
       if (k > 0) {

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <map>
 
 #include <fmt/format.h>
 
@@ -22,33 +21,15 @@ struct Score {
   double bias_u = 0, bias_v = 0, rms = 0;
 };
 
-/// Each tracked bead against the tracer under it: within d/4, no second tracer within
-/// d/2 (two beads almost on top of each other: which one shows is not defined).
-Score score(const track::PairBeads& r, const std::vector<double>& xa, const std::vector<double>& ya,
-            const std::vector<double>& xb, const std::vector<double>& yb, double d) {
-  const double cell = 0.5 * d;
-  auto key = [&](double v) { return static_cast<long>(std::floor(v / cell)); };
-  std::map<std::pair<long, long>, std::vector<std::size_t>> cells;
-  for (std::size_t t = 0; t < xa.size(); ++t) cells[{key(xa[t]), key(ya[t])}].push_back(t);
+/// Each tracked bead against the tracer under it (synth::tracer_under: within d/4).
+Score score(const track::PairBeads& r, const synth::TracedPair& t, double d) {
+  const std::vector<long> who = synth::tracer_under(t.xa, t.ya, r.x_px, r.y_px, 0.25 * d);
   double su = 0, sv = 0, s2 = 0;
   Score s;
   for (std::size_t k = 0; k < r.size(); ++k) {
-    if (!r.ok[k]) continue;
-    std::size_t best = xa.size();
-    double best2 = 0.0625 * d * d;
-    int near = 0;
-    for (long di = -1; di <= 1; ++di)
-      for (long dj = -1; dj <= 1; ++dj) {
-        const auto it = cells.find({key(r.x_px[k]) + dj, key(r.y_px[k]) + di});
-        if (it == cells.end()) continue;
-        for (std::size_t t : it->second) {
-          const double d2 = std::pow(xa[t] - r.x_px[k], 2) + std::pow(ya[t] - r.y_px[k], 2);
-          near += d2 < cell * cell;
-          if (d2 < best2) best2 = d2, best = t;
-        }
-      }
-    if (best == xa.size() || near > 1) continue;
-    const double eu = r.u_px[k] - (xb[best] - xa[best]), ev = r.v_px[k] - (yb[best] - ya[best]);
+    if (!r.ok[k] || who[k] < 0) continue;
+    const auto i = static_cast<std::size_t>(who[k]);
+    const double eu = r.u_px[k] - (t.xb[i] - t.xa[i]), ev = r.v_px[k] - (t.yb[i] - t.ya[i]);
     su += eu;
     sv += ev;
     s2 += eu * eu + ev * ev;
@@ -109,11 +90,7 @@ BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metada
     s.field.r0_px = std::min(w, h) / 5.0;
     s.field.w_px = 2 * d;
     s.field.U0_px = d / 4;
-    synth::FrameGenerator gen(s);
-    const std::vector<double> xa = gen.tracer_x(), ya = gen.tracer_y();
-    const cv::Mat a = gen.next();
-    const std::vector<double> xb = gen.tracer_x(), yb = gen.tracer_y();
-    const cv::Mat b = gen.next();
+    const synth::TracedPair pair = synth::traced_pair(s);
     track::TrackOptions to;
     to.bead_diameter_px = d;
     std::vector<double> t_detect, t_pair;
@@ -121,14 +98,14 @@ BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metada
     track::PairBeads r;
     for (int k = 0; k < o.timing_repeats; ++k) {
       auto t0 = std::chrono::steady_clock::now();
-      beads = track::detect_beads(a, cv::Mat(), to).size();
+      beads = track::detect_beads(pair.a, cv::Mat(), to).size();
       t_detect.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       t0 = std::chrono::steady_clock::now();
-      r = track::track_pair(a, b, cv::Mat(), cv::Mat(), to);
+      r = track::track_pair(pair.a, pair.b, cv::Mat(), cv::Mat(), to);
       t_pair.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     const double td = median(t_detect), tp = median(t_pair);
-    const Score sc = score(r, xa, ya, xb, yb, d);
+    const Score sc = score(r, pair, d);
     const double tracked = 100.0 * static_cast<double>(r.tracked()) / static_cast<double>(std::max<std::size_t>(beads, 1));
     csv.row(std::vector<std::string>{io::format_number(d), std::to_string(beads), fixed(td, 4), fixed(tp, 4),
                                      fixed(1.0 / tp, 2), fixed(tracked, 2), std::to_string(sc.matched),

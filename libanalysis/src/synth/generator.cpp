@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
 
@@ -378,6 +379,44 @@ std::vector<TruthPoint> FrameGenerator::truth(double spacing_px, double scale) c
       const auto d = field_(x, y);
       out.push_back({x, y, scale * d[0], scale * d[1]});
     }
+  return out;
+}
+
+TracedPair traced_pair(const SynthOptions& options) {
+  FrameGenerator gen(options);
+  TracedPair p;
+  p.xa = gen.tracer_x();
+  p.ya = gen.tracer_y();
+  p.a = gen.next();
+  p.xb = gen.tracer_x();
+  p.yb = gen.tracer_y();
+  p.b = gen.next();
+  return p;
+}
+
+std::vector<long> tracer_under(const std::vector<double>& tx, const std::vector<double>& ty,
+                               const std::vector<double>& x, const std::vector<double>& y, double radius) {
+  const double cell = 2 * radius;
+  auto key = [&](double v) { return static_cast<long>(std::floor(v / cell)); };
+  std::map<std::pair<long, long>, std::vector<long>> cells;
+  for (std::size_t t = 0; t < tx.size(); ++t) cells[{key(tx[t]), key(ty[t])}].push_back(static_cast<long>(t));
+  std::vector<long> out(x.size(), -1);
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    double best = radius * radius;
+    int near = 0;
+    for (long di = -1; di <= 1; ++di)
+      for (long dj = -1; dj <= 1; ++dj) {
+        const auto it = cells.find({key(x[k]) + dj, key(y[k]) + di});
+        if (it == cells.end()) continue;
+        for (long t : it->second) {
+          const auto u = static_cast<std::size_t>(t);
+          const double d2 = (tx[u] - x[k]) * (tx[u] - x[k]) + (ty[u] - y[k]) * (ty[u] - y[k]);
+          near += d2 < cell * cell;
+          if (d2 < best) best = d2, out[k] = t;
+        }
+      }
+    if (near > 1) out[k] = -1;
+  }
   return out;
 }
 

@@ -23,8 +23,8 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <string>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -164,5 +164,20 @@ class FrameGenerator {
 
 /// "particles" or "beads".
 const char* texture_kind_name(TextureKind kind);
+
+/// Frames 0 and 1 of `options` with every tracer's position in each: the truth bead by
+/// bead, for scoring a tracker.
+struct TracedPair {
+  cv::Mat a, b;
+  std::vector<double> xa, ya, xb, yb;  ///< tracer k in frame a and in frame b, px
+};
+TracedPair traced_pair(const SynthOptions& options);
+
+/// For each point (x[k], y[k]) the tracer (index into tx, ty) within `radius` px of it,
+/// or -1 where there is none, or where a second tracer lies within twice the radius
+/// (two beads almost on top of each other, one all but hidden: which one a camera
+/// shows there is not defined).
+std::vector<long> tracer_under(const std::vector<double>& tx, const std::vector<double>& ty,
+                               const std::vector<double>& x, const std::vector<double>& y, double radius);
 
 }  // namespace shearzone::synth
