@@ -2,9 +2,13 @@
 #include "shearzone/io/track_file.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cctype>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <limits>
+#include <type_traits>
 
 #include <fmt/format.h>
 
@@ -31,15 +35,18 @@ const char* const kInt64Columns[] = {"track_id", "frame_a", "frame_b"};
 const char* const kDoubleColumns[] = {"t_a_s", "dt_s", "x_px", "y_px", "u_px", "v_px", "fb_px"};
 const char* const kFlagColumns[] = {"tracked", "linked"};
 
-const std::vector<std::int64_t>& int64_column(const core::TrackedBeads& t, int i) {
-  return i == 0 ? t.track_id : i == 1 ? t.frame_a : t.frame_b;
+// The columns in the order of the names above (const or not, as `t` is).
+template <class Rows>
+auto int64_columns(Rows& t) {
+  return std::array{&t.track_id, &t.frame_a, &t.frame_b};
 }
-const std::vector<double>& double_column(const core::TrackedBeads& t, int i) {
-  const std::vector<double>* cols[] = {&t.t_a_s, &t.dt_s, &t.x_px, &t.y_px, &t.u_px, &t.v_px, &t.fb_px};
-  return *cols[i];
+template <class Rows>
+auto double_columns(Rows& t) {
+  return std::array{&t.t_a_s, &t.dt_s, &t.x_px, &t.y_px, &t.u_px, &t.v_px, &t.fb_px};
 }
-std::vector<double>& double_column(core::TrackedBeads& t, int i) {
-  return const_cast<std::vector<double>&>(double_column(static_cast<const core::TrackedBeads&>(t), i));
+template <class Rows>
+auto flag_columns(Rows& t) {
+  return std::array{&t.tracked, &t.linked};
 }
 
 }  // namespace
@@ -95,10 +102,12 @@ void TrackFileWriter::append(const core::TrackedBeads& t) {
     return;
   }
   if (n == 0) return;
-  for (int i = 0; i < 3; ++i) h5_->append(std::string("/beads/") + kInt64Columns[i], int64_column(t, i).data(), n);
-  for (int i = 0; i < 7; ++i) h5_->append(std::string("/beads/") + kDoubleColumns[i], double_column(t, i).data(), n);
-  h5_->append("/beads/tracked", t.tracked.data(), n);
-  h5_->append("/beads/linked", t.linked.data(), n);
+  for (std::size_t i = 0; i < std::size(kInt64Columns); ++i)
+    h5_->append(std::string("/beads/") + kInt64Columns[i], int64_columns(t)[i]->data(), n);
+  for (std::size_t i = 0; i < std::size(kDoubleColumns); ++i)
+    h5_->append(std::string("/beads/") + kDoubleColumns[i], double_columns(t)[i]->data(), n);
+  for (std::size_t i = 0; i < std::size(kFlagColumns); ++i)
+    h5_->append(std::string("/beads/") + kFlagColumns[i], flag_columns(t)[i]->data(), n);
 }
 
 void TrackFileWriter::set_attribute(const std::string& name, std::int64_t value) {
@@ -133,21 +142,14 @@ core::TrackedBeads read_track_file(const std::filesystem::path& path, std::strin
       throw InputError(fmt::format("{}: dataset \"/beads/{}\" holds {} rows; \"/beads/track_id\" {}",
                                    path.string(), name, size, n));
   };
-  for (int i = 0; i < 3; ++i) {
-    auto a = h5.read<std::int64_t>(std::string("/beads/") + kInt64Columns[i]);
-    check_length(kInt64Columns[i], a.data.size());
-    (i == 0 ? t.track_id : i == 1 ? t.frame_a : t.frame_b) = std::move(a.data);
-  }
-  for (int i = 0; i < 7; ++i) {
-    auto a = h5.read<double>(std::string("/beads/") + kDoubleColumns[i]);
-    check_length(kDoubleColumns[i], a.data.size());
-    double_column(t, i) = std::move(a.data);
-  }
-  for (const char* c : kFlagColumns) {
-    auto a = h5.read<std::uint8_t>(std::string("/beads/") + c);
-    check_length(c, a.data.size());
-    (std::string(c) == "tracked" ? t.tracked : t.linked) = std::move(a.data);
-  }
+  auto read = [&](const char* name, auto* column) {
+    auto a = h5.read<typename std::remove_pointer_t<decltype(column)>::value_type>(std::string("/beads/") + name);
+    check_length(name, a.data.size());
+    *column = std::move(a.data);
+  };
+  for (std::size_t i = 0; i < std::size(kInt64Columns); ++i) read(kInt64Columns[i], int64_columns(t)[i]);
+  for (std::size_t i = 0; i < std::size(kDoubleColumns); ++i) read(kDoubleColumns[i], double_columns(t)[i]);
+  for (std::size_t i = 0; i < std::size(kFlagColumns); ++i) read(kFlagColumns[i], flag_columns(t)[i]);
   if (options) *options = h5.has_attribute("/", "options") ? h5.attribute_string("/", "options") : std::string();
   return t;
 }
