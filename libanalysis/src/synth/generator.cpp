@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numbers>
 #include <random>
 
@@ -10,6 +9,7 @@
 
 #include "shearzone/core/check.hpp"
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/point_cells.hpp"
 #include "shearzone/io/csv.hpp"
 
 namespace shearzone::synth {
@@ -397,24 +397,16 @@ TracedPair traced_pair(const SynthOptions& options) {
 std::vector<long> tracer_under(const std::vector<double>& tx, const std::vector<double>& ty,
                                const std::vector<double>& x, const std::vector<double>& y, double radius) {
   const double cell = 2 * radius;
-  auto key = [&](double v) { return static_cast<long>(std::floor(v / cell)); };
-  std::map<std::pair<long, long>, std::vector<long>> cells;
-  for (std::size_t t = 0; t < tx.size(); ++t) cells[{key(tx[t]), key(ty[t])}].push_back(static_cast<long>(t));
+  const core::PointCells cells(tx, ty, cell);
   std::vector<long> out(x.size(), -1);
   for (std::size_t k = 0; k < x.size(); ++k) {
     double best = radius * radius;
     int near = 0;
-    for (long di = -1; di <= 1; ++di)
-      for (long dj = -1; dj <= 1; ++dj) {
-        const auto it = cells.find({key(x[k]) + dj, key(y[k]) + di});
-        if (it == cells.end()) continue;
-        for (long t : it->second) {
-          const auto u = static_cast<std::size_t>(t);
-          const double d2 = (tx[u] - x[k]) * (tx[u] - x[k]) + (ty[u] - y[k]) * (ty[u] - y[k]);
-          near += d2 < cell * cell;
-          if (d2 < best) best = d2, out[k] = t;
-        }
-      }
+    cells.near(x[k], y[k], [&](std::size_t t) {
+      const double d2 = (tx[t] - x[k]) * (tx[t] - x[k]) + (ty[t] - y[k]) * (ty[t] - y[k]);
+      near += d2 < cell * cell;
+      if (d2 < best) best = d2, out[k] = static_cast<long>(t);
+    });
     if (near > 1) out[k] = -1;
   }
   return out;

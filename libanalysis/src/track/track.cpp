@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <numeric>
 
 #include <fmt/format.h>
@@ -12,6 +11,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/point_cells.hpp"
 
 namespace shearzone::track {
 namespace {
@@ -318,34 +318,22 @@ core::TrackedBeads Linker::link(const PairBeads& beads, std::int64_t frame_a, st
     t.v_px[k] = beads.ok[k] ? beads.v_px[k] : std::numeric_limits<double>::quiet_NaN();
   }
   if (frame_a == prev_frame_b_) linkable_ += n;
-  if (frame_a == prev_frame_b_ && !ends_.empty() && n > 0) {
-    // Nearest within the gate, both ways, by a hash of cells one gate wide.
-    const double cell = std::max(gate_px_, 1.0);
-    auto key = [&](double x, double y) {
-      return std::pair<std::int64_t, std::int64_t>{static_cast<std::int64_t>(std::floor(x / cell)),
-                                                   static_cast<std::int64_t>(std::floor(y / cell))};
-    };
-    std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::size_t>> cells;
-    for (std::size_t e = 0; e < ends_.size(); ++e) cells[key(ends_[e].x, ends_[e].y)].push_back(e);
+  if (frame_a == prev_frame_b_ && !end_x_.empty() && n > 0) {
+    // Nearest within the gate, both ways, by cells one gate wide.
+    const core::PointCells cells(end_x_, end_y_, std::max(gate_px_, 1.0));
+    const std::size_t ne = end_x_.size();
     const double gate2 = gate_px_ * gate_px_;
-    std::vector<std::size_t> best_end(n, ends_.size());
-    std::vector<double> best_end_d2(n, gate2), end_best_d2(ends_.size(), gate2);
-    std::vector<std::size_t> end_best(ends_.size(), n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const auto [cx, cy] = key(t.x_px[k], t.y_px[k]);
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dx = -1; dx <= 1; ++dx) {
-          const auto it = cells.find({cx + dx, cy + dy});
-          if (it == cells.end()) continue;
-          for (std::size_t e : it->second) {
-            const double d2 = std::pow(ends_[e].x - t.x_px[k], 2) + std::pow(ends_[e].y - t.y_px[k], 2);
-            if (d2 <= best_end_d2[k] && (d2 < best_end_d2[k] || e < best_end[k])) best_end_d2[k] = d2, best_end[k] = e;
-            if (d2 <= end_best_d2[e] && (d2 < end_best_d2[e] || k < end_best[e])) end_best_d2[e] = d2, end_best[e] = k;
-          }
-        }
-    }
+    std::vector<std::size_t> best_end(n, ne);
+    std::vector<double> best_end_d2(n, gate2), end_best_d2(ne, gate2);
+    std::vector<std::size_t> end_best(ne, n);
     for (std::size_t k = 0; k < n; ++k)
-      if (best_end[k] < ends_.size() && end_best[best_end[k]] == k) {
+      cells.near(t.x_px[k], t.y_px[k], [&](std::size_t e) {
+        const double d2 = std::pow(end_x_[e] - t.x_px[k], 2) + std::pow(end_y_[e] - t.y_px[k], 2);
+        if (d2 <= best_end_d2[k] && (d2 < best_end_d2[k] || e < best_end[k])) best_end_d2[k] = d2, best_end[k] = e;
+        if (d2 <= end_best_d2[e] && (d2 < end_best_d2[e] || k < end_best[e])) end_best_d2[e] = d2, end_best[e] = k;
+      });
+    for (std::size_t k = 0; k < n; ++k)
+      if (best_end[k] < ne && end_best[best_end[k]] == k) {
         t.track_id[k] = end_ids_[best_end[k]];
         t.linked[k] = 1;
         ++linked_;
@@ -354,11 +342,13 @@ core::TrackedBeads Linker::link(const PairBeads& beads, std::int64_t frame_a, st
   for (std::size_t k = 0; k < n; ++k)
     if (t.track_id[k] < 0) t.track_id[k] = next_id_++;
   // Where this pair's tracked beads end: the next pair's frame a, if it is this frame b.
-  ends_.clear();
+  end_x_.clear();
+  end_y_.clear();
   end_ids_.clear();
   for (std::size_t k = 0; k < n; ++k)
     if (beads.ok[k]) {
-      ends_.emplace_back(beads.x_px[k] + beads.u_px[k], beads.y_px[k] + beads.v_px[k]);
+      end_x_.push_back(beads.x_px[k] + beads.u_px[k]);
+      end_y_.push_back(beads.y_px[k] + beads.v_px[k]);
       end_ids_.push_back(t.track_id[k]);
     }
   prev_frame_b_ = frame_b;

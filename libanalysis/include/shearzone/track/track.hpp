@@ -107,7 +107,7 @@ class Linker {
  private:
   double gate_px_;
   std::int64_t prev_frame_b_ = -1;
-  std::vector<cv::Point2d> ends_;        // where the previous pair's tracked beads ended
+  std::vector<double> end_x_, end_y_;    // where the previous pair's tracked beads ended
   std::vector<std::int64_t> end_ids_;    // their tracks
   std::int64_t next_id_ = 0;
   std::size_t linkable_ = 0, linked_ = 0;
