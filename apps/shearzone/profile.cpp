@@ -79,7 +79,7 @@ std::vector<Subcommand> add_profile(CLI::App& root, Context& ctx) {
   auto& j = s->job;
   CLI::App* c = root.add_subcommand(
       "profile", "Radial velocity profile v(r) of PIV fields (HDF5 clip or CSV pair) -> CSV");
-  c->add_option("input", s->input, "Fields: .h5 from `shearzone piv`, or a single-pair .csv")
+  c->add_option("input", s->input, "Fields: .h5 from `shearzone piv`, a single-pair .csv, or the tracks .h5 of `piv --method track --tracks` (a vector per bead)")
       ->required();
   c->add_option("-o,--output", s->output, "Profile CSV (a <stem>_groups.csv is written beside it)");
   c->add_option("--config", s->config, "TOML file setting any of these options by long name");

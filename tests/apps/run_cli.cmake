@@ -3,10 +3,11 @@
 #   cmake -DEXE=... -DARGS="a;b;c" -DWORKDIR=... -DEXPECT_CODE=N
 #         [-DEXPECT_STDERR=regex] [-DEXPECT_STDOUT=regex]
 #         [-DEXPECT_ABSENT=path;...] [-DEXPECT_PRESENT=path;...]
-#         [-DSETUP_FILE=path -DSETUP_TEXT=text] [-DSETUP_ARGS=a|b|c]
+#         [-DSETUP_FILE=path -DSETUP_TEXT=text] [-DSETUP_ARGS=a|b|c] [-DSETUP_ARGS2=a|b|c]
 #         [-DEXPECT_FILE=path -DEXPECT_FILE_REGEX=regex] [-DEXPECT_SAME_STDOUT=regex] -P run_cli.cmake
 #
-# SETUP_ARGS runs the same executable once before the test (e.g. to render inputs).
+# SETUP_ARGS runs the same executable once before the test (e.g. to render inputs);
+# SETUP_ARGS2, when given, a second time after it (e.g. to measure what it rendered).
 # EXPECT_FILE_REGEX must match the text of EXPECT_FILE (relative to WORKDIR) after the run.
 # EXPECT_SAME_STDOUT: the first match of the regex in the test's stdout must exist and be
 # the same as in the SETUP_ARGS run's stdout (e.g. two runs print the same state hash).
@@ -29,6 +30,15 @@ if(DEFINED SETUP_ARGS)
                   RESULT_VARIABLE setup_code OUTPUT_VARIABLE setup_out ERROR_VARIABLE setup_err)
   if(NOT setup_code EQUAL 0)
     message(FATAL_ERROR "setup command failed (${setup_code}): ${setup_err}")
+  endif()
+endif()
+
+if(DEFINED SETUP_ARGS2)
+  string(REPLACE "|" ";" SETUP_ARGS2 "${SETUP_ARGS2}")
+  execute_process(COMMAND "${EXE}" ${SETUP_ARGS2} WORKING_DIRECTORY "${WORKDIR}"
+                  RESULT_VARIABLE setup_code ERROR_VARIABLE setup_err OUTPUT_QUIET)
+  if(NOT setup_code EQUAL 0)
+    message(FATAL_ERROR "second setup command failed (${setup_code}): ${setup_err}")
   endif()
 endif()
 

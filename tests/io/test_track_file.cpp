@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/unset.hpp"
 #include "shearzone/io/hdf5.hpp"
 #include "shearzone/io/track_file.hpp"
 #include "support/temp_dir.hpp"
@@ -100,4 +101,78 @@ TEST_CASE("tracks file: a corrupt heap that declares 16 GB is refused, not alloc
   const auto path = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "regressions" / "h5_tracks_local_heap_16gb.h5";
   CHECK_THROWS_WITH(io::read_track_file(path), Contains("h5_tracks_local_heap_16gb.h5") &&
                                                    Contains("local heap at byte 1384 declares 17179869360 bytes"));
+}
+
+TEST_CASE("tracks file: an unfiltered chunk shorter than its chunk is refused, not read past its end", "[io][tracks]") {
+  // Found by fuzz_track_h5: the deflate message of /beads/t_a_s lost, its 187-byte chunk
+  // was copied as the 32 kB chunk it declares (a heap overflow inside HDF5 1.10).
+  const auto path = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "regressions" / "h5_tracks_chunk_short.h5";
+  CHECK_THROWS_WITH(io::read_track_file(path), Contains("h5_tracks_chunk_short.h5") && Contains("/beads/t_a_s") &&
+                                                   Contains("holds 187 bytes, 32768 expected"));
+}
+
+TEST_CASE("tracks file: a chunk shape of 128 MiB is refused before HDF5 allocates it", "[io][tracks]") {
+  // The CI fuzz run's out-of-memory: HDF5 allocates and fills a whole chunk however few
+  // rows the dataset has. Made with h5py from synth_beads_16px.h5, /beads/t_a_s
+  // rewritten with chunks of 2^24 doubles (deflated to 130 kB).
+  const auto path = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "regressions" / "h5_tracks_chunk_128mib.h5";
+  CHECK_THROWS_WITH(io::read_track_file(path), Contains("h5_tracks_chunk_128mib.h5") && Contains("/beads/t_a_s") &&
+                                                   Contains("chunks of 128 MiB, above 64 MiB"));
+}
+
+TEST_CASE("tracks file as pairs for profile: a pair per frame_a, tracked beads at their midpoints", "[io][tracks]") {
+  testing::TempDir dir("tracks_pairs");
+  const auto path = dir / "tracks.h5";
+  {
+    io::TrackFileWriter w(path, {{"pair_method", "track"}});
+    w.set_attribute("m_per_px", 2e-4);
+    w.append(rows(0, 0, 3));
+    w.append(core::TrackedBeads{});  // no row: not a pair of the file
+    w.append(rows(0, 2, 4));
+    w.close();
+  }
+  const auto pairs = io::open_pair_file(path, core::kUnset);
+  REQUIRE(pairs->beads());
+  REQUIRE(pairs->size() == 2);
+  CHECK(pairs->attribute("m_per_px") == 2e-4);
+  core::PointVectors p;
+  double t_a = 0, dt = 0;
+  pairs->read_points(1, p, t_a, dt);
+  REQUIRE(p.size() == 4);
+  CHECK(t_a == 0.08);
+  CHECK(dt == 0.04);
+  // Bead 0 tracked: (10.25, 20.5) + (0.125, -0.5) / 2; bead 1 not: invalid at its centre.
+  CHECK(p.x_px[0] == 10.3125);
+  CHECK(p.y_px[0] == 20.25);
+  CHECK(p.u_px[0] == 0.125);
+  CHECK(p.flag[0] == core::VectorFlag::kValid);
+  CHECK(p.x_px[1] == 11.25);
+  CHECK(p.flag[1] == core::VectorFlag::kInvalid);
+}
+
+TEST_CASE("tracks file as pairs: rows out of time order or a tracked bead without a value are refused",
+          "[io][tracks]") {
+  testing::TempDir dir("tracks_pairs_bad");
+  const auto path = dir / "tracks.h5";
+  {
+    io::TrackFileWriter w(path, {});
+    w.append(rows(0, 5, 2));
+    w.append(rows(2, 3, 2));
+    w.close();
+  }
+  CHECK_THROWS_WITH(io::open_pair_file(path, core::kUnset),
+                    Contains("tracks.h5") && Contains("/beads row 2: frame_a 3 after 5"));
+  const auto nan_path = dir / "nan.h5";
+  {
+    core::TrackedBeads t = rows(0, 0, 2);
+    t.tracked[1] = 1;  // its displacement is NaN
+    io::TrackFileWriter w(nan_path, {});
+    w.append(t);
+    w.close();
+  }
+  const auto pairs = io::open_pair_file(nan_path, core::kUnset);
+  core::PointVectors p;
+  double t_a = 0, dt = 0;
+  CHECK_THROWS_WITH(pairs->read_points(0, p, t_a, dt),
+                    Contains("nan.h5") && Contains("/beads row 1") && Contains("needs a finite centre and displacement"));
 }

@@ -64,23 +64,8 @@ class H5Reader final : public FieldReader {
     t_a = t_a_[k];
     dt = dt_[k];
   }
-  double attribute(const std::string& name) const override {
-    if (!h5_.has_attribute("/", name)) return core::kUnset;
-    try {
-      return h5_.attribute_double("/", name);
-    } catch (const InputError&) {
-      double v = 0;
-      return parse_number(h5_.attribute_string("/", name), false, v) ? v : core::kUnset;
-    }
-  }
-  std::string text_attribute(const std::string& name) const override {
-    if (!h5_.has_attribute("/", name)) return {};
-    try {
-      return h5_.attribute_string("/", name);
-    } catch (const InputError&) {
-      return format_number(h5_.attribute_double("/", name));
-    }
-  }
+  double attribute(const std::string& name) const override { return h5_.root_number(name); }
+  std::string text_attribute(const std::string& name) const override { return h5_.root_text(name); }
 
  private:
   H5File h5_;
@@ -210,6 +195,11 @@ void FieldFileWriter::set_attribute(const std::string& name, const std::string& 
 }
 void FieldFileWriter::close() {
   if (h5_) h5_->close();
+}
+
+void FieldReader::read_points(std::size_t k, core::PointVectors& points, double& t_a_s, double& dt_s) {
+  read(k, grid_, t_a_s, dt_s);
+  core::to_points(grid_, points);
 }
 
 std::unique_ptr<FieldReader> open_field_file(const std::filesystem::path& path, double csv_dt_s) {

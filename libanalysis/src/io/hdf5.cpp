@@ -5,17 +5,20 @@
 
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <vector>
 #include <mutex>
 
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/io/csv.hpp"
 
 static_assert(sizeof(hid_t) == sizeof(std::int64_t), "hid_t is expected to be 64-bit");
 
@@ -335,6 +338,51 @@ std::size_t memory_budget_bytes() {
   return std::size_t{1} << 30;
 }
 
+namespace {
+
+void check_raw_chunks(const std::string& path, const std::string& dataset, hid_t dset, hid_t dcpl, hid_t space,
+                      const hsize_t* chunk, int rank, double chunk_bytes) {
+  // A chunk stored unfiltered (no filters, or every filter skipped in its mask) is
+  // copied as is: it must hold a whole chunk, or HDF5 1.10 reads past its end (a
+  // 187-byte chunk of 32 kB, its deflate message lost; found by fuzz_track_h5).
+  const int nfilters = H5Pget_nfilters(dcpl);
+  const unsigned all_skipped = nfilters >= 32 ? ~0u : (1u << static_cast<unsigned>(std::max(nfilters, 0))) - 1u;
+  std::array<hsize_t, H5S_MAX_RANK> extent{}, at{};
+  if (H5Sget_simple_extent_dims(space, extent.data(), nullptr) != rank) return;
+  hsize_t nchunks = 0;
+  if (H5Dget_num_chunks(dset, space, &nchunks) < 0 || nchunks == 0) return;
+  constexpr double kMaxGrid = 1 << 20;  // chunk positions looked up, one B-tree search each
+  double grid = 1;
+  for (int k = 0; k < rank; ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    if (chunk[i] == 0) return;
+    grid *= std::ceil(static_cast<double>(extent[i]) / static_cast<double>(chunk[i]));
+  }
+  if (grid > kMaxGrid)
+    fail(path, fmt::format("dataset \"{}\" spans {:.3g} chunks, above {:.3g}: a damaged file", dataset, grid,
+                            kMaxGrid));
+  while (true) {
+    unsigned mask = 0;
+    haddr_t addr = HADDR_UNDEF;
+    hsize_t size = 0;
+    if (H5Dget_chunk_info_by_coord(dset, at.data(), &mask, &addr, &size) >= 0 && addr != HADDR_UNDEF &&
+        (nfilters == 0 || (mask & all_skipped) == all_skipped) && static_cast<double>(size) != chunk_bytes)
+      fail(path, fmt::format("dataset \"{}\": a chunk stored unfiltered holds {} bytes, {:.0f} expected: a "
+                              "damaged file",
+                              dataset, size, chunk_bytes));
+    int k = rank - 1;  // the next chunk position, last dimension fastest
+    for (; k >= 0; --k) {
+      const auto i = static_cast<std::size_t>(k);
+      at[i] += chunk[i];
+      if (at[i] < extent[i]) break;
+      at[i] = 0;
+    }
+    if (k < 0) return;
+  }
+}
+
+}  // namespace
+
 void H5File::check_declared(const std::string& dataset) const {
   if (!exists(dataset)) fail(path_, fmt::format("dataset \"{}\": not found", dataset));
   Handle dset(H5Dopen2(id_, dataset.c_str(), H5P_DEFAULT));
@@ -352,6 +400,28 @@ void H5File::check_declared(const std::string& dataset) const {
                             dataset, n, declared / 1048576.0, budget / 1048576.0));
   constexpr double kMaxCompression = 4000.0;  // deflate cannot exceed ~1032:1, even on zeros
   const double stored = static_cast<double>(H5Dget_storage_size(dset.get()));
+  // The layout: HDF5 1.10 trusts it. A compact dataset whose stored bytes are fewer
+  // than its dataspace needs is read past its end (found by fuzz_track_h5), and a
+  // chunk is allocated (and filled) whole however small the extent: a forged chunk
+  // shape of a few GiB in a 40 kB file exhausted memory (also fuzz_track_h5).
+  Handle dcpl(H5Dget_create_plist(dset.get()));
+  const H5D_layout_t layout = dcpl.ok() ? H5Pget_layout(dcpl.get()) : H5D_LAYOUT_ERROR;
+  if (layout == H5D_COMPACT && stored < declared)
+    fail(path_, fmt::format("dataset \"{}\" declares {} values ({:.0f} bytes) but stores {:.0f} bytes: a "
+                            "damaged file",
+                            dataset, n, declared, stored));
+  if (layout == H5D_CHUNKED) {
+    constexpr double kMaxChunkBytes = 64.0 * 1048576.0;  // the writers' chunks are below 1 MiB
+    std::array<hsize_t, H5S_MAX_RANK> chunk{};
+    const int rank = H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk.data());
+    double bytes = static_cast<double>(std::max<std::size_t>(elem, 1));
+    for (int k = 0; k < rank; ++k) bytes *= static_cast<double>(chunk[static_cast<std::size_t>(k)]);
+    if (rank <= 0 || bytes > kMaxChunkBytes)
+      fail(path_, fmt::format("dataset \"{}\" declares chunks of {:.3g} MiB, above {:.0f} MiB: a damaged "
+                              "file",
+                              dataset, bytes / 1048576.0, kMaxChunkBytes / 1048576.0));
+    check_raw_chunks(path_, dataset, dset.get(), dcpl.get(), space.get(), chunk.data(), rank, bytes);
+  }
   if (declared > 16.0 * 1048576.0 && stored * kMaxCompression < declared)
     fail(path_, fmt::format("dataset \"{}\" declares {} values ({:.3g} MiB) but the file stores {:.0f} bytes "
                             "of it: a damaged or unfinished file",
@@ -506,6 +576,25 @@ hid_t open_attribute(hid_t file, const std::string& path, const std::string& obj
 }
 
 }  // namespace
+
+double H5File::root_number(const std::string& name) const {
+  if (!has_attribute("/", name)) return std::numeric_limits<double>::quiet_NaN();
+  try {
+    return attribute_double("/", name);
+  } catch (const InputError&) {
+    double v = 0;
+    return parse_number(attribute_string("/", name), false, v) ? v : std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+std::string H5File::root_text(const std::string& name) const {
+  if (!has_attribute("/", name)) return {};
+  try {
+    return attribute_string("/", name);
+  } catch (const InputError&) {
+    return format_number(attribute_double("/", name));
+  }
+}
 
 std::string H5File::attribute_string(const std::string& object, const std::string& name) const {
   Handle attr(open_attribute(id_, path_, object, name));

@@ -132,8 +132,10 @@ void TrackFileWriter::close() {
   h5_->close();
 }
 
-core::TrackedBeads read_track_file(const std::filesystem::path& path, std::string* options) {
-  const H5File h5 = H5File::open_read(path);
+namespace {
+
+/// Every column of /beads, checked for equal lengths.
+core::TrackedBeads read_beads(const H5File& h5, const std::filesystem::path& path) {
   core::TrackedBeads t;
   std::size_t n = std::numeric_limits<std::size_t>::max();
   auto check_length = [&](const char* name, std::size_t size) {
@@ -150,8 +152,84 @@ core::TrackedBeads read_track_file(const std::filesystem::path& path, std::strin
   for (std::size_t i = 0; i < std::size(kInt64Columns); ++i) read(kInt64Columns[i], int64_columns(t)[i]);
   for (std::size_t i = 0; i < std::size(kDoubleColumns); ++i) read(kDoubleColumns[i], double_columns(t)[i]);
   for (std::size_t i = 0; i < std::size(kFlagColumns); ++i) read(kFlagColumns[i], flag_columns(t)[i]);
+  return t;
+}
+
+/// A tracks file's pairs (rows of one frame_a, in the order written), each tracked
+/// bead a vector at the midpoint of its displacement.
+class TrackPairReader final : public PairReader {
+ public:
+  explicit TrackPairReader(const std::filesystem::path& path)
+      : h5_(H5File::open_read(path)), path_(path), beads_(read_beads(h5_, path)) {
+    const std::size_t n = beads_.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      if (k > 0 && beads_.frame_a[k] == beads_.frame_a[k - 1]) {
+        if (beads_.dt_s[k] != beads_.dt_s[k - 1] || beads_.t_a_s[k] != beads_.t_a_s[k - 1])
+          throw InputError(fmt::format("{}: /beads row {}: t_a_s {}, dt_s {} differ from the row before in the same "
+                                       "pair (frame_a {})",
+                                       path.string(), k, format_number(beads_.t_a_s[k]),
+                                       format_number(beads_.dt_s[k]), beads_.frame_a[k]));
+        continue;
+      }
+      if (k > 0 && beads_.frame_a[k] < beads_.frame_a[k - 1])
+        throw InputError(fmt::format("{}: /beads row {}: frame_a {} after {}: expected the pairs in time order",
+                                     path.string(), k, beads_.frame_a[k], beads_.frame_a[k - 1]));
+      starts_.push_back(k);
+    }
+    starts_.push_back(n);
+  }
+  std::size_t size() const override { return starts_.size() - 1; }
+  void read_points(std::size_t k, core::PointVectors& p, double& t_a, double& dt) override {
+    p.clear();
+    const std::size_t begin = starts_[k], end = starts_[k + 1];
+    for (std::size_t r = begin; r < end; ++r) {
+      const double x = beads_.x_px[r], y = beads_.y_px[r], u = beads_.u_px[r], v = beads_.v_px[r];
+      if (beads_.tracked[r] > 1)
+        throw InputError(fmt::format("{}: /beads/tracked[{}] = {}: expected 0 or 1", path_.string(), r,
+                                     static_cast<int>(beads_.tracked[r])));
+      if (beads_.tracked[r] == 0) {
+        p.push_back(x, y, 0.0, 0.0, core::VectorFlag::kInvalid);
+        continue;
+      }
+      if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(u) && std::isfinite(v)))
+        throw InputError(fmt::format("{}: /beads row {}: x_px {}, y_px {}, u_px {}, v_px {}: a tracked bead needs "
+                                     "a finite centre and displacement",
+                                     path_.string(), r, x, y, u, v));
+      p.push_back(x + 0.5 * u, y + 0.5 * v, u, v, core::VectorFlag::kValid);
+    }
+    t_a = beads_.t_a_s[begin];
+    dt = beads_.dt_s[begin];
+  }
+  double attribute(const std::string& name) const override { return h5_.root_number(name); }
+  std::string text_attribute(const std::string& name) const override { return h5_.root_text(name); }
+  bool beads() const override { return true; }
+
+ private:
+  H5File h5_;
+  std::filesystem::path path_;
+  core::TrackedBeads beads_;
+  std::vector<std::size_t> starts_;  // first row of each pair, then the row count
+};
+
+}  // namespace
+
+core::TrackedBeads read_track_file(const std::filesystem::path& path, std::string* options) {
+  const H5File h5 = H5File::open_read(path);
+  core::TrackedBeads t = read_beads(h5, path);
   if (options) *options = h5.has_attribute("/", "options") ? h5.attribute_string("/", "options") : std::string();
   return t;
+}
+
+std::unique_ptr<PairReader> open_pair_file(const std::filesystem::path& path, double csv_dt_s) {
+  if (!is_field_csv(path)) {
+    bool tracks = false;
+    {
+      const H5File h5 = H5File::open_read(path);
+      tracks = h5.exists("/beads/track_id");
+    }
+    if (tracks) return std::make_unique<TrackPairReader>(path);
+  }
+  return open_field_file(path, csv_dt_s);
 }
 
 }  // namespace shearzone::io

@@ -12,13 +12,14 @@
 #include "shearzone/core/sine_fit.hpp"
 #include "shearzone/core/stats.hpp"
 #include "shearzone/core/unset.hpp"
-#include "shearzone/core/vector_field.hpp"
+#include "shearzone/core/point_vectors.hpp"
 #include "shearzone/io/angle_log.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/io/field_file.hpp"
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/profile_csv.hpp"
+#include "shearzone/io/track_file.hpp"
 #include "shearzone/profile/geometry.hpp"
 #include "shearzone/profile/radial_profile.hpp"
 #include "shearzone/profile/width.hpp"
@@ -33,13 +34,14 @@ static_assert(profile::PairSeries::kNoCycle == io::ProfileGroupRow::kNoCycle);
 using io::format_number;
 bool set(double v) { return !std::isnan(v); }
 
-/// The pairs of a field file (io/field_file.hpp); a CSV pair needs its time step.
-std::unique_ptr<io::FieldReader> open_fields(const std::filesystem::path& path, double dt_s) {
+/// The pairs of a field file (io/field_file.hpp) or a tracks file (io/track_file.hpp);
+/// a CSV pair needs its time step.
+std::unique_ptr<io::PairReader> open_pairs(const std::filesystem::path& path, double dt_s) {
   if (io::is_field_csv(path) && !set(dt_s))
     throw ConfigError(fmt::format("{}: a CSV field holds one pair without its time step: give "
                                   "--dt-s (pair spacing / fps)",
                                   path.string()));
-  return io::open_field_file(path, dt_s);
+  return io::open_pair_file(path, dt_s);
 }
 
 /// The drive's sinusoid in an angle log: phi(t) = c + amplitude sin(2 pi f (t - t0)).
@@ -85,11 +87,16 @@ cv::Mat first_frame(const std::string& path) {
 /// for fields piv did not write): the footprint each velocity is a mean over
 /// (profile::piv_footprint_var_m2) and piv's displacement bias bound over the pair's
 /// time step (profile::piv_velocity_bias_bound).
-void add_velocity_bounds(core::Metadata& meta, const io::FieldReader& src, double m_per_px, double dt_s) {
+void add_velocity_bounds(core::Metadata& meta, const io::PairReader& src, double m_per_px, double dt_s) {
   const double cell = src.attribute("track_cell_px");
   const double W = src.attribute("piv_final_window_px");
-  const bool tracked = set(cell) && cell > 0 && cell < 1e5;
-  if (tracked) {
+  const bool tracked = src.beads() || (set(cell) && cell > 0 && cell < 1e5);
+  if (src.beads()) {
+    // Each vector one bead, at the midpoint of its displacement: nothing is averaged.
+    meta.emplace_back("velocity_footprint_var_m2", "0");
+    meta.emplace_back("velocity_footprint", "0: tracked beads from a tracks file, each vector one bead at the "
+                                            "midpoint of its displacement");
+  } else if (tracked) {
     // Tracked beads: each vector the mean of the bead centres in its cell (no texture term).
     meta.emplace_back("velocity_footprint_var_m2", format_number(profile::piv_footprint_var_m2(cell, 0.0, m_per_px)));
     meta.emplace_back("velocity_footprint",
@@ -157,7 +164,7 @@ struct CupInImage {
 };
 
 /// Geometry: given > the rim detected in a frame > the field file's attributes.
-CupInImage find_geometry(const ProfileJobOptions& o, const io::FieldReader& src, ProfileJobSummary& sum) {
+CupInImage find_geometry(const ProfileJobOptions& o, const io::PairReader& src, ProfileJobSummary& sum) {
   CupInImage g{o.centre_x_px, o.centre_y_px, o.cup_radius_px, o.vane_radius_px};
   sum.geometry_source = "given";
   if (!o.detect_cup_frame.empty() && (!set(g.cx) || !set(g.R_px))) {
@@ -189,7 +196,7 @@ CupInImage find_geometry(const ProfileJobOptions& o, const io::FieldReader& src,
 
 /// The scale: every source there is, then one of them (see ProfileJobOptions); a cup
 /// radius still unknown in px then comes from --cup-radius-m.
-double find_scale(const ProfileJobOptions& o, const io::FieldReader& src, CupInImage& g, ProfileJobSummary& sum) {
+double find_scale(const ProfileJobOptions& o, const io::PairReader& src, CupInImage& g, ProfileJobSummary& sum) {
   struct ScaleSource {
     const char* name;
     double m_per_px;
@@ -282,7 +289,7 @@ profile::ProfileOptions profile_options(const ProfileJobOptions& o, const CupInI
 struct Drive {
   double f = core::kUnset, t0 = 0.0;
 };
-Drive find_drive(const ProfileJobOptions& o, const io::FieldReader& src, ProfileJobSummary& sum) {
+Drive find_drive(const ProfileJobOptions& o, const io::PairReader& src, ProfileJobSummary& sum) {
   Drive dr;
   dr.f = set(o.f_Hz) ? o.f_Hz : src.attribute("f_Hz");
   const double f = dr.f;
@@ -329,19 +336,19 @@ struct Accumulated {
   double dt_median = 0.0;
   int lockin_harmonics = 0;
 };
-Accumulated accumulate_pairs(const ProfileJobOptions& o, io::FieldReader& src, const profile::ProfileOptions& po,
+Accumulated accumulate_pairs(const ProfileJobOptions& o, io::PairReader& src, const profile::ProfileOptions& po,
                              const Drive& dr, ProfileJobSummary& sum, const core::ProgressCallback& progress) {
   const double f = dr.f;
   const int nphase = std::max(1, o.phase_bins);
   Accumulated a;
   a.phase_width_deg = (o.phase_max_deg - o.phase_min_deg) / nphase;
   a.accs.assign(static_cast<std::size_t>(nphase), profile::ProfileAccumulator(po));
-  core::VectorField field;
+  core::PointVectors points;
   std::vector<double> dts;
   const std::size_t n = src.size();
   for (std::size_t k = 0; k < n; ++k) {
     double t_a = 0, dt = 0;
-    src.read(k, field, t_a, dt);
+    src.read_points(k, points, t_a, dt);
     ++sum.pairs_read;
     int cycle = profile::PairSeries::kNoCycle;
     double phase = core::kUnset;
@@ -359,7 +366,7 @@ Accumulated accumulate_pairs(const ProfileJobOptions& o, io::FieldReader& src, c
     if (!(dt > 0))
       throw InputError(fmt::format("{}: pair {}: dt_s = {}: expected a positive time step",
                                    o.input.string(), k, dt));
-    a.accs[ph].add(field, dt, cycle, phase, f > 0 ? f * dt : 0.0);
+    a.accs[ph].add(points, dt, cycle, phase, f > 0 ? f * dt : 0.0);
     dts.push_back(dt);
     ++sum.pairs_used;
     if (progress) progress(k + 1, n);
@@ -392,21 +399,21 @@ struct NoiseFloor {
                                 : acc.finish_with_region_noise(region_lo_m, region_hi_m);
   }
 };
-NoiseFloor noise_floor(const ProfileJobOptions& o, const io::FieldReader& src, const profile::ProfileOptions& po,
+NoiseFloor noise_floor(const ProfileJobOptions& o, const io::PairReader& src, const profile::ProfileOptions& po,
                        double m_per_px, double dt_median) {
   NoiseFloor nf;
   nf.region_lo_m = set(o.noise_min_m) ? o.noise_min_m : po.r_max_m - 0.15 * (po.r_max_m - po.r_min_m);
   nf.region_hi_m = set(o.noise_max_m) ? o.noise_max_m : po.r_max_m;
   if (!o.noise_ref.empty()) {
-    auto ref = open_fields(o.noise_ref, o.dt_s);
+    auto ref = open_pairs(o.noise_ref, o.dt_s);
     nf.reference = std::make_unique<profile::ProfileAccumulator>(po);
-    core::VectorField rf;
+    core::PointVectors rp;
     for (std::size_t k = 0; k < ref->size(); ++k) {
       double t_a = 0, dt = 0;
-      ref->read(k, rf, t_a, dt);
+      ref->read_points(k, rp, t_a, dt);
       // The reference is static: its displacements are noise in px per pair; convert
       // them with the time step of the measurement so that both floors compare.
-      nf.reference->add(rf, dt_median);
+      nf.reference->add(rp, dt_median);
     }
     nf.method = fmt::format("mean |v| per bin of the static reference {} ({} pairs)", o.noise_ref.string(),
                             ref->size());
@@ -429,12 +436,15 @@ NoiseFloor noise_floor(const ProfileJobOptions& o, const io::FieldReader& src, c
 }
 
 /// The header every phase bin's profile shares.
-core::Metadata profile_metadata(const ProfileJobOptions& o, const io::FieldReader& src, const core::Metadata& header,
+core::Metadata profile_metadata(const ProfileJobOptions& o, const io::PairReader& src, const core::Metadata& header,
                                 const ProfileJobSummary& sum, const profile::ProfileOptions& po, const Drive& dr,
                                 double dt_median, const std::string& noise_method) {
   const double f = dr.f;
   core::Metadata meta = header;
   meta.emplace_back("input", o.input.string());
+  meta.emplace_back("vectors", src.beads() ? "tracked beads: one vector per bead and pair, at the midpoint of its "
+                                             "displacement; a bead not tracked counts as invalid"
+                                           : "the field file's grid nodes");
   meta.emplace_back("geometry_source", sum.geometry_source);
   meta.emplace_back("centre_x_px", format_number(po.centre_x_px));
   meta.emplace_back("centre_y_px", format_number(po.centre_y_px));
@@ -580,7 +590,7 @@ std::vector<io::ProfileGroupRow> group_rows(const profile::RadialProfile& p) {
 ProfileJobSummary run_profile_job(const ProfileJobOptions& o, const core::Metadata& header,
                                   const core::ProgressCallback& progress) {
   o.validate();
-  auto src = open_fields(o.input, o.dt_s);
+  auto src = open_pairs(o.input, o.dt_s);
   ProfileJobSummary sum;
   CupInImage geometry = find_geometry(o, *src, sum);
   const double m_per_px = find_scale(o, *src, geometry, sum);

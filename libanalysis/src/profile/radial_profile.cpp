@@ -58,11 +58,19 @@ ProfileAccumulator::ProfileAccumulator(ProfileOptions options) : opt_(options) {
 }
 
 void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle, double phase, double span) {
-  if (!(std::isfinite(dt_s) && dt_s > 0))
-    throw InputError(fmt::format("profile: pair time step {} s: expected a positive number", dt_s));
   const std::size_t n = f.size();
   if (f.u_px.size() != n || f.v_px.size() != n || f.flag.size() != n)
     throw InputError("profile: field arrays do not match the grid");
+  core::to_points(f, points_);
+  add(points_, dt_s, cycle, phase, span);
+}
+
+void ProfileAccumulator::add(const core::PointVectors& p, double dt_s, int cycle, double phase, double span) {
+  if (!(std::isfinite(dt_s) && dt_s > 0))
+    throw InputError(fmt::format("profile: pair time step {} s: expected a positive number", dt_s));
+  const std::size_t n = p.size();
+  if (p.y_px.size() != n || p.u_px.size() != n || p.v_px.size() != n || p.flag.size() != n)
+    throw InputError("profile: point arrays differ in length");
   const std::size_t nb = bins_.size();
   pair_cycle_.push_back(cycle);
   pair_phase_.push_back(phase);
@@ -79,51 +87,49 @@ void ProfileAccumulator::add(const core::VectorField& f, double dt_s, int cycle,
     double n = 0, d = 0, dd = 0, v = 0, vv = 0, vd = 0;
   };
   std::vector<Moments> mom(nb);
-  for (std::size_t i = 0; i < f.ny(); ++i)
-    for (std::size_t j = 0; j < f.nx(); ++j) {
-      const double x = f.x_px[j], y = f.y_px[i];
-      const double r_m = std::hypot(x - opt_.centre_x_px, y - opt_.centre_y_px) * opt_.m_per_px;
-      if (r_m < opt_.r_min_m || r_m >= opt_.r_max_m) continue;
-      const auto b = static_cast<std::size_t>((r_m - opt_.r_min_m) / opt_.bin_m);
-      if (b >= bins_.size()) continue;
-      const std::size_t k = f.index(i, j);
-      const VectorFlag fl = f.flag[k];
-      if (fl == VectorFlag::kMasked) {
-        ++bins_[b].masked;
-        continue;
-      }
-      if (fl == VectorFlag::kInvalid || (opt_.exclude_replaced && fl == VectorFlag::kReplaced)) {
-        ++bins_[b].invalid;
-        continue;
-      }
-      if (fl == VectorFlag::kReplaced) ++replaced_used_;
-      const double u = f.u_px[k] * scale, v = f.v_px[k] * scale;
-      const auto pc = core::polar_from_cartesian(x, y, u, v, opt_.centre_x_px, opt_.centre_y_px);
-      const double a = std::hypot(u, v);
-      Sums& s = bins_[b];
-      s.s_abs += a;
-      s.s_abs2 += a * a;
-      s.s_theta += pc.v_theta;
-      s.s_r += pc.v_r;
-      const double dr = r_m - opt_.bin_centre_m(b);
-      s.s_dr += dr;
-      s.s_dr2 += dr * dr;
-      Moments& mo = mom[b];
-      mo.n += 1;
-      mo.d += dr;
-      mo.dd += dr * dr;
-      mo.v += pc.v_theta;
-      mo.vv += pc.v_theta * pc.v_theta;
-      mo.vd += pc.v_theta * dr;
-      ++s.n;
-      ps[b] += a;
-      pst[b] += pc.v_theta;
-      pn[b] += 1.0;
-      NoiseSums& ns = noise_by_bin_[b];
-      ns.s += pc.v_r;
-      ns.s2 += pc.v_r * pc.v_r;
-      ++ns.n;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double x = p.x_px[k], y = p.y_px[k];
+    const double r_m = std::hypot(x - opt_.centre_x_px, y - opt_.centre_y_px) * opt_.m_per_px;
+    if (!(r_m >= opt_.r_min_m && r_m < opt_.r_max_m)) continue;
+    const auto b = static_cast<std::size_t>((r_m - opt_.r_min_m) / opt_.bin_m);
+    if (b >= bins_.size()) continue;
+    const VectorFlag fl = p.flag[k];
+    if (fl == VectorFlag::kMasked) {
+      ++bins_[b].masked;
+      continue;
     }
+    if (fl == VectorFlag::kInvalid || (opt_.exclude_replaced && fl == VectorFlag::kReplaced)) {
+      ++bins_[b].invalid;
+      continue;
+    }
+    if (fl == VectorFlag::kReplaced) ++replaced_used_;
+    const double u = p.u_px[k] * scale, v = p.v_px[k] * scale;
+    const auto pc = core::polar_from_cartesian(x, y, u, v, opt_.centre_x_px, opt_.centre_y_px);
+    const double a = std::hypot(u, v);
+    Sums& s = bins_[b];
+    s.s_abs += a;
+    s.s_abs2 += a * a;
+    s.s_theta += pc.v_theta;
+    s.s_r += pc.v_r;
+    const double dr = r_m - opt_.bin_centre_m(b);
+    s.s_dr += dr;
+    s.s_dr2 += dr * dr;
+    Moments& mo = mom[b];
+    mo.n += 1;
+    mo.d += dr;
+    mo.dd += dr * dr;
+    mo.v += pc.v_theta;
+    mo.vv += pc.v_theta * pc.v_theta;
+    mo.vd += pc.v_theta * dr;
+    ++s.n;
+    ps[b] += a;
+    pst[b] += pc.v_theta;
+    pn[b] += 1.0;
+    NoiseSums& ns = noise_by_bin_[b];
+    ns.s += pc.v_r;
+    ns.s2 += pc.v_r * pc.v_r;
+    ++ns.n;
+  }
   // Residual sum of squares of v_theta about the pair's least-squares line in dr.
   for (std::size_t b = 0; b < nb; ++b) {
     const Moments& mo = mom[b];

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 
 #include <fmt/format.h>
@@ -27,6 +28,16 @@ int window_px(double d) { return std::max(7, 2 * static_cast<int>(std::lround(0.
 /// pixels of a wall or a vane in the window would pull the bead towards their motion),
 /// down to this half-width.
 constexpr int kMinHalfWindowPx = 3;
+
+/// The half-width of the window of a bead whose neighbour, at nn < d, overlaps it in
+/// projection: the window's corners stay inside the neighbour's edge (its square within
+/// nn - d/2 of the centre along the diagonal), at least kMinHalfWindowPx. The overlap's
+/// edge moves with the neighbour: in the 3/4-bead window it pulled each bead's
+/// displacement towards its neighbours', and a known random velocity of beads at 0.85 d
+/// read 3 % low (uniform field, 16 px, 7 000 beads; 1.8 % low with this window).
+int overlap_half_window(double nn, double d) {
+  return std::max(kMinHalfWindowPx, static_cast<int>(std::floor((nn - 0.5 * d) / std::numbers::sqrt2)));
+}
 
 /// Frames as LK takes them: 8-bit (16-bit scaled by 1/256).
 cv::Mat as_8bit(const cv::Mat& m) {
@@ -219,8 +230,16 @@ PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, 
   // half-width at most the clearance less half a pixel). LK runs once per window size.
   const int h_full = (window_px(o.bead_diameter_px) - 1) / 2;
   std::vector<int> half(n);
-  for (std::size_t k = 0; k < n; ++k)
+  const double d = o.bead_diameter_px;
+  const core::PointCells cells(r.x_px, r.y_px, d);
+  for (std::size_t k = 0; k < n; ++k) {
     half[k] = std::min(h_full, static_cast<int>(std::floor(clearance_at(clear_a, r.x_px[k], r.y_px[k]) - 0.5)));
+    double nn = d;  // the nearest other bead's centre, if nearer than a diameter
+    cells.near(r.x_px[k], r.y_px[k], [&](std::size_t i) {
+      if (i != k) nn = std::min(nn, std::hypot(r.x_px[i] - r.x_px[k], r.y_px[i] - r.y_px[k]));
+    });
+    if (nn < d - 0.5) half[k] = std::min(half[k], overlap_half_window(nn, d));  // overlapping by > 1/2 px
+  }
   const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.max_iterations, o.epsilon_px);
   for (int h = kMinHalfWindowPx; h <= h_full; ++h) {
     std::vector<std::size_t> group;

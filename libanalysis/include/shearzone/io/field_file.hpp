@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "shearzone/core/metadata.hpp"
+#include "shearzone/core/point_vectors.hpp"
 #include "shearzone/core/vector_field.hpp"
 
 namespace shearzone::io {
@@ -72,18 +73,33 @@ class FieldFileWriter {
   std::unique_ptr<H5File> h5_;
 };
 
-/// Pairs from a field file: an HDF5 clip (streamed) or one CSV pair.
-class FieldReader {
+/// Pairs of displacements at points: a field file's grids (FieldReader) or a tracks
+/// file's beads (io/track_file.hpp, open_pair_file).
+class PairReader {
  public:
-  virtual ~FieldReader() = default;
+  virtual ~PairReader() = default;
   virtual std::size_t size() const = 0;
-  /// Pair k: the field and its time (t_a, dt). Every measured (valid or replaced)
-  /// vector is finite, else InputError naming dataset, pair and node.
-  virtual void read(std::size_t k, core::VectorField& field, double& t_a_s, double& dt_s) = 0;
+  /// Pair k: its displacements and time (t_a, dt). Every measured (valid or replaced)
+  /// vector is finite, else InputError naming dataset, pair and point.
+  virtual void read_points(std::size_t k, core::PointVectors& points, double& t_a_s, double& dt_s) = 0;
   /// A numeric root attribute (CSV: header value), NaN if absent or not a number.
   virtual double attribute(const std::string& name) const = 0;
   /// A root attribute as text (numbers formatted), "" if absent.
   virtual std::string text_attribute(const std::string& name) const = 0;
+  /// True for tracked beads (one vector per bead), false for a grid.
+  virtual bool beads() const { return false; }
+};
+
+/// Pairs from a field file: an HDF5 clip (streamed) or one CSV pair.
+class FieldReader : public PairReader {
+ public:
+  /// Pair k: the field and its time (t_a, dt), checked as read_points.
+  virtual void read(std::size_t k, core::VectorField& field, double& t_a_s, double& dt_s) = 0;
+  /// The grid's nodes, row by row (core::to_points).
+  void read_points(std::size_t k, core::PointVectors& points, double& t_a_s, double& dt_s) override;
+
+ private:
+  core::VectorField grid_;
 };
 
 /// Opens a field file. HDF5: every dataset above must be there, with sizes the file

@@ -126,6 +126,11 @@ class H5File {
   bool has_attribute(const std::string& object, const std::string& name) const;
   std::vector<std::string> attribute_names(const std::string& object) const;
   std::string attribute_string(const std::string& object, const std::string& name) const;
+  /// A root attribute as a number (a numeric attribute, or text that parses as one),
+  /// NaN if absent or not a number.
+  double root_number(const std::string& name) const;
+  /// A root attribute as text (a number formatted as in CSV headers), "" if absent.
+  std::string root_text(const std::string& name) const;
   double attribute_double(const std::string& object, const std::string& name) const;
   std::int64_t attribute_int(const std::string& object, const std::string& name) const;
   std::vector<double> attribute_doubles(const std::string& object, const std::string& name) const;

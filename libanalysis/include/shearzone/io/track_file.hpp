@@ -28,6 +28,7 @@
 
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/tracked_beads.hpp"
+#include "shearzone/io/field_file.hpp"
 
 namespace shearzone::io {
 
@@ -68,5 +69,13 @@ class TrackFileWriter {
 /// io/hdf5.hpp); InputError naming the file and dataset where one is missing or the
 /// columns differ in length. `options` receives the header text when not null.
 core::TrackedBeads read_track_file(const std::filesystem::path& path, std::string* options = nullptr);
+
+/// Opens the pairs of a tracks file (HDF5 with /beads) or else a field file
+/// (io/field_file.hpp). A tracks file's pair is the rows of one frame_a, in the order
+/// written (a pair without a bead has no row, and so does not appear); a tracked bead is
+/// one valid vector at the midpoint of its displacement (x + u/2, y + v/2), where the
+/// chord of a circular path is tangential; a bead not tracked is an invalid vector at its
+/// centre. InputError for rows out of time order or a tracked bead without a finite value.
+std::unique_ptr<PairReader> open_pair_file(const std::filesystem::path& path, double csv_dt_s);
 
 }  // namespace shearzone::io

@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "shearzone/core/point_vectors.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vector_field.hpp"
 #include "shearzone/profile/lockin.hpp"
@@ -118,6 +119,10 @@ class ProfileAccumulator {
   /// the arrays do not match the grid.
   void add(const core::VectorField& field, double dt_s, int cycle = PairSeries::kNoCycle,
            double phase = kNoValue, double phase_span = 0.0);
+  /// The same for displacements at scattered points (tracked beads: each bead one
+  /// vector of its bin, at the point given).
+  void add(const core::PointVectors& points, double dt_s, int cycle = PairSeries::kNoCycle,
+           double phase = kNoValue, double phase_span = 0.0);
   std::size_t num_pairs() const { return n_pairs_; }
   const ProfileOptions& options() const { return opt_; }
   /// The lock-in's highest harmonic (0: off), e.g. capped once the pairs are known.
@@ -154,6 +159,7 @@ class ProfileAccumulator {
   std::vector<NoiseSums> noise_by_bin_;          // v_r sums per bin
   std::size_t n_pairs_ = 0;
   std::size_t replaced_used_ = 0;
+  core::PointVectors points_;  // a grid's nodes, reused from pair to pair
 };
 
 /// Oscillation cycle and phase of a time t (s) for a vane angle
