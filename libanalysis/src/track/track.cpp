@@ -241,6 +241,12 @@ PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, 
     if (nn < d - 0.5) half[k] = std::min(half[k], overlap_half_window(nn, d));  // overlapping by > 1/2 px
   }
   const cv::TermCriteria crit(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, o.max_iterations, o.epsilon_px);
+  // Both frames' pyramids (with their derivatives) once, bordered for the widest window,
+  // for every window size: LK would build them again for each.
+  std::vector<cv::Mat> pyr_a, pyr_b;
+  const cv::Size widest(2 * h_full + 1, 2 * h_full + 1);
+  const int levels = cv::buildOpticalFlowPyramid(a8, pyr_a, widest, o.pyramid_levels, true);
+  cv::buildOpticalFlowPyramid(b8, pyr_b, widest, o.pyramid_levels, true);
   for (int h = kMinHalfWindowPx; h <= h_full; ++h) {
     std::vector<std::size_t> group;
     for (std::size_t k = 0; k < n; ++k)
@@ -250,8 +256,8 @@ PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, 
     for (std::size_t k : group) p.emplace_back(static_cast<float>(r.x_px[k]), static_cast<float>(r.y_px[k]));
     std::vector<std::uint8_t> st, st_back;
     std::vector<float> err;
-    cv::calcOpticalFlowPyrLK(a8, b8, p, q, st, err, {2 * h + 1, 2 * h + 1}, o.pyramid_levels, crit);
-    cv::calcOpticalFlowPyrLK(b8, a8, q, back, st_back, err, {2 * h + 1, 2 * h + 1}, o.pyramid_levels, crit);
+    cv::calcOpticalFlowPyrLK(pyr_a, pyr_b, p, q, st, err, {2 * h + 1, 2 * h + 1}, levels, crit);
+    cv::calcOpticalFlowPyrLK(pyr_b, pyr_a, q, back, st_back, err, {2 * h + 1, 2 * h + 1}, levels, crit);
     for (std::size_t g = 0; g < group.size(); ++g) {
       const std::size_t k = group[g];
       if (!st[g] || !st_back[g]) continue;
