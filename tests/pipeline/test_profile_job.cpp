@@ -413,6 +413,27 @@ void synth_and_track(const fs::path& dir, synth::FieldKind kind, double jitter_p
   pipeline::run_piv_job(p, {});
 }
 
+// The granular-temperature clips: every bead jittered by a known step per frame.
+constexpr double kJitterPx = 0.3;                      // per component per frame
+constexpr double kJitterMPerPx = 1e-4, kJitterFps = 25;
+constexpr double kJitterTruth = kJitterPx * kJitterMPerPx * kJitterFps;  // 7.5e-4 m/s
+constexpr double kJitterTolerance = 0.05;              // the issue's gate
+
+/// profile of `input` in bins of a bead from the zone's core to the wall, with the noise
+/// of the static clip `noise_ref`.
+pipeline::ProfileJobOptions jitter_profile(const fs::path& input, const fs::path& output, const fs::path& noise_ref) {
+  pipeline::ProfileJobOptions o;
+  o.input = input;
+  o.output = output;
+  o.vane_radius_px = 60;  // the rigid core: bins start at its edge (a kink of v(r) inside a bin reads as fluctuation)
+  o.cup_radius_px = 184;
+  o.m_per_px = kJitterMPerPx;
+  o.bin_px = 16;
+  o.f_Hz = 1.0;
+  o.noise_ref = noise_ref;
+  return o;
+}
+
 }  // namespace
 
 // Issue 36's granular-temperature gate: a known random velocity per bead added to the
@@ -425,21 +446,10 @@ void synth_and_track(const fs::path& dir, synth::FieldKind kind, double jitter_p
 TEST_CASE("tracked beads with a known random velocity: dv_theta within 5 % of the truth at every radius",
           "[pipeline][profile][track]") {
   TempDir tmp("fluct");
-  constexpr double kJitterPx = 0.3;                 // per component per frame
-  constexpr double kMPerPx = 1e-4, kFps = 25;
-  constexpr double kTruth = kJitterPx * kMPerPx * kFps;  // 7.5e-4 m/s
-  constexpr double kTolerance = 0.05;               // the issue's gate
+  constexpr double kTruth = kJitterTruth, kTolerance = kJitterTolerance;
   synth_and_track(tmp / "zone", synth::FieldKind::kShearZone, kJitterPx, 151, tmp / "zone.h5");  // 6 cycles
   synth_and_track(tmp / "static", synth::FieldKind::kUniform, 0.0, 11, tmp / "static.h5");
-  pipeline::ProfileJobOptions o;
-  o.input = tmp / "zone.h5";
-  o.output = tmp / "p.csv";
-  o.vane_radius_px = 60;  // the rigid core: bins start at its edge (a kink of v(r) inside a bin reads as fluctuation)
-  o.cup_radius_px = 184;
-  o.m_per_px = kMPerPx;
-  o.bin_px = 16;
-  o.f_Hz = 1.0;
-  o.noise_ref = tmp / "static.h5";
+  pipeline::ProfileJobOptions o = jitter_profile(tmp / "zone.h5", tmp / "p.csv", tmp / "static.h5");
   (void)pipeline::run_profile_job(o, {});
   const io::CsvTable t = io::read_csv(o.output);
   const auto r = t.numeric_column("r_m"), dv = t.numeric_column("dv_theta_m_per_s"),
@@ -473,30 +483,19 @@ TEST_CASE("tracked beads with a known random velocity: dv_theta within 5 % of th
 // Issue 36's "profile from tracks": each tracked bead one vector of its bin (the tracks
 // file read directly, no cell average), at the midpoint of its displacement. The same
 // granular-temperature gate as above, here also where the beads overlap in projection
-// (synth's default spacing 0.85), and v_theta against the synthetic zone's mean.
+// (synth's default spacing 0.85).
 TEST_CASE("a tracks file's profile: a vector per bead, dv_theta within 5 % of the truth where beads touch or overlap",
           "[pipeline][profile][track]") {
   TempDir tmp("fluct_tracks");
-  constexpr double kJitterPx = 0.3;                 // per component per frame
-  constexpr double kMPerPx = 1e-4, kFps = 25;
-  constexpr double kTruth = kJitterPx * kMPerPx * kFps;  // 7.5e-4 m/s
-  constexpr double kTolerance = 0.05;               // the issue's gate
+  constexpr double kTruth = kJitterTruth, kTolerance = kJitterTolerance;
   for (const double spacing : {1.0, 0.85}) {
     INFO("bead spacing " << spacing << " d");
     synth_and_track(tmp / "zone", synth::FieldKind::kShearZone, kJitterPx, 151, tmp / "zone.h5", spacing,
                     tmp / "zone_tracks.h5");
     synth_and_track(tmp / "static", synth::FieldKind::kUniform, 0.0, 11, tmp / "static.h5", spacing,
                     tmp / "static_tracks.h5");
-    pipeline::ProfileJobOptions o;
-    o.input = tmp / "zone_tracks.h5";
-    o.output = tmp / "p.csv";
+    pipeline::ProfileJobOptions o = jitter_profile(tmp / "zone_tracks.h5", tmp / "p.csv", tmp / "static_tracks.h5");
     o.force = true;
-    o.vane_radius_px = 60;
-    o.cup_radius_px = 184;
-    o.m_per_px = kMPerPx;
-    o.bin_px = 16;
-    o.f_Hz = 1.0;
-    o.noise_ref = tmp / "static_tracks.h5";
     (void)pipeline::run_profile_job(o, {});
     const io::CsvTable t = io::read_csv(o.output);
     CHECK(core::metadata_value(t.metadata, "vectors").find("tracked beads") == 0);
