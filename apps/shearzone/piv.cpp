@@ -99,8 +99,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   // Tracking is a first version: what the closed loop measured, every time (docs/track.md).
   if (j.method == pipeline::PairMethod::kTrack)
     std::fprintf(stderr,
-                 "piv: note: --method track is a first version: on rendered cups its r_c read up to 0.39 bead "
-                 "diameters low at 15-50 px per bead (0.1-0.2 on most) and up to 0.58 off at 8 px (docs/track.md, "
+                 "piv: note: --method track is a first version: on rendered cups its r_c read up to 0.37 bead "
+                 "diameters low at 15-50 px per bead (0.1-0.2 on most) and up to 0.59 off at 8 px (docs/track.md, "
                  "\"The closed loop\"); compare with --method piv where r_c matters\n");
   if (ctx.level != core::LogLevel::kQuiet) {
     const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);
