@@ -9,6 +9,7 @@
 #include <iterator>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -159,8 +160,8 @@ core::TrackedBeads read_beads(const H5File& h5, const std::filesystem::path& pat
 /// bead a vector at the midpoint of its displacement.
 class TrackPairReader final : public PairReader {
  public:
-  explicit TrackPairReader(const std::filesystem::path& path)
-      : h5_(H5File::open_read(path)), path_(path), beads_(read_beads(h5_, path)) {
+  TrackPairReader(H5File h5, const std::filesystem::path& path)
+      : h5_(std::move(h5)), path_(path), beads_(read_beads(h5_, path)) {
     const std::size_t n = beads_.size();
     for (std::size_t k = 0; k < n; ++k) {
       if (k > 0 && beads_.frame_a[k] == beads_.frame_a[k - 1]) {
@@ -222,12 +223,8 @@ core::TrackedBeads read_track_file(const std::filesystem::path& path, std::strin
 
 std::unique_ptr<PairReader> open_pair_file(const std::filesystem::path& path, double csv_dt_s) {
   if (!is_field_csv(path)) {
-    bool tracks = false;
-    {
-      const H5File h5 = H5File::open_read(path);
-      tracks = h5.exists("/beads/track_id");
-    }
-    if (tracks) return std::make_unique<TrackPairReader>(path);
+    H5File h5 = H5File::open_read(path);
+    if (h5.exists("/beads/track_id")) return std::make_unique<TrackPairReader>(std::move(h5), path);
   }
   return open_field_file(path, csv_dt_s);
 }
