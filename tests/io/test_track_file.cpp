@@ -176,3 +176,17 @@ TEST_CASE("tracks file as pairs: rows out of time order or a tracked bead withou
   CHECK_THROWS_WITH(pairs->read_points(0, p, t_a, dt),
                     Contains("nan.h5") && Contains("/beads row 1") && Contains("needs a finite centre and displacement"));
 }
+
+TEST_CASE("tracks file as pairs: rows of one pair with different times are refused", "[io][tracks]") {
+  testing::TempDir dir("tracks_pairs_times");
+  const auto path = dir / "times.h5";
+  {
+    core::TrackedBeads t = rows(0, 4, 3);
+    t.dt_s[2] = 0.08;  // the same frame_a, another time step
+    io::TrackFileWriter w(path, {});
+    w.append(t);
+    w.close();
+  }
+  CHECK_THROWS_WITH(io::open_pair_file(path, core::kUnset),
+                    Contains("times.h5") && Contains("/beads row 2") && Contains("differ from the row before"));
+}
