@@ -69,6 +69,10 @@ std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx) {
       ->capture_default_str();
   t->add_option("--width", to->width_px, "Pair width, px; range: 64..8192")->capture_default_str();
   t->add_option("--height", to->height_px, "Pair height, px; range: 64..8192")->capture_default_str();
+  t->add_option("--threads", to->threads, "Pairs tracked at a time in the clip's throughput, one per thread (0: all "
+                                         "cores); range: 0..1024")
+      ->capture_default_str();
+  t->add_option("--clip-pairs", to->clip_pairs, "Pairs per timed clip; range: 1..10000")->capture_default_str();
   t->add_option("--diameters", to->diameters_px, "Bead diameters, px; range: each 3..200, at most a quarter of the "
                                                  "shorter side")
       ->delimiter(',')

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <thread>
 
 #include <fmt/format.h>
 
 #include "shearzone/core/error.hpp"
+#include "shearzone/core/ordered_pool.hpp"
 #include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/csv.hpp"
 #include "shearzone/synth/generator.hpp"
@@ -49,6 +51,26 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+/// Wall-clock seconds to track `pairs` copies of a pair, `threads` at a time (one pair
+/// per worker, as the piv job runs a clip: core::OrderedPool, at most threads + 2 in flight).
+double clip_seconds(const synth::TracedPair& pair, const track::TrackOptions& to, int threads, int pairs) {
+  struct Job {
+    track::PairBeads beads;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  {
+    core::OrderedPool<Job> pool(
+        [&](Job& j) { j.beads = track::track_pair(pair.a, pair.b, cv::Mat(), cv::Mat(), to); }, threads);
+    for (int k = 0; k < pairs; ++k) {
+      while (pool.full()) pool.pop_done(true);
+      pool.submit(Job{});
+    }
+    while (pool.pop_done(true)) {
+    }
+  }
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 std::string fixed(double v, int digits) { return fmt::format("{:.{}f}", v, digits); }
 
 }  // namespace
@@ -67,16 +89,25 @@ BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metada
       throw ConfigError(fmt::format("bench track: bead diameter {} px: expected 3..200 and a quarter of the "
                                     "shorter side at most",
                                     d));
+  if (o.threads < 0 || o.threads > 1024)
+    throw ConfigError(fmt::format("bench track: --threads {}: expected 0 (all cores) to 1024", o.threads));
+  const int clip_pairs = o.quick ? 4 : o.clip_pairs;
+  if (clip_pairs < 1 || clip_pairs > 10000)
+    throw ConfigError(fmt::format("bench track: --clip-pairs {}: expected 1..10000", o.clip_pairs));
+  const int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   io::AtomicOutputSet out(o.out_dir, o.force);
   out.check("track_speed_accuracy.csv");
   core::Metadata meta = header;
   meta.emplace_back("bench", fmt::format("synthetic {}x{} synth-beads pairs of a shear zone (rigid core {} px, "
                                          "decay 2 d, U0 d/4 px per frame), default tracking options; time = median "
-                                         "of {} runs; errors against the tracer within d/4 of each tracked bead",
-                                         w, h, std::min(w, h) / 5, o.timing_repeats));
+                                         "of {} runs; errors against the tracer within d/4 of each tracked bead; clip: {} pairs tracked {} at "
+                                         "a time, one per thread, frames in memory (decoding not counted), median "
+                                         "of {} clips",
+                                         w, h, std::min(w, h) / 5, o.timing_repeats, clip_pairs, threads,
+                                         o.timing_repeats));
   io::CsvWriter csv(out.add("track_speed_accuracy.csv").stream(), meta,
                     {"bead_diameter_px", "beads", "detect_s", "seconds_per_pair_s", "pairs_per_s", "tracked_percent",
-                     "matched", "bias_u_px", "bias_v_px", "rms_error_px"});
+                     "matched", "bias_u_px", "bias_v_px", "rms_error_px", "threads", "clip_pairs_per_s"});
   BenchTrackSummary sum;
   std::size_t done = 0;
   for (double d : diameters) {
@@ -104,15 +135,19 @@ BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metada
       r = track::track_pair(pair.a, pair.b, cv::Mat(), cv::Mat(), to);
       t_pair.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
-    const double td = median(t_detect), tp = median(t_pair);
+    std::vector<double> t_clip;
+    for (int k = 0; k < o.timing_repeats; ++k) t_clip.push_back(clip_seconds(pair, to, threads, clip_pairs));
+    const double td = median(t_detect), tp = median(t_pair), clip_rate = clip_pairs / median(t_clip);
     const Score sc = score(r, pair, d);
     const double tracked = 100.0 * static_cast<double>(r.tracked()) / static_cast<double>(std::max<std::size_t>(beads, 1));
     csv.row(std::vector<std::string>{io::format_number(d), std::to_string(beads), fixed(td, 4), fixed(tp, 4),
                                      fixed(1.0 / tp, 2), fixed(tracked, 2), std::to_string(sc.matched),
-                                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.rms, 4)});
+                                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.rms, 4),
+                                     std::to_string(threads), fixed(clip_rate, 2)});
     sum.lines.push_back(fmt::format("beads of {} px: {} per pair, {:.3f} s per pair ({:.2f} pairs/s; detection "
-                                    "{:.3f} s), {:.1f} % tracked, RMS {:.4f} px",
-                                    io::format_number(d), beads, tp, 1.0 / tp, td, tracked, sc.rms));
+                                    "{:.3f} s), {:.1f} % tracked, RMS {:.4f} px; a clip on {} threads: {:.1f} pairs/s",
+                                    io::format_number(d), beads, tp, 1.0 / tp, td, tracked, sc.rms, threads,
+                                    clip_rate));
     if (progress) progress(++done, diameters.size());
   }
   out.commit_all();

@@ -8,6 +8,9 @@
 // beads tracked, and the displacement error against the tracer under each bead (a
 // tracer within d/4, no second one within d/2): bias per component and RMS.
 // Timings are wall-clock medians over `repeats` runs with the threads OpenCV gives.
+// Then a clip's throughput: `clip_pairs` pairs tracked `threads` at a time, one pair per
+// thread, as `piv --method track` runs a clip (frames in memory: decoding not counted),
+// pairs per second of wall-clock time (median over `repeats` clips).
 #pragma once
 
 #include <filesystem>
@@ -24,6 +27,8 @@ struct BenchTrackOptions {
   int height_px = 1080;
   std::vector<double> diameters_px{16, 24, 35, 50};
   int timing_repeats = 3;  ///< runs per diameter; the median time counts
+  int threads = 0;         ///< pairs tracked at a time in the clip's throughput (0: all cores)
+  int clip_pairs = 24;     ///< pairs per timed clip
   bool quick = false;      ///< 960x540 and 35 px beads only (a smoke run)
   std::filesystem::path out_dir;
   bool force = false;
