@@ -440,8 +440,8 @@ pipeline::ProfileJobOptions jitter_profile(const fs::path& input, const fs::path
 // mean field (synth --jitter-px) comes back as dv_theta within 5 % wherever it stands
 // above the noise, the noise measured on a static clip of the same beads. The beads
 // touch (min_spacing 1): where they overlap in projection (synth's default 0.85) a
-// bead's window takes in its neighbours' independent motion and dv_theta reads 2 % low
-// on average, 5.7 % in one bin of seed 9 (docs/profile-width.md, "Velocity
+// bead's window takes in its neighbours' independent motion and dv_theta reads 0.6-0.7 %
+// low on average, at most 2.2 % in a bin over seeds 5, 9, 13 (docs/profile-width.md, "Velocity
 // fluctuation"); the tracks file's test below gates both spacings at seed 5.
 TEST_CASE("tracked beads with a known random velocity: dv_theta within 5 % of the truth at every radius",
           "[pipeline][profile][track]") {
@@ -472,11 +472,14 @@ TEST_CASE("tracked beads with a known random velocity: dv_theta within 5 % of th
   o.output = tmp / "calm.csv";
   (void)pipeline::run_profile_job(o, {});
   constexpr double kCalmMax = 0.2 * kTruth;
-  const auto calm = io::read_csv(o.output).numeric_column("dv_theta_m_per_s");
-  const auto calm_r = io::read_csv(o.output).numeric_column("r_m");
-  for (std::size_t k = 0; k < calm.size(); ++k) {
-    INFO("calm: r " << calm_r[k] << " m: dv_theta " << calm[k] << " m/s");
-    CHECK((std::isnan(calm[k]) || calm[k] <= kCalmMax));
+  const io::CsvTable calm = io::read_csv(o.output);
+  const auto calm_r = calm.numeric_column("r_m");
+  const std::size_t col = calm.column_index("dv_theta_m_per_s");
+  for (std::size_t k = 0; k < calm.num_rows(); ++k) {
+    // An empty cell: the method adds less than the noise there.
+    const double dv_calm = calm.cell_empty(k, col) ? std::nan("") : calm.number(k, col);
+    INFO("calm: r " << calm_r[k] << " m: dv_theta " << dv_calm << " m/s");
+    CHECK((std::isnan(dv_calm) || dv_calm <= kCalmMax));
   }
 }
 

@@ -279,11 +279,16 @@ struct FrameMasks {
   }
 };
 
+/// The first frame used, as PIV sees it, and its mask.
+struct FirstFrame {
+  cv::Mat image, mask;
+};
+
 /// The texture's size, measured on the first frame used as PIV sees it (preprocessed,
 /// masked): the windows are sized to it (unless given), and `profile` bounds how far
 /// the footprint a vector averages over moves r_c.
 piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, const cv::Mat& background,
-                             PivJobSummary& sum) {
+                             PivJobSummary& sum, FirstFrame& first) {
   piv::PivOptions piv_options = o.piv;
   auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
   io::Frame fr;
@@ -292,7 +297,8 @@ piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, co
     if (o.last_frame >= 0 && fr.index > o.last_frame) break;
     if (!masks.static_mask.empty() && masks.static_mask.size() != fr.gray.size()) break;  // refused later
     const cv::Mat img = o.preprocess.any() ? piv::preprocess(fr.gray, o.preprocess, background) : fr.gray;
-    sum.texture_half_width_px = piv::texture_half_width_px(img, masks.of(fr));
+    first = {img, masks.of(fr)};
+    sum.texture_half_width_px = piv::texture_half_width_px(img, first.mask);
     if (o.size_windows_to_texture)
       piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
     break;
@@ -302,8 +308,9 @@ piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, co
 }
 
 /// Tracking's options: the bead diameter given, or the texture's (measured by
-/// size_windows), and the grid's cell.
-track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum) {
+/// size_windows), the offset from a bead's peak to its disc's centre measured on the
+/// first frame, and the grid's cell.
+track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum, const FirstFrame& first) {
   track::TrackOptions t = o.track;
   if (t.bead_diameter_px == 0) {
     const double d = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
@@ -314,6 +321,7 @@ track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum) {
     t.bead_diameter_px = d;
   }
   t.validate();
+  if (!first.image.empty()) t.centre_offset_px = track::disc_centre_offset(first.image, first.mask, t);
   sum.track_bead_diameter_px = t.bead_diameter_px;
   sum.track_cell_px = track::grid_cell_px(t.bead_diameter_px);
   return t;
@@ -503,8 +511,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     align_angle_log(o, source->fps(), vane_angle);
   const cv::Mat background = o.preprocess.background ? background_image(o) : cv::Mat();
   const FrameMasks masks{o, static_mask, vane_angle};
-  const piv::PivOptions piv_options = size_windows(o, masks, background, sum);
-  const track::TrackOptions tracking = o.method == PairMethod::kTrack ? track_options(o, sum) : o.track;
+  FirstFrame first;
+  const piv::PivOptions piv_options = size_windows(o, masks, background, sum, first);
+  const track::TrackOptions tracking = o.method == PairMethod::kTrack ? track_options(o, sum, first) : o.track;
   const PairEstimator estimate = pair_estimator(o, piv_options, tracking, sum.track_cell_px);
   const bool csv = io::is_field_csv(o.output);
 

@@ -107,6 +107,10 @@ void TrackOptions::validate() const {
     throw ConfigError(fmt::format("track: iterations {}: expected 1..10000", max_iterations));
   if (!(epsilon_px > 0 && epsilon_px < 1))
     throw ConfigError(fmt::format("track: epsilon {} px: expected 0 < e < 1", epsilon_px));
+  if (!(std::isfinite(centre_offset_px.x) && std::isfinite(centre_offset_px.y) &&
+        std::hypot(centre_offset_px.x, centre_offset_px.y) <= 0.5 * bead_diameter_px))
+    throw ConfigError(fmt::format("track: centre offset {},{} px: expected within half a bead", centre_offset_px.x,
+                                  centre_offset_px.y));
   if (!(min_contrast >= 0 && min_contrast < 1))
     throw ConfigError(fmt::format("track: minimum contrast {}: expected 0 <= c < 1", min_contrast));
 }
@@ -121,7 +125,9 @@ core::Metadata TrackOptions::to_metadata() const {
           {"track_lk", fmt::format("pyramidal Lucas-Kanade (OpenCV calcOpticalFlowPyrLK), at most {} iterations "
                                    "per level, stop below {} px",
                                    max_iterations, epsilon_px)},
-          {"track_min_contrast", fmt::format("{}", min_contrast)}};
+          {"track_min_contrast", fmt::format("{}", min_contrast)},
+          {"track_centre_offset_px", fmt::format("{:.3f},{:.3f} (from a bead's smoothed peak to its disc's centre)",
+                                                 centre_offset_px.x, centre_offset_px.y)}};
 }
 
 std::size_t PairBeads::tracked() const {
@@ -168,8 +174,9 @@ std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image8, const cv::
   cv::dilate(s, hi, square);
   cv::erode(s, lo, square);
 
-  // Where no bead centre may lie: within a quarter bead of the edge or (a square about)
-  // a masked pixel. The frame's range is taken over the rest.
+  // The frame's range is taken away from the masks and the edge: outside a square of a
+  // quarter bead about each masked pixel and a band of a quarter bead along the edge
+  // (the exact distance decides each bead below).
   const double mc = min_clearance(d);
   cv::Mat out(cs, CV_8U, cv::Scalar(0));
   if (!mask.empty()) {
@@ -223,9 +230,11 @@ std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image8, const cv::
   for (int i = 1; i < s.rows - 1; ++i)
     for (int j = 1; j < s.cols - 1; ++j) {
       const float v = s.at<float>(i, j);
-      if (!(v == hi.at<float>(i, j) && v - lo.at<float>(i, j) >= min_contrast) || out.at<std::uint8_t>(i, j)) continue;
-      const double x = centre_px(j) + fac * parabola_vertex(s.at<float>(i, j - 1), v, s.at<float>(i, j + 1));
-      const double y = centre_px(i) + fac * parabola_vertex(s.at<float>(i - 1, j), v, s.at<float>(i + 1, j));
+      if (!(v == hi.at<float>(i, j) && v - lo.at<float>(i, j) >= min_contrast)) continue;
+      const double x = centre_px(j) + fac * parabola_vertex(s.at<float>(i, j - 1), v, s.at<float>(i, j + 1)) +
+                       o.centre_offset_px.x;
+      const double y = centre_px(i) + fac * parabola_vertex(s.at<float>(i - 1, j), v, s.at<float>(i + 1, j)) +
+                       o.centre_offset_px.y;
       const int pi = static_cast<int>(std::lround(y)), pj = static_cast<int>(std::lround(x));
       if (clear.at(pj, pi) < mc) continue;
       peaks.push_back({v, pi, pj, x, y});
@@ -278,6 +287,73 @@ std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask,
   o.validate();
   const cv::Mat image8 = as_8bit(image);
   return detect_with_clearance(image8, mask, Clearance(mask, image8.size(), clearance_cap(o.bead_diameter_px)), o);
+}
+
+cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options) {
+  TrackOptions o = options;
+  o.centre_offset_px = {0.0, 0.0};
+  const std::vector<cv::Point2d> peaks = detect_beads(image, mask, o);
+  const double d = o.bead_diameter_px;
+  // The mean image about the peaks (each at its nearest pixel), out to 0.9 d: the disc,
+  // its rim and what lies past it; masked pixels left out, pixel by pixel.
+  const int P = static_cast<int>(std::ceil(0.9 * d));
+  const cv::Size patch(2 * P + 1, 2 * P + 1);
+  const cv::Mat f = as_8bit(image);
+  cv::Mat sum = cv::Mat::zeros(patch, CV_64F), count = cv::Mat::zeros(patch, CV_64F);
+  int n = 0;
+  for (const cv::Point2d& p : peaks) {
+    const int i = static_cast<int>(std::lround(p.y)), j = static_cast<int>(std::lround(p.x));
+    if (i < P || j < P || i >= f.rows - P || j >= f.cols - P) continue;
+    const cv::Rect r(j - P, i - P, 2 * P + 1, 2 * P + 1);
+    for (int a = 0; a < r.height; ++a) {
+      const std::uint8_t* src = f.ptr<std::uint8_t>(r.y + a) + r.x;
+      const std::uint8_t* msk = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(r.y + a) + r.x;
+      double* s = sum.ptr<double>(a);
+      double* c = count.ptr<double>(a);
+      for (int b = 0; b < r.width; ++b)
+        if (!msk || !msk[b]) s[b] += src[b], c[b] += 1.0;
+    }
+    ++n;
+  }
+  if (n < kMinOffsetBeads) return {0.0, 0.0};
+  cv::Mat m(patch, CV_64F);
+  for (int a = 0; a < m.rows; ++a)
+    for (int b = 0; b < m.cols; ++b) {
+      const double c = count.at<double>(a, b);
+      if (c < 0.25 * n) return {0.0, 0.0};  // the beads' surroundings mostly masked
+      m.at<double>(a, b) = sum.at<double>(a, b) / c;
+    }
+  auto at = [&m](double x, double y) {  // bilinear, inside the patch
+    const int j = std::clamp(static_cast<int>(std::floor(x)), 0, m.cols - 2);
+    const int i = std::clamp(static_cast<int>(std::floor(y)), 0, m.rows - 2);
+    const double tx = x - j, ty = y - i;
+    return (1 - ty) * ((1 - tx) * m.at<double>(i, j) + tx * m.at<double>(i, j + 1)) +
+           ty * ((1 - tx) * m.at<double>(i + 1, j) + tx * m.at<double>(i + 1, j + 1));
+  };
+  // The circle of the bead's diameter centred at (P + ox, P + oy): points w inside it
+  // against w outside. (Its radius fitted as well came out short: the circle hugged
+  // the lit side, and the offset was half the truth on `synth beads`.)
+  constexpr int kPoints = 64;
+  const double r = 0.5 * d, w = std::max(1.0, d / 16.0);
+  auto separation = [&](double ox, double oy) {
+    double s = 0.0;
+    for (int k = 0; k < kPoints; ++k) {
+      const double th = 2.0 * std::numbers::pi * k / kPoints, ux = std::cos(th), uy = std::sin(th);
+      s += at(P + ox + (r - w) * ux, P + oy + (r - w) * uy) - at(P + ox + (r + w) * ux, P + oy + (r + w) * uy);
+    }
+    return s;
+  };
+  // Over offsets up to 0.35 d by 1/4 px, then by 1/50 px about the best.
+  double best = -std::numeric_limits<double>::infinity(), bx = 0.0, by = 0.0;
+  const double span = 0.35 * d;
+  for (double oy = -span; oy <= span; oy += 0.25)
+    for (double ox = -span; ox <= span; ox += 0.25)
+      if (const double sc = separation(ox, oy); sc > best) best = sc, bx = ox, by = oy;
+  const double cx = bx, cy = by;
+  for (double oy = cy - 0.25; oy <= cy + 0.25; oy += 0.02)
+    for (double ox = cx - 0.25; ox <= cx + 0.25; ox += 0.02)
+      if (const double sc = separation(ox, oy); sc > best) best = sc, bx = ox, by = oy;
+  return {bx, by};
 }
 
 PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,

@@ -45,6 +45,10 @@ struct TrackOptions {
   /// value within a square of side 0.7 bead diameters) of at least this fraction of the frame's
   /// range (1st to 99th percentile of the smoothed frame, unmasked pixels).
   double min_contrast = 0.05;
+  /// From the peak of a bead's smoothed image to the centre of its disc, px: under a
+  /// light from one side the peak lies towards the light (a sixth of a bead and more on
+  /// the `synth beads` look). Added to every peak found; disc_centre_offset() measures it.
+  cv::Point2d centre_offset_px{0.0, 0.0};
   void validate() const;
   core::Metadata to_metadata() const;
 };
@@ -53,6 +57,15 @@ struct TrackOptions {
 /// frame's peak and its neighbours). A bead is dropped when a masked pixel or the
 /// image's edge lies within a quarter diameter (at least 3.5 px) of its centre.
 std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
+
+/// The offset from the peak of a bead's smoothed image to the centre of its disc (for
+/// TrackOptions::centre_offset_px), measured on a frame: the mean image of its beads
+/// about their peaks (those a bead and a half from a mask or the edge), and in it the
+/// circle of the bead's diameter that best separates the bead from what lies around it
+/// (the largest mean difference between points just inside and just outside it). A
+/// frame with fewer than kMinOffsetBeads such beads gives (0, 0).
+cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
+inline constexpr int kMinOffsetBeads = 30;
 
 /// The beads of frame a and their displacements to frame b.
 struct PairBeads {
