@@ -28,7 +28,7 @@ struct PivCli {
   std::string preset;
   bool no_deform = false;
   bool no_coarse = false;
-  std::vector<double> centre, annulus, vane;
+  std::vector<double> centre, annulus, vane, disc_offset;
   std::vector<std::string> attrs;
   double m_per_px = core::kUnset, n_chain = core::kUnset;
 };
@@ -52,13 +52,17 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.residual = piv::residual_from_name(s.residual);
   j.method = pipeline::pair_method_from_name(s.method);
   if (j.method != pipeline::PairMethod::kTrack)
-    for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels", "--tracks"})
+    for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels", "--tracks", "--disc-offset-px"})
       if (c.count(opt)) throw ConfigError(fmt::format("{} applies to --method track", opt));
   j.size_windows_to_texture = c.count("--windows") == 0;
   j.video_fps = c.count("--fps") > 0 ? j.fps : 0.0;
   j.piv.deform = !s.no_deform;
   j.piv.coarse_estimate = !s.no_coarse;
   j.grey = io::grey_mode_from_name(s.grey);
+  if (!s.disc_offset.empty()) {
+    j.track.centre_offset_px = {s.disc_offset[0], s.disc_offset[1]};
+    j.measure_centre_offset = false;
+  }
   if (!s.centre.empty()) {
     j.centre_x_px = s.centre[0];
     j.centre_y_px = s.centre[1];
@@ -187,6 +191,12 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
   c->add_option("--tracks", s->tracks,
                 "--method track: also write every bead of every pair, linked into tracks, to this .h5 or .csv "
                 "(track id, frames, centre, displacement, velocity, flags; docs/track.md)");
+  c->add_option("--disc-offset-px", s->disc_offset,
+                "--method track: from a bead's smoothed peak (its lit side) to its disc's centre, X,Y px (default: "
+                "measured on the first frame's beads; 0,0 for beads lit along the camera's axis); range: within half "
+                "a bead")
+      ->expected(2)
+      ->delimiter(',');
   c->add_option("--track-levels", j.track.pyramid_levels,
                 "--method track: pyramid levels (displacements up to about 3/8 bead x 2^levels); range: 0..6")
       ->capture_default_str();

@@ -124,6 +124,7 @@ BenchTrackSummary run_track_bench(const BenchTrackOptions& o, const core::Metada
     const synth::TracedPair pair = synth::traced_pair(s);
     track::TrackOptions to;
     to.bead_diameter_px = d;
+    to.centre_offset_px = track::disc_centre_offset(pair.a, cv::Mat(), to);  // once per clip, as piv does
     std::vector<double> t_detect, t_pair;
     std::size_t beads = 0;
     track::PairBeads r;

@@ -321,7 +321,8 @@ track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum, co
     t.bead_diameter_px = d;
   }
   t.validate();
-  if (!first.image.empty()) t.centre_offset_px = track::disc_centre_offset(first.image, first.mask, t);
+  if (o.measure_centre_offset && !first.image.empty())
+    t.centre_offset_px = track::disc_centre_offset(first.image, first.mask, t);
   sum.track_bead_diameter_px = t.bead_diameter_px;
   sum.track_cell_px = track::grid_cell_px(t.bead_diameter_px);
   return t;
@@ -375,13 +376,19 @@ void add_piv_window_metadata(core::Metadata& meta, const PivJobOptions& o, const
 
 /// Tracking's part of the header: the tracker's options and the grid.
 void add_track_metadata(core::Metadata& meta, const track::TrackOptions& tracking, const PivJobSummary& sum,
-                        bool diameter_given) {
+                        bool diameter_given, bool offset_measured) {
   for (auto& kv : tracking.to_metadata()) meta.push_back(std::move(kv));
   meta.emplace_back("track_bead_diameter_rule",
                     diameter_given ? std::string("as given (--bead-diameter-px)")
                                    : fmt::format("the texture of the first frame: autocorrelation half-width {:.3g} "
                                                  "px x {:.3g}",
                                                  sum.texture_half_width_px, piv::kBeadDiameterPerHalfWidth));
+  meta.emplace_back("track_centre_offset_rule",
+                    offset_measured ? fmt::format("measured on the first frame: the circle of the bead's diameter that "
+                                                  "best separates its mean bead from the surroundings (0,0 where "
+                                                  "fewer than {} beads lie clear of masks and the edge)",
+                                                  track::kMinOffsetBeads)
+                                    : std::string("as given (--disc-offset-px)"));
   meta.emplace_back("track_grid",
                     fmt::format("cells of {} px (half a bead); a valid vector is the mean displacement of the beads "
                                 "whose frame-a centre lies in its cell; masked: under a mask or no bead; invalid: "
@@ -402,7 +409,7 @@ core::Metadata piv_metadata(const PivJobOptions& o, const core::Metadata& header
   meta.emplace_back("grey_conversion", io::grey_mode_name(o.grey));
   if (o.method == PairMethod::kTrack) {  // (absent: piv, as in the files written before tracking)
     meta.emplace_back("pair_method", pair_method_name(o.method));
-    add_track_metadata(meta, tracking, sum, o.track.bead_diameter_px != 0);
+    add_track_metadata(meta, tracking, sum, o.track.bead_diameter_px != 0, o.measure_centre_offset);
   } else {
     add_piv_window_metadata(meta, o, piv_options, sum);
   }

@@ -3,7 +3,7 @@
 // One table on synthetic pairs with exact truth: for each bead diameter, a
 // width x height `synth beads` pair of an oscillating-cup-like shear zone (rigid core a
 // fifth of the shorter side, decay 2 d, d/4 px per frame at the core), tracked with the
-// defaults. Columns: bead diameter, beads detected, seconds for the detection alone and
+// defaults (the centre offset measured on frame a first, as piv does for a clip). Columns: bead diameter, beads detected, seconds for the detection alone and
 // for the whole pair (detection, Lucas-Kanade forward and back), pairs per second, the
 // beads tracked, and the displacement error against the tracer under each bead (a
 // tracer within d/4, no second one within d/2): bias per component and RMS.

@@ -65,6 +65,9 @@ struct PivJobOptions {
   /// Tracking's options (method kTrack); bead_diameter_px 0: the texture's size in the
   /// first frame (piv/texture.hpp), as for the windows.
   track::TrackOptions track;
+  /// Tracking: measure track.centre_offset_px on the first frame (track::disc_centre_offset);
+  /// false: as given.
+  bool measure_centre_offset = true;
   piv::PivOptions piv;
   piv::PreprocessOptions preprocess;
   std::vector<std::string> inputs;  ///< images, a glob, or one video
