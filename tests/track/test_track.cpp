@@ -158,6 +158,17 @@ TEST_CASE("tracking options out of range are refused", "[track]") {
   o.pyramid_levels = 3;
   o.fb_tolerance_px = 0;
   CHECK_THROWS_AS(o.validate(), ConfigError);
+  o.fb_tolerance_px = 0.1;
+  o.centre_offset_px = {6.0, 6.0};  // beyond half a bead
+  CHECK_THROWS_AS(o.validate(), ConfigError);
+  o.centre_offset_px = {0.0, std::nan("")};
+  CHECK_THROWS_AS(o.validate(), ConfigError);
+  o.centre_offset_px = {0.0, 0.0};
+  // A mask must be 8-bit and of the frame's size.
+  const cv::Mat frame(64, 64, CV_8U, cv::Scalar(100));
+  CHECK_THROWS_AS(track::detect_beads(frame, cv::Mat::zeros(32, 64, CV_8U), o), InputError);
+  CHECK_THROWS_AS(track::detect_beads(frame, cv::Mat::zeros(64, 64, CV_16U), o), InputError);
+  CHECK_THROWS_AS(track::track_pair(frame, frame, cv::Mat(), cv::Mat::zeros(64, 32, CV_8U), o), InputError);
 }
 
 namespace {

@@ -57,7 +57,12 @@ cv::Mat as_8bit(const cv::Mat& m) {
 /// than the rest of the detection (26 ms a 1080p frame).
 class Clearance {
  public:
-  Clearance(const cv::Mat& mask, cv::Size size, int cap) : mask_(mask), size_(size), cap_(cap) {}
+  Clearance(const cv::Mat& mask, cv::Size size, int cap) : mask_(mask), size_(size), cap_(cap) {
+    if (!mask.empty() && (mask.size() != size || mask.type() != CV_8UC1))
+      throw InputError(fmt::format("track: a mask of {}x{} px (OpenCV type {}) for a frame of {}x{}: expected an "
+                                   "8-bit mask of the frame's size",
+                                   mask.cols, mask.rows, mask.type(), size.width, size.height));
+  }
   /// At the pixel nearest (x, y): min(distance to the edge, distance to a masked pixel, cap).
   float at(double x, double y) const {
     const int i = static_cast<int>(std::lround(y)), j = static_cast<int>(std::lround(x));
@@ -136,11 +141,12 @@ std::size_t PairBeads::tracked() const {
 
 namespace {
 
-/// Beads are looked for in the frame shrunk by whole blocks of this many pixels a side,
-/// as many as keep a bead kCoarseBeadPx across (35 px beads: blocks of 2, 50 px: 4;
-/// below 24 px: the frame itself), and their centres are then found on the frame
-/// itself. Smoothing, the two filters and the percentiles of a 1080p frame of 35 px
-/// beads cost 70 ms on the whole frame; the centres are those of the smoothed frame.
+/// Beads are looked for in the frame shrunk to the means of whole blocks of this many
+/// pixels a side, as many as keep a bead kCoarseBeadPx across (35 px beads: blocks of 2,
+/// 50 px: 4; below 24 px: the frame itself), each centre by a parabola through the
+/// blocks. Smoothing, the two filters and the percentiles of a 1080p frame of 35 px
+/// beads cost 70 ms on the whole frame; on blocks the centres lie 0.1-0.3 px from the
+/// whole frame's (docs/track.md, step 2).
 constexpr double kCoarseBeadPx = 12.0;
 int coarse_factor(double d) { return std::max(1, static_cast<int>(std::floor(d / kCoarseBeadPx))); }
 
