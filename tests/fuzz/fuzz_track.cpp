@@ -33,6 +33,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     track::TrackOptions o;
     o.bead_diameter_px = d;
+    o.centre_offset_px = track::disc_centre_offset(a, mask, o);  // as piv does on a clip's first frame
     const track::PairBeads p = track::track_pair(a, b, mask, mask, o);
     (void)track::beads_to_grid(p, a.size(), track::grid_cell_px(d), mask);
     track::Linker linker(d);

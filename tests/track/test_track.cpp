@@ -148,6 +148,23 @@ TEST_CASE("beads on the grid: one cell per half bead, the mean of its beads, mas
   CHECK(f.count(core::VectorFlag::kValid) == 1);
 }
 
+// On frames with no beads (noise) the offset may land anywhere in its search: never
+// beyond 0.35 d, so that it always passes TrackOptions::validate (half a bead).
+TEST_CASE("the centre offset stays within 0.35 d on any frame", "[track]") {
+  cv::RNG rng(7);
+  for (double d : {3.0, 4.0, 5.0, 8.0})
+    for (int k = 0; k < 5; ++k) {
+      cv::Mat noise(128, 128, CV_8U);
+      rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+      track::TrackOptions o;
+      o.bead_diameter_px = d;
+      o.centre_offset_px = track::disc_centre_offset(noise, cv::Mat(), o);
+      INFO("d " << d << ": offset " << o.centre_offset_px.x << ", " << o.centre_offset_px.y);
+      CHECK(std::hypot(o.centre_offset_px.x, o.centre_offset_px.y) <= 0.35 * d + 1e-9);
+      CHECK_NOTHROW(o.validate());
+    }
+}
+
 TEST_CASE("tracking options out of range are refused", "[track]") {
   track::TrackOptions o;
   CHECK_THROWS_AS(o.validate(), ConfigError);  // no bead diameter

@@ -349,16 +349,19 @@ cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const 
     }
     return s;
   };
-  // Over offsets up to 0.35 d by 1/4 px, then by 1/50 px about the best.
+  // Over offsets up to 0.35 d (within half a bead, as TrackOptions::validate asks) by 1/4
+  // px, then by 1/50 px about the best.
   double best = -std::numeric_limits<double>::infinity(), bx = 0.0, by = 0.0;
   const double span = 0.35 * d;
+  auto consider = [&](double ox, double oy) {
+    if (std::hypot(ox, oy) > span) return;
+    if (const double sc = separation(ox, oy); sc > best) best = sc, bx = ox, by = oy;
+  };
   for (double oy = -span; oy <= span; oy += 0.25)
-    for (double ox = -span; ox <= span; ox += 0.25)
-      if (const double sc = separation(ox, oy); sc > best) best = sc, bx = ox, by = oy;
+    for (double ox = -span; ox <= span; ox += 0.25) consider(ox, oy);
   const double cx = bx, cy = by;
   for (double oy = cy - 0.25; oy <= cy + 0.25; oy += 0.02)
-    for (double ox = cx - 0.25; ox <= cx + 0.25; ox += 0.02)
-      if (const double sc = separation(ox, oy); sc > best) best = sc, bx = ox, by = oy;
+    for (double ox = cx - 0.25; ox <= cx + 0.25; ox += 0.02) consider(ox, oy);
   return {bx, by};
 }
 
