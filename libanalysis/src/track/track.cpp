@@ -341,12 +341,16 @@ cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const 
   // the lit side, and the offset was half the truth on `synth beads`.)
   constexpr int kPoints = 64;
   const double r = 0.5 * d, w = std::max(1.0, d / 16.0);
+  std::vector<cv::Point2d> inner(kPoints), outer(kPoints);  // the circle's points about its centre
+  for (int k = 0; k < kPoints; ++k) {
+    const double th = 2.0 * std::numbers::pi * k / kPoints, ux = std::cos(th), uy = std::sin(th);
+    inner[k] = {(r - w) * ux, (r - w) * uy};
+    outer[k] = {(r + w) * ux, (r + w) * uy};
+  }
   auto separation = [&](double ox, double oy) {
     double s = 0.0;
-    for (int k = 0; k < kPoints; ++k) {
-      const double th = 2.0 * std::numbers::pi * k / kPoints, ux = std::cos(th), uy = std::sin(th);
-      s += at(P + ox + (r - w) * ux, P + oy + (r - w) * uy) - at(P + ox + (r + w) * ux, P + oy + (r + w) * uy);
-    }
+    for (int k = 0; k < kPoints; ++k)
+      s += at(P + ox + inner[k].x, P + oy + inner[k].y) - at(P + ox + outer[k].x, P + oy + outer[k].y);
     return s;
   };
   // Over offsets up to 0.35 d (within half a bead, as TrackOptions::validate asks) by 1/4

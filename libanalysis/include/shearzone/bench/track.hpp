@@ -3,8 +3,9 @@
 // One table on synthetic pairs with exact truth: for each bead diameter, a
 // width x height `synth beads` pair of an oscillating-cup-like shear zone (rigid core a
 // fifth of the shorter side, decay 2 d, d/4 px per frame at the core), tracked with the
-// defaults (the centre offset measured on frame a first, as piv does for a clip). Columns: bead diameter, beads detected, seconds for the detection alone and
-// for the whole pair (detection, Lucas-Kanade forward and back), pairs per second, the
+// defaults (the centre offset measured on frame a first, as piv does for a clip).
+// Columns: bead diameter, beads detected, seconds for the detection alone and for the
+// whole pair (detection, Lucas-Kanade forward and back), pairs per second, the
 // beads tracked, and the displacement error against the tracer under each bead (a
 // tracer within d/4, no second one within d/2): bias per component and RMS.
 // Timings are wall-clock medians over `repeats` runs with the threads OpenCV gives.
@@ -27,7 +28,7 @@ struct BenchTrackOptions {
   int height_px = 1080;
   std::vector<double> diameters_px{16, 24, 35, 50};
   int timing_repeats = 3;  ///< runs per diameter; the median time counts
-  int threads = 0;         ///< pairs tracked at a time in the clip's throughput (0: all cores)
+  int threads = 0;         ///< pairs tracked at a time in the clip's throughput (0: all cores, as piv)
   int clip_pairs = 24;     ///< pairs per timed clip
   bool quick = false;      ///< 960x540 and 35 px beads only (a smoke run)
   std::filesystem::path out_dir;

@@ -60,10 +60,11 @@ std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask,
 
 /// The offset from the peak of a bead's smoothed image to the centre of its disc (for
 /// TrackOptions::centre_offset_px), measured on a frame: the mean image of its beads
-/// about their peaks (those a bead and a half from a mask or the edge), and in it the
-/// circle of the bead's diameter that best separates the bead from what lies around it
-/// (the largest mean difference between points just inside and just outside it). A
-/// frame with fewer than kMinOffsetBeads such beads gives (0, 0).
+/// about their peaks (out to 0.9 d, beads that far from the edge; masked pixels left
+/// out), and in it the circle of the bead's diameter that best separates the bead from
+/// what lies around it (the largest mean difference between points d/16 inside and
+/// outside it), for offsets up to 0.35 d. A frame with fewer than kMinOffsetBeads such
+/// beads, or whose beads' surroundings are mostly masked, gives (0, 0).
 cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
 inline constexpr int kMinOffsetBeads = 30;
 
