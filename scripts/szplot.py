@@ -261,6 +261,28 @@ def thin_ticks(fig):
             return
 
 
+def labels_inside(fig):
+    """Point labels (annotations placed by an offset in points) that reach past their axes
+    move back inside by the excess, sideways and up or down: a label under a point at
+    the axes' edge would otherwise print over the tick labels, and where the points lie
+    depends on timings."""
+    from matplotlib.text import Annotation
+
+    anns = [(ax, t) for ax in fig.axes for t in ax.texts
+            if isinstance(t, Annotation) and t.get_visible() and t.anncoords == "offset points"]
+    if not anns:
+        return
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax, t in anns:
+        bb, box = t.get_window_extent(renderer), ax.get_window_extent(renderer)
+        dx = max(0.0, box.x0 + 2 - bb.x0) - max(0.0, bb.x1 - (box.x1 - 2))
+        dy = max(0.0, box.y0 + 2 - bb.y0) - max(0.0, bb.y1 - (box.y1 - 2))
+        if dx or dy:
+            x, y = t.xyann
+            t.xyann = (x + dx * 72.0 / fig.dpi, y + dy * 72.0 / fig.dpi)
+
+
 def separate_labels(fig):
     """Point labels (annotations placed by an offset in points) that overprint each other
     move apart, the later one down by the overlap, until none overlaps (at most 20
@@ -296,6 +318,7 @@ def save(fig, out):
     LayoutError is raised."""
     fix_log_axes(fig)
     thin_ticks(fig)
+    labels_inside(fig)
     separate_labels(fig)
     problems = layout_problems(fig) if os.environ.get("SHEARZONE_CHECK_LAYOUT") == "1" else []
     fig.savefig(out, dpi=DPI, bbox_inches="tight", pad_inches=0.04)
