@@ -104,8 +104,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (j.method == pipeline::PairMethod::kTrack)
     std::fprintf(stderr,
                  "piv: note: --method track is a first version: on rendered cups its r_c read within 0.15 bead "
-                 "diameters of the camera's at 15-50 px per bead with MPEG-4, up to 0.34 low with H.264, up to 0.64 "
-                 "off at 8 px, and another status than the camera's in 16 of 108 rows (docs/track.md, \"The closed "
+                 "diameters of the camera's at 15-50 px per bead with MPEG-4, up to 0.34 low with H.264, up to 0.63 "
+                 "off at 8 px, and another status than the camera's in 3 of 108 rows (docs/track.md, \"The closed "
                  "loop\"); compare with --method piv where r_c matters\n");
   if (ctx.level != core::LogLevel::kQuiet) {
     const double n = static_cast<double>(sum.pairs * sum.vectors_per_pair);

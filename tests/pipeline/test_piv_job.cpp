@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/core/version.hpp"
@@ -13,6 +14,7 @@
 #include "shearzone/io/image.hpp"
 #include "shearzone/io/video.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
+#include "shearzone/piv/mask.hpp"
 #include "shearzone/pipeline/synth_job.hpp"
 #include "shearzone/synth/generator.hpp"
 #include "support/temp_dir.hpp"
@@ -401,4 +403,45 @@ TEST_CASE("PIV of a rendered bead clip recovers the field it was made of", "[pip
   INFO("RMS " << rms << " px over " << n << " vectors in " << frame_a.size() << " pairs");
   CHECK(frame_a.size() == 7);
   CHECK(rms <= kClipRmsPx);
+}
+
+// Tracking in the cup: the annulus only bounds where a bead counts (its inner edge at the
+// vane's radius has beads on both sides, the ones just outside all in view and the
+// fastest), while the vane hides beads (a window stays clear of it in both frames).
+TEST_CASE("tracked beads just outside the annulus's inner edge count, none lies near the vane",
+          "[pipeline][piv][track]") {
+  constexpr double kBeadPx = 16, kInnerPx = 70;
+  testing::TempDir tmp("pivjob");
+  vane_bead_clip(tmp / "clip", 256, 192, kBeadPx, 20, 4, "png");
+  auto o = job({(tmp / "clip" / "frame_*.png").string()}, tmp / "f.h5");
+  o.method = pipeline::PairMethod::kTrack;
+  o.track.bead_diameter_px = kBeadPx;
+  o.centre_x_px = 127.5;
+  o.centre_y_px = 95.5;
+  o.annulus_inner_px = kInnerPx;
+  o.annulus_outer_px = 95;
+  o.vane.geometry = {4, 5.0, 70.0};
+  o.vane.margin_px = 2.0;
+  o.vane.phi0_rad = 0.3;
+  o.vane.f_Hz = 0.5;
+  o.tracks_output = tmp / "tracks.csv";
+  (void)pipeline::run_piv_job(o, {});
+  const io::CsvTable t = io::read_csv(o.tracks_output);
+  const auto x = t.numeric_column("x_px"), y = t.numeric_column("y_px"), ta = t.numeric_column("t_a_s");
+  std::size_t near_edge = 0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const double r = std::hypot(x[k] - o.centre_x_px, y[k] - o.centre_y_px);
+    INFO("bead at (" << x[k] << ", " << y[k] << "), r " << r << " px, t " << ta[k] << " s");
+    CHECK(r >= kInnerPx - 1.0);  // its centre pixel inside the annulus
+    if (r < kInnerPx + 0.25 * kBeadPx) ++near_edge;
+    // A quarter bead clear of the vane (with its margin) at frame a's time.
+    const cv::Mat vane = piv::vane_mask({256, 192}, o.centre_x_px, o.centre_y_px,
+                                        o.vane.phi0_rad * std::sin(std::numbers::pi * ta[k]), o.vane.geometry,
+                                        o.vane.margin_px);
+    cv::Mat dist;
+    cv::distanceTransform(vane == 0, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    CHECK(dist.at<float>(static_cast<int>(std::lround(y[k])), static_cast<int>(std::lround(x[k]))) >=
+          0.25 * kBeadPx - 0.5);
+  }
+  CHECK(near_edge >= 3);
 }

@@ -123,6 +123,55 @@ TEST_CASE("a bead near a masked pixel is not detected, one whose window reaches 
   }
 }
 
+TEST_CASE("beads just inside a region's edge are found and tracked: a region bounds centres, it hides nothing", "[track]") {
+  // The annulus of interest's inner edge at the vane's radius has beads on both sides:
+  // one whose centre lies just inside is all in view. Given as `outside`, the region
+  // keeps centres in it out but lets windows reach across; given as a mask, the beads
+  // of the first quarter bead are lost.
+  for (double d : {16.0, 36.0}) {
+    const synth::TracedPair pair = synth::traced_pair(beads(d, synth::FieldKind::kUniform, 5));
+    track::TrackOptions o;
+    o.bead_diameter_px = d;
+    cv::Mat region = cv::Mat::zeros(pair.a.size(), CV_8U);
+    region.colRange(0, 256).setTo(255);
+    const double edge = 256 - 0.5;  // pixel 256's left edge
+    const auto as_mask = track::detect_beads(pair.a, region, o);
+    const auto as_region = track::detect_beads(pair.a, cv::Mat(), o, region);
+    auto near_edge = [&](const std::vector<cv::Point2d>& cs) {
+      return std::count_if(cs.begin(), cs.end(), [&](const cv::Point2d& c) { return c.x < edge + 0.25 * d; });
+    };
+    for (const auto& c : as_region) CHECK(c.x >= edge);
+    CHECK(near_edge(as_mask) == 0);
+    CHECK(near_edge(as_region) >= 3);
+    CHECK(as_region.size() > as_mask.size());
+    // Those beads' displacements as good as anywhere (windows over the region's beads).
+    const track::PairBeads r = track::track_pair(pair.a, pair.b, cv::Mat(), cv::Mat(), o, region);
+    constexpr double kMaxRmsPx = 0.05;  // the tracker's gate anywhere in the frame
+    std::size_t checked = 0;
+    double s2 = 0;
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      CHECK(r.x_px[k] >= edge);
+      if (!r.ok[k] || r.x_px[k] >= edge + 0.25 * d) continue;
+      std::size_t best = 0;
+      double best2 = 1e300;
+      for (std::size_t t = 0; t < pair.xa.size(); ++t) {
+        const double d2 = std::pow(pair.xa[t] - r.x_px[k], 2) + std::pow(pair.ya[t] - r.y_px[k], 2);
+        if (d2 < best2) best2 = d2, best = t;
+      }
+      if (best2 > std::pow(0.25 * d, 2)) continue;  // a bead half hidden under another
+      s2 += std::pow(r.u_px[k] - (pair.xb[best] - pair.xa[best]), 2) +
+            std::pow(r.v_px[k] - (pair.yb[best] - pair.ya[best]), 2);
+      ++checked;
+    }
+    REQUIRE(checked >= 3);
+    const double rms = std::sqrt(s2 / (2.0 * static_cast<double>(checked)));
+    INFO(d << " px: " << checked << " beads within d/4 of the edge, RMS " << rms << " px");
+    CHECK(rms <= kMaxRmsPx);
+    cv::Mat wrong(8, 8, CV_8U, cv::Scalar(0));
+    CHECK_THROWS_AS(track::detect_beads(pair.a, cv::Mat(), o, wrong), InputError);
+  }
+}
+
 TEST_CASE("beads on the grid: one cell per half bead, the mean of its beads, masked where none", "[track]") {
   track::PairBeads p;
   p.x_px = {10.2, 10.9, 30.0, 50.0};

@@ -49,12 +49,14 @@ std::string metadata_text(const core::Metadata& m) {
   return s;
 }
 
-/// A frame PIV may still pair: the frame, what PIV sees (preprocessed if asked) and
-/// its mask (static + vane at this frame's time).
+/// A frame PIV may still pair: the frame, what PIV sees (preprocessed if asked), its
+/// mask (static + annulus + vane at this frame's time) and, for tracking, what of it
+/// hides beads (static + vane: the annulus only bounds where beads count).
 struct Unique {
   io::Frame frame;
   cv::Mat image;
   cv::Mat mask;
+  cv::Mat hiding;
 };
 
 /// One pair's displacements: PIV's result, or the beads tracked and their grid.
@@ -62,8 +64,7 @@ struct PairResult {
   piv::PivResult piv;
   track::PairBeads beads;
 };
-using PairEstimator =
-    std::function<PairResult(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b)>;
+using PairEstimator = std::function<PairResult(const Unique& a, const Unique& b)>;
 
 /// One pair in flight: its frames and, once done, its result.
 struct PairJob {
@@ -273,9 +274,21 @@ struct FrameMasks {
       m = piv::combine_masks(m, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px, o.annulus_inner_px,
                                                   o.annulus_outer_px));
     if (o.vane.geometry.blades > 0)
-      m = piv::combine_masks(m, piv::vane_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
-                                               vane_angle.at(fr.t_s, fr.label), o.vane.geometry, o.vane.margin_px));
+      m = piv::combine_masks(m, vane(fr));
     return m;
+  }
+  /// What hides beads: the static mask and the vane (tracking's windows stay clear of it).
+  [[nodiscard]] cv::Mat hiding(const io::Frame& fr) const {
+    return o.vane.geometry.blades > 0 ? piv::combine_masks(static_mask, vane(fr)) : static_mask;
+  }
+  /// Where no bead counts: outside the annulus (empty without one).
+  [[nodiscard]] cv::Mat outside(cv::Size size) const {
+    if (o.annulus_outer_px <= 0) return {};
+    return piv::annulus_mask(size, o.centre_x_px, o.centre_y_px, o.annulus_inner_px, o.annulus_outer_px);
+  }
+  [[nodiscard]] cv::Mat vane(const io::Frame& fr) const {
+    return piv::vane_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px, vane_angle.at(fr.t_s, fr.label),
+                          o.vane.geometry, o.vane.margin_px);
   }
 };
 
@@ -328,19 +341,20 @@ track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum, co
   return t;
 }
 
-/// The pair estimator of the method: PIV's engine, or the beads tracked and gridded.
+/// The pair estimator of the method: PIV's engine, or the beads tracked (clear of what
+/// hides them, centres outside the annulus not counted: `outside`) and gridded.
 PairEstimator pair_estimator(const PivJobOptions& o, const piv::PivOptions& piv_options,
-                             const track::TrackOptions& track_options, int cell_px) {
+                             const track::TrackOptions& track_options, int cell_px, const cv::Mat& outside) {
   if (o.method == PairMethod::kTrack)
-    return [track_options, cell_px](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
+    return [track_options, cell_px, outside](const Unique& a, const Unique& b) {
       PairResult r;
-      r.beads = track::track_pair(a, b, mask_a, mask_b, track_options);
-      r.piv.field = track::beads_to_grid(r.beads, a.size(), cell_px, mask_a);
+      r.beads = track::track_pair(a.image, b.image, a.hiding, b.hiding, track_options, outside);
+      r.piv.field = track::beads_to_grid(r.beads, a.image.size(), cell_px, a.mask);
       return r;
     };
   auto engine = std::make_shared<const piv::PivEngine>(piv_options);
-  return [engine](const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b) {
-    return PairResult{engine->process(a, b, mask_a, mask_b), {}};
+  return [engine](const Unique& a, const Unique& b) {
+    return PairResult{engine->process(a.image, b.image, a.mask, b.mask), {}};
   };
 }
 
@@ -391,7 +405,9 @@ void add_track_metadata(core::Metadata& meta, const track::TrackOptions& trackin
                                     : std::string("as given (--disc-offset-px)"));
   meta.emplace_back("track_grid",
                     fmt::format("cells of {} px (half a bead); a valid vector is the mean displacement of the beads "
-                                "whose frame-a centre lies in its cell; masked: under a mask or no bead; invalid: "
+                                "whose frame-a centre lies in its cell (beads count where their centre lies in the "
+                                "annulus, a quarter bead clear of the vane and a mask image); masked: under a mask "
+                                "or no bead; invalid: "
                                 "its beads lost or back more than {} px from where they started; peak and "
                                 "peak_ratio 0 (no correlation)",
                                 sum.track_cell_px, format_number(tracking.fb_tolerance_px)));
@@ -521,7 +537,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   FirstFrame first;
   const piv::PivOptions piv_options = size_windows(o, masks, background, sum, first);
   const track::TrackOptions tracking = o.method == PairMethod::kTrack ? track_options(o, sum, first) : o.track;
-  const PairEstimator estimate = pair_estimator(o, piv_options, tracking, sum.track_cell_px);
+  const PairEstimator estimate = pair_estimator(
+      o, piv_options, tracking, sum.track_cell_px,
+      o.method == PairMethod::kTrack && !first.image.empty() ? masks.outside(first.image.size()) : cv::Mat());
   const bool csv = io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
@@ -552,7 +570,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   std::unique_ptr<PairPool> pool;
   if (sum.pairs_in_parallel)  // one pair per thread, its windows serial
     pool = std::make_unique<PairPool>(
-        [&estimate](PairJob& j) { j.result = estimate(j.a->image, j.b->image, j.a->mask, j.b->mask); }, sum.threads,
+        [&estimate](PairJob& j) { j.result = estimate(*j.a, *j.b); }, sum.threads,
         [] { omp_set_num_threads(1); });
 
   // Step 3: write a finished pair.
@@ -619,6 +637,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     u.frame.gray = frame.gray.clone();
     u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
     u.mask = masks.of(frame);
+    if (o.method == PairMethod::kTrack) u.hiding = masks.hiding(frame);
     window.push_back(std::move(up));
     ++unique_count;
     if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();
@@ -639,7 +658,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
       while (write_done(pool->pop_done(false))) {
       }
     } else {
-      write_pair(a, b, estimate(a.image, b.image, a.mask, b.mask));
+      write_pair(a, b, estimate(a, b));
     }
   }
   if (pool)

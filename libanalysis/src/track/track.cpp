@@ -122,8 +122,8 @@ void TrackOptions::validate() const {
 
 core::Metadata TrackOptions::to_metadata() const {
   return {{"track_bead_diameter_px", fmt::format("{:.4g}", bead_diameter_px)},
-          {"track_window_px", fmt::format("{} (smaller near a mask or the edge, down to {}: each bead's window stays "
-                                          "clear of them)",
+          {"track_window_px", fmt::format("{} (smaller near what hides beads, the vane or a mask image, or the edge, "
+                                          "down to {}: each bead's window stays clear of them)",
                                           window_px(bead_diameter_px), 2 * kMinHalfWindowPx + 1)},
           {"track_pyramid_levels", std::to_string(pyramid_levels)},
           {"track_fb_tolerance_px", fmt::format("{}", fb_tolerance_px)},
@@ -150,7 +150,22 @@ namespace {
 constexpr double kCoarseBeadPx = 12.0;
 int coarse_factor(double d) { return std::max(1, static_cast<int>(std::floor(d / kCoarseBeadPx))); }
 
-/// detect_beads on an 8-bit frame, with its mask's clearance at hand.
+/// `mask` and `outside` together (either may be empty), checked against the frame.
+cv::Mat masked_or_outside(const cv::Mat& mask, const cv::Mat& outside, cv::Size size) {
+  if (outside.empty()) return mask;
+  if (outside.size() != size || outside.type() != CV_8UC1)
+    throw InputError(fmt::format("track: a region mask of {}x{} px (OpenCV type {}) for a frame of {}x{}: expected "
+                                 "an 8-bit mask of the frame's size",
+                                 outside.cols, outside.rows, outside.type(), size.width, size.height));
+  if (mask.empty()) return outside;
+  cv::Mat m;
+  cv::bitwise_or(mask != 0, outside != 0, m);
+  return m;
+}
+
+/// detect_beads on an 8-bit frame: `mask` the union of what hides beads and where none
+/// counts (the frame's range leaves it out, centres may not lie in it), `clear` the
+/// clearance from what hides beads only.
 std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image8, const cv::Mat& mask, const Clearance& clear,
                                                const TrackOptions& o) {
   const double d = o.bead_diameter_px;
@@ -243,6 +258,8 @@ std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image8, const cv::
                        o.centre_offset_px.y;
       const int pi = static_cast<int>(std::lround(y)), pj = static_cast<int>(std::lround(x));
       if (clear.at(pj, pi) < mc) continue;
+      if (!mask.empty() && (pi < 0 || pj < 0 || pi >= mask.rows || pj >= mask.cols || mask.at<std::uint8_t>(pi, pj)))
+        continue;
       peaks.push_back({v, pi, pj, x, y});
     }
 
@@ -289,10 +306,12 @@ int clearance_cap(double d) {
 
 }  // namespace
 
-std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& o) {
+std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& o,
+                                      const cv::Mat& outside) {
   o.validate();
   const cv::Mat image8 = as_8bit(image);
-  return detect_with_clearance(image8, mask, Clearance(mask, image8.size(), clearance_cap(o.bead_diameter_px)), o);
+  const Clearance clear(mask, image8.size(), clearance_cap(o.bead_diameter_px));
+  return detect_with_clearance(image8, masked_or_outside(mask, outside, image8.size()), clear, o);
 }
 
 cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options) {
@@ -370,13 +389,14 @@ cv::Point2d disc_centre_offset(const cv::Mat& image, const cv::Mat& mask, const 
 }
 
 PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,
-                     const TrackOptions& o) {
+                     const TrackOptions& o, const cv::Mat& outside) {
   o.validate();
   if (a.size() != b.size()) throw InputError("track: the two frames differ in size");
   const cv::Mat a8 = as_8bit(a), b8 = as_8bit(b);
   const int cap = clearance_cap(o.bead_diameter_px);
   const Clearance clear_a(mask_a, a8.size(), cap), clear_b(mask_b, b8.size(), cap);
-  const std::vector<cv::Point2d> centres = detect_with_clearance(a8, mask_a, clear_a, o);
+  const std::vector<cv::Point2d> centres =
+      detect_with_clearance(a8, masked_or_outside(mask_a, outside, a8.size()), clear_a, o);
   PairBeads r;
   const std::size_t n = centres.size();
   for (const cv::Point2d& c : centres) {

@@ -55,8 +55,18 @@ struct TrackOptions {
 
 /// Bead centres found in a frame, px (sub-pixel: a parabola through the smoothed
 /// frame's peak and its neighbours). A bead is dropped when a masked pixel or the
-/// image's edge lies within a quarter diameter (at least 3.5 px) of its centre.
-std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options);
+/// image's edge lies within a quarter diameter (at least 3.5 px) of its centre, or when
+/// its centre lies in `outside`.
+///
+/// Two masks, because they mean different things to a bead: `mask` covers what hides
+/// beads (a vane blade, a shaft, a label: a window must stay clear of it), `outside`
+/// only where no bead is counted (the annulus of interest's complement). A bead whose
+/// centre lies just inside the annulus's inner edge, at the vane's radius, is all in
+/// view: the beads between the blades lie beyond that edge. Kept clear of it like a
+/// blade, the beads of the first quarter bead were lost, and they are the fastest (the
+/// closed loop's first bin read 0.45 mm/s for the camera's 0.59: docs/track.md).
+std::vector<cv::Point2d> detect_beads(const cv::Mat& image, const cv::Mat& mask, const TrackOptions& options,
+                                      const cv::Mat& outside = cv::Mat());
 
 /// The offset from the peak of a bead's smoothed image to the centre of its disc (for
 /// TrackOptions::centre_offset_px), measured on a frame: the mean image of its beads
@@ -83,8 +93,10 @@ struct PairBeads {
 /// masked pixel or the edge is nearer (it stays clear of them: a wall or a vane in the
 /// window would pull the bead towards their motion), at least 7 px. A bead whose window
 /// at its end reaches a masked pixel of `mask_b` (the vane moved over it) is not ok.
+/// Beads whose centre lies in `outside` (static: where no bead counts) are not
+/// tracked; windows may reach into it (detect_beads).
 PairBeads track_pair(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask_a, const cv::Mat& mask_b,
-                     const TrackOptions& options);
+                     const TrackOptions& options, const cv::Mat& outside = cv::Mat());
 
 /// Cell size of the grid of beads_to_grid for a bead diameter: half a bead, at least 2 px.
 int grid_cell_px(double bead_diameter_px);
