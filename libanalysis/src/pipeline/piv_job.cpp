@@ -268,18 +268,14 @@ struct FrameMasks {
   const PivJobOptions& o;
   cv::Mat static_mask;
   const piv::VaneDrive& vane_angle;
-  [[nodiscard]] cv::Mat of(const io::Frame& fr) const {
-    cv::Mat m = static_mask;
-    if (o.annulus_outer_px > 0)
-      m = piv::combine_masks(m, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px, o.annulus_inner_px,
-                                                  o.annulus_outer_px));
-    if (o.vane.geometry.blades > 0)
-      m = piv::combine_masks(m, vane(fr));
-    return m;
-  }
-  /// What hides beads: the static mask and the vane (tracking's windows stay clear of it).
-  [[nodiscard]] cv::Mat hiding(const io::Frame& fr) const {
-    return o.vane.geometry.blades > 0 ? piv::combine_masks(static_mask, vane(fr)) : static_mask;
+  /// The whole mask; with `hiding`, also what of it hides beads: the static mask and the
+  /// vane (tracking's windows stay clear of it), the vane drawn once for both.
+  [[nodiscard]] cv::Mat of(const io::Frame& fr, cv::Mat* hiding = nullptr) const {
+    const cv::Mat hides = o.vane.geometry.blades > 0 ? piv::combine_masks(static_mask, vane(fr)) : static_mask;
+    if (hiding) *hiding = hides;
+    if (o.annulus_outer_px <= 0) return hides;
+    return piv::combine_masks(hides, piv::annulus_mask(fr.gray.size(), o.centre_x_px, o.centre_y_px,
+                                                       o.annulus_inner_px, o.annulus_outer_px));
   }
   /// Where no bead counts: outside the annulus (empty without one).
   [[nodiscard]] cv::Mat outside(cv::Size size) const {
@@ -636,8 +632,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     u.frame = frame;
     u.frame.gray = frame.gray.clone();
     u.image = o.preprocess.any() ? piv::preprocess(frame.gray, o.preprocess, background) : u.frame.gray;
-    u.mask = masks.of(frame);
-    if (o.method == PairMethod::kTrack) u.hiding = masks.hiding(frame);
+    u.mask = masks.of(frame, o.method == PairMethod::kTrack ? &u.hiding : nullptr);
     window.push_back(std::move(up));
     ++unique_count;
     if (window.size() > static_cast<std::size_t>(o.pair_spacing) + 1) window.pop_front();

@@ -257,9 +257,8 @@ std::vector<cv::Point2d> detect_with_clearance(const cv::Mat& image8, const cv::
       const double y = centre_px(i) + fac * parabola_vertex(s.at<float>(i - 1, j), v, s.at<float>(i + 1, j)) +
                        o.centre_offset_px.y;
       const int pi = static_cast<int>(std::lround(y)), pj = static_cast<int>(std::lround(x));
-      if (clear.at(pj, pi) < mc) continue;
-      if (!mask.empty() && (pi < 0 || pj < 0 || pi >= mask.rows || pj >= mask.cols || mask.at<std::uint8_t>(pi, pj)))
-        continue;
+      if (clear.at(pj, pi) < mc) continue;  // 0 off the frame: (pi, pj) is inside below
+      if (!mask.empty() && mask.at<std::uint8_t>(pi, pj)) continue;
       peaks.push_back({v, pi, pj, x, y});
     }
 
