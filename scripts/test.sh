@@ -41,7 +41,7 @@ cmake --build "$BUILD_DIR" --parallel "$JOBS"
 # the command only (its own folder: demo.sh builds build/release without -Werror).
 if [ "$SANITIZE" = OFF ]; then
   cmake -S . -B build/ci-release -G Ninja -DCMAKE_BUILD_TYPE=Release -DSHEARZONE_BUILD_TESTS=OFF \
-    -DSHEARZONE_WARNINGS_AS_ERRORS=ON >/dev/null
+    -DSHEARZONE_WARNINGS_AS_ERRORS=ON -DSHEARZONE_PYTHON=OFF >/dev/null
   cmake --build build/ci-release --parallel "$JOBS"
 fi
 

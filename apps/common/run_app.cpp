@@ -50,6 +50,18 @@ void parse_words(CLI::App& app, const std::vector<std::string>& words) {
   app.parse(static_cast<int>(argv.size()), argv.data());
 }
 
+int run_words(CLI::App& app, const std::vector<std::string>& words, const std::function<int()>& dispatch) {
+  refuse_nan_everywhere(app);
+  try {
+    parse_words(app, words);
+    return dispatch();
+  } catch (const CLI::ParseError& e) {
+    std::string m = e.what();
+    std::replace(m.begin(), m.end(), '\n', ' ');
+    throw ConfigError(m);
+  }
+}
+
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch) {
   refuse_nan_everywhere(app);
   try {

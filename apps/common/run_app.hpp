@@ -5,6 +5,7 @@
 // prints or exits.
 #pragma once
 
+#include <any>
 #include <functional>
 #include <string>
 #include <utility>
@@ -25,6 +26,11 @@ struct Context {
   /// The study's option check: a subcommand converts and validates its options (its
   /// job's validate()) and returns 0 before reading or writing any file.
   bool check_options = false;
+  /// The Python module's calls on arrays: a subcommand that takes arrays (piv, fit)
+  /// hands its typed job options here, converted from its words as the command line's
+  /// are, and returns 0 without reading or writing a file (std::any of the pipeline's
+  /// Options struct).
+  std::function<void(std::any)> capture;
   /// tool, version, command line and conventions: the start of every output header.
   core::Metadata header() const { return core::standard_metadata(command_line); }
 };
@@ -33,6 +39,12 @@ struct Context {
 /// Maps: CLI::ParseError -> 1 (help and --version -> 0), InputError/ConfigError
 /// -> 2, NoResultError -> 3, anything else -> 4.
 int run_app(CLI::App& app, int argc, char** argv, const std::function<int()>& dispatch);
+
+/// Parses `words` (the program name first, as argv) with `app` and runs `dispatch`, as
+/// run_app does but for a caller in this process (the Python module): nothing is
+/// printed and errors are thrown, a CLI::ParseError as ConfigError carrying the line
+/// the command would print. Returns dispatch's exit code.
+int run_words(CLI::App& app, const std::vector<std::string>& words, const std::function<int()>& dispatch);
 
 /// Parses `words` (the program name first, as argv) with `app`: CLI::ParseError as
 /// app.parse(argc, argv) throws it.

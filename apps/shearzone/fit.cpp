@@ -32,6 +32,10 @@ int run_fit(CLI::App& c, FitCli& s, const Context& ctx) {
     j.space = fit::parse_power_space(s.space);
     j.subtract_at = s.subtract_at;
   }
+  if (ctx.capture) {  // the Python module's arrays: the options, no file
+    ctx.capture(j);
+    return kExitOk;
+  }
   if (ctx.check_options) {  // the study's option check: no file read
     j.validate();
     return kExitOk;

@@ -57,6 +57,10 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
     std::fputs(pipeline::inspect_laos_logs(j).c_str(), stdout);
     return kExitOk;
   }
+  if (ctx.capture) {  // the Python module's arrays: the options, no file
+    ctx.capture(j);
+    return kExitOk;
+  }
   if (ctx.check_options) {  // the study's option check: no file read
     j.validate();
     return kExitOk;

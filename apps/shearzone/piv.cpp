@@ -86,6 +86,10 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (c.count("--phi0-rad")) j.attributes.emplace_back("phi0_rad", fmt::format("{}", j.vane.phi0_rad));
   for (auto& kv : parse_key_values(s.attrs, "--attr")) j.attributes.push_back(std::move(kv));
 
+  if (ctx.capture) {  // the Python module's arrays: the options, no file
+    ctx.capture(j);
+    return kExitOk;
+  }
   if (ctx.check_options) {  // the study's option check: no file read
     j.validate();
     return kExitOk;

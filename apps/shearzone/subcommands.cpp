@@ -3,6 +3,8 @@
 
 #include <cstdio>
 
+#include "shearzone/core/version.hpp"
+
 namespace shearzone::apps {
 
 std::vector<Subcommand> add_subcommands(CLI::App& root, Context& ctx) {
@@ -23,6 +25,32 @@ std::vector<Subcommand> add_subcommands(CLI::App& root, Context& ctx) {
   for (auto& s : add_collapse_erf(*collapse, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_collapse_fss(*collapse, ctx)) subs.push_back(std::move(s));
   return subs;
+}
+
+Command::Command(Context& ctx)
+    : ctx_(ctx),
+      app_("shearzone: experimental rheology of granular chains (PIV, profiles, fits, LAOS, contact dynamics)") {
+  app_.name("shearzone");
+  app_.set_version_flag("--version", std::string("shearzone ") + kVersion);
+  app_.require_subcommand(1);
+  app_.fallthrough();  // -q/-v may follow the subcommand
+  app_.add_flag("-q,--quiet", quiet_, "Only errors on stderr; no progress, no summary");
+  app_.add_flag("-v,--verbose", verbose_, "More detail on stderr");
+  subs_ = add_subcommands(app_, ctx_);
+}
+
+int Command::dispatch() {
+  ctx_.level = quiet_ ? core::LogLevel::kQuiet : (verbose_ ? core::LogLevel::kVerbose : core::LogLevel::kNormal);
+  for (auto& s : subs_)
+    if (s.app->parsed()) return s.run();
+  return kExitUsage;  // unreachable: CLI11 requires a subcommand
+}
+
+int run_in_process(const std::vector<std::string>& words, Context& ctx) {
+  Command command(ctx);
+  std::vector<std::string> argv{"shearzone"};
+  argv.insert(argv.end(), words.begin(), words.end());
+  return run_words(command.app(), argv, [&] { return command.dispatch(); });
 }
 
 void note_small_beads(const char* who, const char* what, double bead_px, const char* advice) {

@@ -19,6 +19,26 @@ struct Subcommand {
 /// Every subcommand of `shearzone` on `root` (main and the study's option check).
 std::vector<Subcommand> add_subcommands(CLI::App& root, Context& ctx);
 
+/// The `shearzone` command: its root (-q, -v, --version) and every subcommand.
+class Command {
+ public:
+  explicit Command(Context& ctx);
+  CLI::App& app() { return app_; }
+  /// Runs the subcommand parsed, at the level -q and -v set.
+  int dispatch();
+
+ private:
+  Context& ctx_;
+  CLI::App app_;
+  bool quiet_ = false, verbose_ = false;
+  std::vector<Subcommand> subs_;
+};
+
+/// Runs `words` (a subcommand and its arguments, as typed after `shearzone`) in this
+/// process with `ctx` (the Python module): the command line's parsing, conversion and
+/// job, or ctx.capture. Throws what the job throws (run_words); returns the exit code.
+int run_in_process(const std::vector<std::string>& words, Context& ctx);
+
 /// `shearzone bench piv`.
 std::vector<Subcommand> add_bench(CLI::App& root, Context& ctx);
 

@@ -32,7 +32,17 @@ std::string ProgressReporter::format_line(const std::string& label, std::size_t 
   return fmt::format("{}: {}/{} ({:.1f}/s, ETA {})", label, done, total, rate, eta);
 }
 
+namespace {
+thread_local ProgressObserver t_observer;
+}  // namespace
+
+ProgressObserver set_progress_observer(ProgressObserver observer) {
+  std::swap(t_observer, observer);
+  return observer;
+}
+
 void ProgressReporter::update(std::size_t done, std::size_t total) {
+  if (t_observer) t_observer(label_, done, total);
   if (!enabled_) return;
   const auto now = std::chrono::steady_clock::now();
   const bool last_item = total > 0 && done >= total;

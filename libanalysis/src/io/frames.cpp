@@ -77,9 +77,59 @@ class ImageSequenceSource : public FrameSource {
   cv::Size size_{0, 0};
 };
 
+const char* depth_name(const cv::Mat& m) {
+  return m.depth() == CV_8U ? "uint8" : m.depth() == CV_16U ? "uint16" : m.depth() == CV_32F ? "float32" : "another type";
+}
+
+class MemorySource : public FrameSource {
+ public:
+  MemorySource(std::vector<cv::Mat> frames, double fps, std::string name)
+      : frames_(std::move(frames)), fps_(fps), name_(std::move(name)) {}
+  bool next(Frame& f) override {
+    if (next_ >= frames_.size()) return false;
+    f.gray = frames_[next_];
+    f.index = static_cast<std::int64_t>(next_);
+    f.t_s = static_cast<double>(next_) / fps_;
+    f.label = fmt::format("{}#{}", name_, next_);
+    f.damaged = false;
+    ++next_;
+    return true;
+  }
+  double fps() const override { return fps_; }
+  std::int64_t size_hint() const override { return static_cast<std::int64_t>(frames_.size()); }
+  std::string description() const override {
+    const cv::Mat& m = frames_.front();
+    return fmt::format("{} {} frames of {}x{} px in memory, {} fps", frames_.size(),
+                       depth_name(m), m.cols, m.rows, fps_);
+  }
+
+ private:
+  std::vector<cv::Mat> frames_;
+  double fps_;
+  std::string name_;
+  std::size_t next_ = 0;
+};
+
 bool has_glob_chars(const std::string& s) { return s.find_first_of("*?[") != std::string::npos; }
 
 }  // namespace
+
+std::unique_ptr<FrameSource> frames_from_memory(std::vector<cv::Mat> frames, double fps, std::string name) {
+  if (frames.size() < 2) throw InputError(fmt::format("{}: {} frame{}: a pair needs two", name, frames.size(), frames.size() == 1 ? "" : "s"));
+  if (!(fps > 0) || !std::isfinite(fps)) throw ConfigError(fmt::format("fps = {}: must be > 0 for frames in memory", fps));
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const cv::Mat& m = frames[k];
+    if (m.empty() || m.channels() != 1 || (m.depth() != CV_8U && m.depth() != CV_16U && m.depth() != CV_32F))
+      throw InputError(fmt::format("{}#{}: expected a 2-D array of uint8, uint16 or float32 grey levels", name, k));
+    if (m.size() != frames[0].size() || m.type() != frames[0].type())
+      throw InputError(fmt::format("{}#{}: {}x{} px of {}; frame 0 is {}x{} px of {}: frames must match", name, k,
+                                   m.cols, m.rows, depth_name(m), frames[0].cols, frames[0].rows,
+                                   depth_name(frames[0])));
+    if (m.depth() == CV_32F && !cv::checkRange(m, true, nullptr, 0.0, std::nextafter(1.0, 2.0)))
+      throw InputError(fmt::format("{}#{}: float grey levels outside 0..1 (or not finite); expected 0..1", name, k));
+  }
+  return std::make_unique<MemorySource>(std::move(frames), fps, std::move(name));
+}
 
 std::vector<std::string> expand_glob(const std::string& pattern) {
   glob_t g{};

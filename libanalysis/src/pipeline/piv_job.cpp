@@ -95,6 +95,8 @@ PairMethod pair_method_from_name(const std::string& name) {
 
 void PivJobOptions::validate() const {
   piv.validate();
+  if (on_pair && !tracks_output.empty())
+    throw ConfigError("tracks: fields handed to the caller take no --tracks file");
   preprocess.validate();
   if (method == PairMethod::kTrack) {
     if (preprocess.any())
@@ -111,13 +113,13 @@ void PivJobOptions::validate() const {
   }
   if (!(video_fps >= 0 && std::isfinite(video_fps)))
     throw ConfigError(fmt::format("--fps {}: expected a positive finite frame rate", video_fps));
-  if (inputs.empty()) throw ConfigError("piv: no input given (two images, a glob or a video)");
+  if (inputs.empty() && !frames) throw ConfigError("piv: no input given (two images, a glob or a video)");
   const bool csv = io::is_field_csv(output);
-  if (!csv && !io::has_extension(output, ".h5") && !io::has_extension(output, ".hdf5"))
+  if (!on_pair && !csv && !io::has_extension(output, ".h5") && !io::has_extension(output, ".hdf5"))
     throw ConfigError(fmt::format("{}: output must end in .csv (one pair) or .h5 (any number "
                                   "of pairs)",
                                   output.string()));
-  if (csv) {
+  if (csv && !on_pair && !frames) {
     // One pair: exactly two image files. Say what the inputs really are.
     auto is_image = [](const std::string& in) {
       return io::is_readable_image_extension(in) || (std::filesystem::exists(in) && io::looks_like_image(in));
@@ -189,10 +191,18 @@ void PivJobOptions::validate() const {
 
 namespace {
 
+/// The job's frames: the caller's (PivJobOptions::frames) or `inputs` opened.
+std::unique_ptr<io::FrameSource> open_source(const PivJobOptions& o) {
+  return o.frames ? o.frames() : io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+}
+
+/// What the messages name as the input: the first input, or the caller's frames.
+std::string input_name(const PivJobOptions& o) { return o.inputs.empty() ? std::string("frames") : o.inputs.front(); }
+
 /// The vane angle seen in each selected frame, relative to angle0 (blade symmetry:
 /// within +-pi/blades), with the frame times.
 void measure_vane(const PivJobOptions& o, std::vector<double>& ts, std::vector<double>& phis) {
-  auto src = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  auto src = open_source(o);
   const double a0 = o.vane.angle0_deg * std::numbers::pi / 180.0;
   const double half = std::numbers::pi / o.vane.geometry.blades;
   io::Frame fr;
@@ -204,7 +214,7 @@ void measure_vane(const PivJobOptions& o, std::vector<double>& ts, std::vector<d
                                             a0 + half) -
                    a0);
   }
-  if (ts.empty()) throw InputError(fmt::format("{}: no frame to measure the vane angle in", o.inputs.front()));
+  if (ts.empty()) throw InputError(fmt::format("{}: no frame to measure the vane angle in", input_name(o)));
 }
 
 /// --phase-auto: the phase of the vane's sinusoid from the angles seen in the frames.
@@ -215,13 +225,13 @@ void find_vane_phase(const PivJobOptions& o, piv::VaneDrive& vane_angle, PivJobS
   if (!std::isfinite(fit.phase_rad))
     throw InputError(fmt::format("{}: {} frames span less than a quarter cycle of {} Hz: the vane phase cannot be "
                                  "found; give --phase-rad",
-                                 o.inputs.front(), ts.size(), format_number(o.vane.f_Hz)));
+                                 input_name(o), ts.size(), format_number(o.vane.f_Hz)));
   // The fit must see the vane the options describe: an amplitude within 25 % of phi0.
   if (!(std::abs(fit.amplitude_rad - std::abs(o.vane.phi0_rad)) <= 0.25 * std::abs(o.vane.phi0_rad)))
     throw InputError(fmt::format("{}: the vane angle seen in the frames oscillates with amplitude {:.4g} rad, "
                                  "--phi0-rad says {}: expected within 25 %; check --vane, --centre and "
                                  "--vane-angle0-deg, or give --phase-rad",
-                                 o.inputs.front(), fit.amplitude_rad, format_number(o.vane.phi0_rad)));
+                                 input_name(o), fit.amplitude_rad, format_number(o.vane.phi0_rad)));
   // phi0 < 0 is the same sinusoid shifted by pi.
   sum.phase_rad = o.vane.phi0_rad < 0 ? std::remainder(fit.phase_rad + std::numbers::pi, 2 * std::numbers::pi)
                                       : fit.phase_rad;
@@ -249,7 +259,7 @@ void align_angle_log(const PivJobOptions& o, double fps, piv::VaneDrive& vane_an
 /// The background for subtraction: the temporal median of frames sampled evenly over
 /// the selected range (a first, separate read of the source).
 cv::Mat background_image(const PivJobOptions& o) {
-  auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  auto pre = open_source(o);
   const std::int64_t hint = pre->size_hint();
   const std::int64_t last = o.last_frame >= 0 ? o.last_frame : (hint > 0 ? hint - 1 : -1);
   const std::int64_t span = last >= o.first_frame ? last - o.first_frame + 1 : 0;
@@ -299,7 +309,7 @@ struct FirstFrame {
 piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, const cv::Mat& background,
                              PivJobSummary& sum, FirstFrame& first) {
   piv::PivOptions piv_options = o.piv;
-  auto pre = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  auto pre = open_source(o);
   io::Frame fr;
   while (pre->next(fr)) {
     if (fr.index < o.first_frame || fr.damaged) continue;
@@ -326,7 +336,7 @@ track::TrackOptions track_options(const PivJobOptions& o, PivJobSummary& sum, co
     if (!(d >= 3 && d <= 200))
       throw InputError(fmt::format("{}: the texture of the first frame gives no bead size for --method track ({} "
                                    "px; expected 3..200): give --bead-diameter-px",
-                                   o.inputs.front(), std::isfinite(d) ? fmt::format("{:.3g}", d) : "none"));
+                                   input_name(o), std::isfinite(d) ? fmt::format("{:.3g}", d) : "none"));
     t.bead_diameter_px = d;
   }
   t.validate();
@@ -514,9 +524,9 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   const auto t_start = std::chrono::steady_clock::now();
   // Step 1: everything cheap first: options, output rule, inputs, masks, the log.
   o.validate();
-  io::check_output_allowed(o.output, o.force);
+  if (!o.on_pair) io::check_output_allowed(o.output, o.force);
   if (!o.tracks_output.empty()) io::check_output_allowed(o.tracks_output, o.force);
-  auto source = io::open_frames(o.inputs, o.fps, o.grey, o.video_fps);
+  auto source = open_source(o);
   cv::Mat static_mask;
   if (!o.mask_image.empty()) {
     cv::compare(io::read_image_gray(o.mask_image), 0, static_mask, cv::CMP_NE);  // 255 = masked
@@ -536,13 +546,18 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   const PairEstimator estimate = pair_estimator(
       o, piv_options, tracking, sum.track_cell_px,
       o.method == PairMethod::kTrack && !first.image.empty() ? masks.outside(first.image.size()) : cv::Mat());
-  const bool csv = io::is_field_csv(o.output);
+  const bool csv = !o.on_pair && io::is_field_csv(o.output);
 
   // Step 2: stream the frames; keep the unique frames a pair still needs.
   std::deque<std::shared_ptr<const Unique>> window;  // the last pair_spacing + 1 unique frames
   std::size_t unique_count = 0;
-  io::AtomicOutput out(o.output, o.force);
-  io::FieldFileWriter fields(out.temp_path());  // .h5 output: created with the first pair
+  // The output (none when the caller takes the fields): .h5 created with the first pair.
+  std::optional<io::AtomicOutput> out;
+  std::optional<io::FieldFileWriter> fields;
+  if (!o.on_pair) {
+    out.emplace(o.output, o.force);
+    fields.emplace(out->temp_path());
+  }
   const core::Metadata meta = piv_metadata(o, header, *source, piv_options, tracking, vane_angle, sum);
   // Tracks: the beads of each pair, linked, written as the pairs are.
   std::unique_ptr<io::AtomicOutput> tracks_out;
@@ -589,15 +604,17 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
     sum.refused_pairs += r.coarse_refused;
     if (std::isfinite(r.coarse_max_displacement_px))
       sum.coarse_max_displacement_px = std::max(sum.coarse_max_displacement_px, r.coarse_max_displacement_px);
-    if (csv) {
+    if (o.on_pair) {
+      o.on_pair(f, a.frame, b.frame, meta);
+    } else if (csv) {
       core::Metadata m2 = meta;
       m2.emplace_back("frame_a", a.frame.label);
       m2.emplace_back("frame_b", b.frame.label);
       m2.emplace_back("t_a_s", format_number(a.frame.t_s));
       m2.emplace_back("dt_s", format_number(dt));
-      io::write_field_csv(out.stream(), m2, f);
+      io::write_field_csv(out->stream(), m2, f);
     } else {
-      fields.append(f, a.frame.index, b.frame.index, a.frame.t_s, dt);
+      fields->append(f, a.frame.index, b.frame.index, a.frame.t_s, dt);
     }
     ++pair_index;
     ++sum.pairs;
@@ -662,21 +679,21 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   if (sum.pairs == 0)
     throw InputError(fmt::format("{}: no frame pair to process ({} frames read, {} duplicates, "
                                  "pair spacing {}, frames {}..{})",
-                                 o.inputs.front(), sum.frames_read, sum.duplicates,
+                                 input_name(o), sum.frames_read, sum.duplicates,
                                  o.pair_spacing, o.first_frame,
                                  o.last_frame < 0 ? std::string("end") : std::to_string(o.last_frame)));
 
   // Step 4: root attributes and commit.
-  if (fields.started()) {
-    set_field_attributes(fields, o, *source, meta, piv_options, vane_angle, sum);
-    fields.close();
+  if (fields && fields->started()) {
+    set_field_attributes(*fields, o, *source, meta, piv_options, vane_angle, sum);
+    fields->close();
   }
   if (tracks) {
     set_field_attributes(*tracks, o, *source, meta, piv_options, vane_angle, sum);
     tracks->close();
     tracks_out->commit();
   }
-  out.commit();
+  if (out) out->commit();
   sum.tracks = linker.tracks();
   sum.beads_linkable = linker.linkable();
   sum.beads_linked = linker.linked();

@@ -21,6 +21,14 @@ using ProgressCallback = std::function<void(std::size_t done, std::size_t total)
 /// Verbosity of the CLI's stderr messages (-q, default, -v).
 enum class LogLevel { kQuiet = 0, kNormal = 1, kVerbose = 2 };
 
+/// Sees every reporter's update on its thread: (label, done, total).
+using ProgressObserver = std::function<void(const std::string& label, std::size_t done, std::size_t total)>;
+
+/// Every ProgressReporter updated on this thread also calls `observer` (empty: none),
+/// drawing or not: the Python module's progress callback and its Ctrl-C check (an
+/// observer may throw to stop the work). Returns the observer it replaces.
+ProgressObserver set_progress_observer(ProgressObserver observer);
+
 class ProgressReporter {
  public:
   /// Draws on `stream` (stderr by default) only if it is a terminal and `level` is

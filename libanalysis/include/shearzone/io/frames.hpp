@@ -49,6 +49,11 @@ class FrameSource {
 std::unique_ptr<FrameSource> open_frames(const std::vector<std::string>& inputs, double fps,
                                          GreyMode grey = GreyMode::kLuma, double video_fps = 0.0);
 
+/// Frames held in memory (the Python module's arrays), in order: CV_8U, CV_16U or CV_32F
+/// (0..1), one channel, all of one size and type (InputError naming `name`#k otherwise).
+/// Frame k is timed k / fps and labelled "`name`#k"; the Mats are shared, not copied.
+std::unique_ptr<FrameSource> frames_from_memory(std::vector<cv::Mat> frames, double fps, std::string name);
+
 /// Expands a glob pattern; the matches, sorted. Empty if nothing matches.
 std::vector<std::string> expand_glob(const std::string& pattern);
 

@@ -15,7 +15,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,6 +26,8 @@
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/unset.hpp"
 #include "shearzone/core/vane.hpp"
+#include "shearzone/core/vector_field.hpp"
+#include "shearzone/io/frames.hpp"
 #include "shearzone/io/image.hpp"
 #include "shearzone/piv/options.hpp"
 #include "shearzone/piv/preprocess.hpp"
@@ -72,6 +76,15 @@ struct PivJobOptions {
   piv::PreprocessOptions preprocess;
   std::vector<std::string> inputs;  ///< images, a glob, or one video
   std::filesystem::path output;     ///< .csv (one pair) or .h5
+  /// Frames from the caller instead of `inputs` (the Python module's arrays): each call
+  /// opens a fresh pass over the same frames (the job reads its source up to four
+  /// times: vane phase, background, texture, pairs). Empty: `inputs`.
+  std::function<std::unique_ptr<io::FrameSource>()> frames;
+  /// Each pair's field to the caller instead of `output` (no file is written): the field,
+  /// its frames (a, b) and the header `output` would carry. Empty: `output`.
+  std::function<void(const core::VectorField& field, const io::Frame& a, const io::Frame& b,
+                     const core::Metadata& header)>
+      on_pair;
   /// Tracking only: the beads of every pair, linked into tracks (track::Linker), to
   /// .h5 or .csv (io/track_file.hpp); empty: none.
   std::filesystem::path tracks_output;

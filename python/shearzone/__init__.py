@@ -1,0 +1,407 @@
+"""shearzone from Python: PIV, profiles, r_c, fits, LAOS and the simulator on numpy
+arrays and files, with the same numbers as the ``shearzone`` command.
+
+Every keyword option is the command's flag of the same name, with ``_`` for ``-``
+(``min_peak_relative=0.3`` is ``--min-peak-relative 0.3``, ``f_hz=1`` is ``--f-hz 1``,
+``N=4`` is ``--N 4``), in the flag's unit, and is checked as the command checks it:
+``shearzone <command> --help`` lists them with their units and ranges, and
+docs/python.md shows the calls. A list or tuple is the flag's comma-separated values
+(``windows=(64, 32, 16)``, ``centre=(320, 240)``); a dict is a repeated KEY=VALUE flag
+(``attr={"m_per_px": 1e-4}``); ``True`` gives a flag, ``False`` or ``None`` leaves it out.
+
+Errors are exceptions carrying the command's one-line message: ``InputError`` (bad
+data; ``MissingFileError`` for a file that is not there, also a FileNotFoundError),
+``ConfigError`` (bad options; both are ValueErrors), ``NoResultError``. Long work
+releases the GIL, reports to ``progress(label, done, total)`` when given, and stops at
+Ctrl-C (KeyboardInterrupt) leaving no output file behind.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._errors import (ConfigError, InputError, InternalError, MissingFileError, NoResultError,
+                      ShearzoneError)
+
+__version__ = _native.version
+__all__ = [
+    "piv", "piv_video", "read_fields", "Fields", "profile", "width", "fit_erf", "fit_power",
+    "collapse_erf", "laos", "laos_logs", "read_log", "read_table", "Table", "simulate", "sim_render",
+    "synth_beads", "synth_particles", "run", "InputError", "MissingFileError", "ConfigError",
+    "NoResultError", "InternalError", "ShearzoneError",
+]
+
+Progress = Optional[Callable[[str, int, int], None]]
+PathLike = Union[str, os.PathLike]
+
+
+def _number(v: Any) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        raise ConfigError(f"{v!r}: a flag takes True or False, a value option a number or text")
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))  # the shortest text that reads back as the same double
+    return str(v)
+
+
+def _words(options: Mapping[str, Any]) -> list:
+    """Keywords as the command's words: name -> --name-with-hyphens."""
+    words = []
+    for key, value in options.items():
+        flag = "--" + key.replace("_", "-")
+        if value is None or value is False:
+            continue
+        if value is True:
+            words.append(flag)
+        elif isinstance(value, Mapping):
+            for k, v in value.items():
+                words += [flag, f"{k}={_number(v)}"]
+        elif isinstance(value, (list, tuple, np.ndarray)):
+            words += [flag, ",".join(_number(v) for v in value)]
+        else:
+            words += [flag, _number(value)]
+    return words
+
+
+def _run(command: str, args: Sequence[Any], progress: Progress, options: Mapping[str, Any]) -> int:
+    words = command.split() + [os.fspath(a) if isinstance(a, os.PathLike) else str(a) for a in args]
+    return _native.run(words + _words(options), progress)
+
+
+def run(command: str, *args: Any, progress: Progress = None, **options: Any) -> None:
+    """Runs ``shearzone COMMAND ARGS --OPTIONS`` in this process, exactly as the command
+    line does (quiet): e.g. ``run("sim check", "run/", output="check/", size=(640, 360))``.
+    Raises the command's error as an exception; returns nothing (the outputs are files)."""
+    code = _run(command, args, progress, options)
+    if code == 3:
+        raise NoResultError(f"shearzone {command}: no usable result (exit code 3)")
+    if code != 0:
+        raise InternalError(f"shearzone {command}: exit code {code}")
+
+
+# ---------------------------------------------------------------------------- tables
+
+
+@dataclass
+class Table:
+    """A CSV output of the toolkit: ``columns`` (name -> numpy array: float where every
+    cell is a number or empty, NaN for empty; else str), ``header`` (the ``# key: value``
+    lines, in order) and ``path``. ``table["rc_m"]`` is a column; ``to_pandas()`` a
+    DataFrame when pandas is installed."""
+
+    columns: dict
+    header: dict
+    path: Optional[str] = None
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __len__(self) -> int:
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    def keys(self):
+        return self.columns.keys()
+
+    def to_pandas(self):
+        import pandas  # optional: only this method needs it
+        return pandas.DataFrame(self.columns)
+
+
+def _column(cells: list) -> np.ndarray:
+    try:
+        return np.array([float(c) if c != "" else math.nan for c in cells], dtype=float)
+    except ValueError:
+        return np.array(cells, dtype=object)
+
+
+def read_table(path: PathLike) -> Table:
+    """Reads a CSV written by the toolkit (``#`` header lines, then one header row)."""
+    import csv
+    header, rows, names = {}, [], None
+    with open(path, newline="", encoding="utf-8") as f:
+        for line in f:
+            if names is None and line.startswith("#"):
+                key, _, value = line[1:].strip().partition(":")
+                header[key.strip()] = value.strip()
+                continue
+            if names is None:
+                names = next(csv.reader([line]))
+                continue
+            if line.strip():
+                rows.append(next(csv.reader([line])))
+    if names is None:
+        raise InputError(f"{os.fspath(path)}: no header row; expected a CSV table")
+    cols = {n: _column([r[i] if i < len(r) else "" for r in rows]) for i, n in enumerate(names)}
+    return Table(cols, header, os.fspath(path))
+
+
+class _Output:
+    """The output path given, or one in a temporary folder removed afterwards."""
+
+    def __init__(self, output: Optional[PathLike], name: str):
+        self._tmp = None if output is not None else tempfile.TemporaryDirectory(prefix="shearzone-")
+        self.path = os.fspath(output) if output is not None else os.path.join(self._tmp.name, name)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if self._tmp is not None:
+            self._tmp.cleanup()
+
+
+# ---------------------------------------------------------------------------- PIV
+
+
+@dataclass
+class PivResult:
+    """One pair's vectors on the grid, arrays of shape (rows, columns): x_px, y_px (grid
+    coordinates, px, image convention: x right, y down), u_px, v_px (displacement from
+    frame a to frame b, px per pair), flag (0 valid, 1 replaced, 2 masked, 3 invalid),
+    peak, peak_ratio; dt_s, the header the command writes (options, windows and
+    conventions, in order) and the windows used."""
+
+    x_px: np.ndarray
+    y_px: np.ndarray
+    u_px: np.ndarray
+    v_px: np.ndarray
+    flag: np.ndarray
+    peak: np.ndarray
+    peak_ratio: np.ndarray
+    dt_s: float
+    header: dict
+    windows_px: list = field(default_factory=list)
+    texture_size_px: float = math.nan
+
+    FLAGS = {0: "valid", 1: "replaced", 2: "masked", 3: "invalid"}
+
+    @property
+    def valid(self) -> np.ndarray:
+        """True where the vector is measured and passed validation."""
+        return self.flag == 0
+
+
+def piv(frame_a: np.ndarray, frame_b: np.ndarray, *, progress: Progress = None, **options: Any) -> PivResult:
+    """PIV (or ``method="track"``) of one pair of grey frames held as 2-D arrays:
+    uint8, uint16 or float32 (0..1), C-contiguous (passed without a copy). Options are
+    those of ``shearzone piv`` (windows, overlap, preset, centre, annulus, vane, f_hz,
+    phi0_rad, mask_image, method, bead_diameter_px, ...; docs/piv.md); ``fps`` (Hz)
+    times the pair (dt = 1/fps). The numbers equal the command's on the same images."""
+    out = _native.piv_frames([frame_a, frame_b], _words(options), progress)
+    p = out["pairs"][0]
+    return PivResult(p["x_px"], p["y_px"], p["u_px"], p["v_px"], p["flag"], p["peak"], p["peak_ratio"],
+                     p["dt_s"], dict(out["header"]), list(out["windows_px"]), out["texture_size_px"])
+
+
+def piv_video(inputs: Union[PathLike, Sequence[PathLike]], output: PathLike, *, progress: Progress = None,
+              **options: Any) -> "Fields":
+    """``shearzone piv INPUTS -o OUTPUT``: a video, an image glob or a list of images to
+    fields.h5 (or one pair to .csv), streamed; returns the fields read back lazily.
+    ``progress(label, done, total)`` is called as pairs finish."""
+    ins = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    run("piv", *ins, progress=progress, output=os.fspath(output), **options)
+    return read_fields(output, **({"dt_s": 1.0 / options["fps"]} if "fps" in options else {}))
+
+
+class Fields:
+    """The fields of ``piv`` read pair by pair (nothing loaded until asked):
+    ``len(fields)`` pairs, ``fields[k]`` a dict of arrays (as PivResult's, plus t_a_s and
+    dt_s), ``fields.attr(name)`` a root attribute (number, text or None), ``fields.header``
+    the options the fields were made with."""
+
+    def __init__(self, path: PathLike, dt_s: float = 0.04):
+        self.path = os.fspath(path)
+        self._f = _native.Fields(self.path, float(dt_s))
+
+    def __len__(self) -> int:
+        return len(self._f)
+
+    def __getitem__(self, k: int) -> dict:
+        if k < 0:
+            k += len(self)
+        return self._f.pair(k)
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+    def attr(self, name: str):
+        return self._f.attribute(name)
+
+    @property
+    def header(self) -> dict:
+        text = self.attr("options") or ""
+        return dict(line.split(": ", 1) for line in str(text).splitlines() if ": " in line)
+
+
+def read_fields(path: PathLike, dt_s: float = 0.04) -> Fields:
+    """Opens fields.h5 (or a one-pair CSV, timed ``dt_s``) for reading pair by pair."""
+    return Fields(path, dt_s)
+
+
+# ---------------------------------------------------------------------------- profiles
+
+
+def profile(fields: PathLike, output: Optional[PathLike] = None, *, progress: Progress = None,
+            **options: Any) -> Table:
+    """``shearzone profile FIELDS -o OUTPUT``: v(r) about the cup axis (mean |v|,
+    lock-in, phase bins; docs/profile-width.md). Options as the command's (centre,
+    radii_px, m_per_px, bead_diameter_m, f_hz, groups, noise_ref, ...). Without
+    ``output`` the CSVs go to a temporary folder. Returns the profile table (its
+    columns carry their units: r_m, v_m_per_s, ...)."""
+    with _Output(output, "profile.csv") as out:
+        run("profile", os.fspath(fields), progress=progress, output=out.path, **options)
+        return read_table(out.path)
+
+
+def width(profiles: Union[PathLike, Sequence[PathLike]], output: Optional[PathLike] = None, **options: Any) -> Table:
+    """``shearzone width PROFILES -o OUTPUT``: r_c of each profile at ``vc`` (m/s), its
+    bootstrap interval and status. Returns the widths table (rc_m, ci_low_m, ...)."""
+    ins = [profiles] if isinstance(profiles, (str, os.PathLike)) else list(profiles)
+    with _Output(output, "widths.csv") as out:
+        _run("width", ins, None, dict(options, output=out.path))  # no row ok (exit 3): the statuses say why
+        return read_table(out.path)
+
+
+# ---------------------------------------------------------------------------- fits
+
+
+@dataclass
+class Fit:
+    """A least-squares fit: ``params`` (name -> value), ``std_errors``, ``ci`` (name ->
+    (low, high) at ``confidence``), ``bootstrap_ci`` (NaN without bootstrap), ``status``
+    ("ok" or why not), ``message`` and the rest of the solver's report in ``report``
+    (chi2, reduced_chi2, aic, bic, covariance, correlation, fitted, residuals, ...)."""
+
+    status: str
+    message: str
+    params: dict
+    std_errors: dict
+    ci: dict
+    bootstrap_ci: dict
+    report: dict
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+def _fit(d: dict) -> Fit:
+    names = d["names"]
+    return Fit(d["status"], d["message"], dict(zip(names, d["values"])), dict(zip(names, d["std_errors"])),
+               {n: (lo, hi) for n, lo, hi in zip(names, d["ci_low"], d["ci_high"])},
+               {n: (lo, hi) for n, lo, hi in zip(names, d["boot_low"], d["boot_high"])}, d)
+
+
+def _arrays(x, y, sigma):
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    s = np.asarray(sigma, dtype=float).ravel() if sigma is not None else np.empty(0)
+    return x, y, s
+
+
+def fit_erf(x, y, sigma=None, **options: Any) -> Fit:
+    """The erf transition r(x) = rc0 + (rcinf - rc0) (1 + erf((x - phi_c)/W))/2 fitted
+    to arrays (``shearzone fit erf``: options loss, loss_scale, bootstrap, seed,
+    confidence, absolute_sigma). Parameters rc0, rcinf, phi_c, W in the data's units."""
+    return _fit(_native.fit_arrays("erf", *_arrays(x, y, sigma), _words(options)))
+
+
+def fit_power(x, y, sigma=None, **options: Any) -> Fit:
+    """The power law y = A x^k fitted to arrays (``shearzone fit power``: space="linear"
+    or "log", subtract_at, and the options of fit_erf). Parameters A, k."""
+    d = _native.fit_arrays("power", *_arrays(x, y, sigma), _words(options))
+    f = _fit(d)
+    if "y0" in d:
+        f.report["y0"] = d["y0"]
+    return f
+
+
+def collapse_erf(table: PathLike, output: Optional[PathLike] = None, **options: Any) -> Table:
+    """``shearzone collapse erf TABLE -o OUTPUT``: the global erf collapse of r_c(phi0)
+    curves over N (options x, y, group, sigma, ...). Returns the long parameter table."""
+    with _Output(output, "collapse.csv") as out:
+        run("collapse erf", os.fspath(table), output=out.path, **options)
+        return read_table(out.path)
+
+
+# ---------------------------------------------------------------------------- LAOS
+
+
+def laos(t, angle, torque, **options: Any) -> dict:
+    """LAOS of one record held as arrays: time (s; ``None`` for an angle-sampled record),
+    drive (angle in rad, or strain) and response (torque in N m, or stress in Pa).
+    Options are those of ``shearzone laos`` (f_hz, inertia_kg_m2, stress_constant and
+    strain_constant, max_harmonic, cycles, no_drift, no_split, ...). Returns
+    ``{"amplitudes": [...], "skipped_blocks": n}``: per amplitude x0, K1p, K1pp,
+    tan_delta, I3_over_I1, the Chebyshev e and v, S, T, the harmonics Kp/Kpp with
+    their SEs, the cycles and the Lissajous samples of the cycles used."""
+    ts = np.asarray(t, dtype=float).ravel() if t is not None else np.empty(0)
+    return _native.laos_arrays(ts, np.asarray(angle, dtype=float).ravel(), np.asarray(torque, dtype=float).ravel(),
+                               _words(options))
+
+
+def laos_logs(logs: Union[PathLike, Sequence[PathLike]], output: PathLike, **options: Any) -> Table:
+    """``shearzone laos LOGS -o OUTPUT``: every log (any supported vendor export) to the
+    folder's summary.csv, cycles.csv, harmonics.csv and lissajous_NN.csv; returns the
+    summary table."""
+    ins = [logs] if isinstance(logs, (str, os.PathLike)) else list(logs)
+    run("laos", *ins, output=os.fspath(output), **options)
+    return read_table(os.path.join(os.fspath(output), "summary.csv"))
+
+
+def read_log(path: PathLike, **options: Any) -> dict:
+    """Reads a rheometer export as ``laos`` reads it (what ``laos --inspect`` shows, as
+    data): format, quantity, parameters, its segments (time_s, drive, response arrays in
+    s, rad or strain, N m or Pa; the instrument's own values) and the skipped blocks.
+    Options: format, time_col, angle_col, torque_col, interval_col, the units."""
+    return _native.read_log(os.fspath(path), _words(options))
+
+
+# ---------------------------------------------------------------------------- synth, sim
+
+
+def _synth(kind: str, output: Optional[PathLike], options: Mapping[str, Any]) -> dict:
+    with _Output(output, "synth") as out:
+        run("synth " + kind, output=out.path, **options)
+        d = Path(out.path)
+        names = sorted(p for p in d.iterdir() if p.suffix in (".png", ".tif", ".tiff"))
+        result = {"frames": [_native.read_image(os.fspath(p)) for p in names],
+                  "truth": read_table(d / "truth.csv"), "times": read_table(d / "frames.csv")}
+        videos = [p for p in d.iterdir() if p.suffix in (".mp4", ".avi")]
+        if videos and output is not None:
+            result["video"] = os.fspath(videos[0])
+        return result
+
+
+def synth_beads(output: Optional[PathLike] = None, **options: Any) -> dict:
+    """``shearzone synth beads``: shaded beads moved by a known field (options width,
+    height, diameter, u, v, field, omega, frames, seed, ...). Returns ``frames`` (arrays
+    as the command's images), ``truth`` (the exact displacement table) and ``times``."""
+    return _synth("beads", output, options)
+
+
+def synth_particles(output: Optional[PathLike] = None, **options: Any) -> dict:
+    """``shearzone synth particles``: Gaussian tracer particles (as synth_beads)."""
+    return _synth("particles", output, options)
+
+
+def simulate(scene: PathLike, output: PathLike, *, progress: Progress = None, **options: Any) -> str:
+    """``shearzone sim SCENE -o OUTPUT``: the contact-dynamics simulation of a scene
+    TOML (docs/sim.md); returns the run folder."""
+    run("sim", os.fspath(scene), progress=progress, output=os.fspath(output), **options)
+    return os.fspath(output)
+
+
+def sim_render(run_dir: PathLike, output: PathLike, *, progress: Progress = None, **options: Any) -> str:
+    """``shearzone sim render RUN -o OUTPUT``: the virtual camera's video of a run."""
+    run("sim render", os.fspath(run_dir), progress=progress, output=os.fspath(output), **options)
+    return os.fspath(output)

@@ -1,0 +1,189 @@
+"""The Python module against the command: the same numbers bit for bit on the same
+input, the command's messages as exceptions, nothing left behind on failure.
+
+Run by ctest ("python: ..."): PYTHONPATH holds the build's python/ folder and
+SHEARZONE_CLI the command built beside it."""
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import shearzone as sz
+
+CLI = os.environ["SHEARZONE_CLI"]
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def cli(*args, code=0):
+    r = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == code, r.stderr
+    return r
+
+
+@pytest.fixture(scope="module")
+def beads(tmp_path_factory):
+    """A rendered clip of 24 px beads in uniform shift (4 frames) and its first pair."""
+    d = tmp_path_factory.mktemp("beads")
+    cli("synth", "beads", "-o", d / "clip", "--width", 256, "--height", 192, "--diameter", 24, "--u", 1.3,
+        "--v", -0.6, "--frames", 4, "--seed", 3)
+    cli("synth", "beads", "-o", d / "pair", "--width", 256, "--height", 192, "--diameter", 24, "--u", 1.3,
+        "--v", -0.6, "--seed", 3)
+    return d
+
+
+def test_piv_on_arrays_equals_the_command(beads, tmp_path):
+    cli("piv", beads / "pair" / "A.png", beads / "pair" / "B.png", "-o", tmp_path / "cli.csv", "--overlap", 0.5)
+    table = sz.read_table(tmp_path / "cli.csv")
+    a = sz.synth_beads(width=256, height=192, diameter=24, u=1.3, v=-0.6, seed=3)["frames"]
+    r = sz.piv(a[0], a[1], overlap=0.5)
+    assert r.u_px.dtype == np.float32 and r.u_px.ndim == 2
+    np.testing.assert_array_equal(r.x_px.ravel(), table["x_px"])
+    np.testing.assert_array_equal(r.y_px.ravel(), table["y_px"])
+    for name in ("u_px", "v_px", "peak", "peak_ratio"):
+        np.testing.assert_array_equal(getattr(r, name).ravel(), table[name].astype(np.float32), err_msg=name)
+    flags = {v: k for k, v in sz.PivResult.FLAGS.items()}
+    np.testing.assert_array_equal(r.flag.ravel(), [flags[f] for f in table["flag"]])
+    assert r.header["piv_overlap"] == table.header["piv_overlap"]
+    # The frames rendered by Python and read from the command's PNGs are the same.
+    np.testing.assert_array_equal(a[0], sz._native.read_image(str(beads / "pair" / "A.png")))
+
+
+def test_piv_of_a_clip_equals_the_command_and_reports_progress(beads, tmp_path):
+    frames = str(beads / "clip" / "frame_*.png")
+    cli("piv", frames, "-o", tmp_path / "cli.h5")
+    seen = []
+    fields = sz.piv_video(frames, tmp_path / "py.h5", progress=lambda label, k, n: seen.append((label, k, n)))
+    ref = sz.read_fields(tmp_path / "cli.h5")
+    assert len(fields) == len(ref) == 3
+    for k in range(3):
+        for name in ("u_px", "v_px", "flag", "peak", "peak_ratio", "t_a_s", "dt_s"):
+            np.testing.assert_array_equal(fields[k][name], ref[k][name], err_msg=name)
+    assert seen and seen[-1][1] == 3 and seen[-1][0] == "piv: pairs"
+    assert fields.attr("fps") == 25.0 and fields.header["grey_conversion"] == "luma"
+
+
+def test_profile_and_width_equal_the_command(beads, tmp_path):
+    frames = str(beads / "clip" / "frame_*.png")
+    cli("piv", frames, "-o", tmp_path / "f.h5")
+    opts = ["--centre", "128,96", "--radii-px", "10,90", "--m-per-px", "1e-4", "--bin-px", "8"]
+    cli("profile", tmp_path / "f.h5", "-o", tmp_path / "cli.csv", *opts)
+    p = sz.profile(tmp_path / "f.h5", tmp_path / "py.csv", centre=(128, 96), radii_px=(10, 90), m_per_px=1e-4,
+                   bin_px=8)
+    ref = sz.read_table(tmp_path / "cli.csv")
+    assert set(p.keys()) == set(ref.keys())
+    for name in ref.keys():
+        np.testing.assert_array_equal(p[name], ref[name], err_msg=name)
+    r = subprocess.run([CLI, "width", tmp_path / "cli.csv", "-o", tmp_path / "w_cli.csv", "--vc", "1e-5"])
+    w = sz.width(tmp_path / "py.csv", vc=1e-5)
+    ref = sz.read_table(tmp_path / "w_cli.csv")
+    assert r.returncode in (0, 3)
+    for name in ("rc_m", "ci_low_m", "ci_high_m", "status"):
+        np.testing.assert_array_equal(w[name], ref[name], err_msg=name)
+
+
+def test_fits_on_arrays_equal_the_command(tmp_path):
+    rng = np.random.default_rng(5)
+    x = np.linspace(0.05, 0.5, 12)
+    y = 2 + 3 * 0.5 * (1 + np.vectorize(__import__("math").erf)((x - 0.25) / 0.08)) + rng.normal(0, 0.05, x.size)
+    s = np.full(x.size, 0.05)
+    with open(tmp_path / "t.csv", "w") as f:
+        f.write("phi0_rad,rc_m,se_m\n")
+        for a, b, c in zip(x, y, s):
+            f.write(f"{a!r},{b!r},{c!r}\n")
+    cli("fit", "erf", tmp_path / "t.csv", "-o", tmp_path / "erf.csv", "--x", "phi0_rad", "--y", "rc_m", "--sigma",
+        "se_m", "--bootstrap", 50)
+    ref = sz.read_table(tmp_path / "erf.csv")
+    f = sz.fit_erf(x, y, s, bootstrap=50)
+    assert f.ok
+    for i, name in enumerate(ref["parameter"]):
+        assert f.params[name] == ref["value"][i]
+        assert f.std_errors[name] == ref["std_error"][i]
+        assert f.ci[name] == (ref["ci_low"][i], ref["ci_high"][i])
+        assert f.bootstrap_ci[name] == (ref["boot_low"][i], ref["boot_high"][i])
+    yp = 0.7 * x ** 1.5 * (1 + rng.normal(0, 0.02, x.size))
+    with open(tmp_path / "p.csv", "w") as f:
+        f.write("N,v\n")
+        for a, b in zip(x, yp):
+            f.write(f"{a!r},{b!r}\n")
+    cli("fit", "power", tmp_path / "p.csv", "-o", tmp_path / "pow.csv", "--x", "N", "--y", "v", "--space", "log")
+    ref = sz.read_table(tmp_path / "pow.csv")
+    f = sz.fit_power(x, yp, space="log")
+    for i, name in enumerate(ref["parameter"]):
+        assert f.params[name] == ref["value"][i] and f.std_errors[name] == ref["std_error"][i]
+
+
+def test_laos_on_arrays_equals_the_command(tmp_path):
+    t = np.arange(0, 8, 0.004)
+    phi = 0.1 * np.sin(2 * np.pi * 1.0 * t)
+    tau = 2e-3 * np.sin(2 * np.pi * t + 0.4) + 3e-4 * np.sin(3 * (2 * np.pi * t) + 0.2)
+    with open(tmp_path / "log.csv", "w") as f:
+        f.write("time_s,angle_rad,torque_N_m\n")
+        for a, b, c in zip(t, phi, tau):
+            f.write(f"{a!r},{b!r},{c!r}\n")
+    cli("laos", tmp_path / "log.csv", "-o", tmp_path / "out", "--f-hz", 1)
+    ref = sz.read_table(tmp_path / "out" / "summary.csv")
+    r = sz.laos(t, phi, tau, f_hz=1)
+    assert len(r["amplitudes"]) == len(ref) == 1
+    a = r["amplitudes"][0]
+    for name, col in (("K1p", [c for c in ref.keys() if c.startswith("K1p_")][0]),
+                      ("tan_delta", "tan_delta")):
+        assert a[name] == ref[col][0], name
+    log = sz.read_log(tmp_path / "log.csv")
+    assert log["format"] == "csv" and len(log["segments"]) == 1
+    np.testing.assert_array_equal(log["segments"][0]["drive"], phi)
+
+
+def test_errors_are_the_commands_messages_and_leave_nothing(beads, tmp_path):
+    r = cli("piv", tmp_path / "none.png", beads / "pair" / "B.png", "-o", tmp_path / "x.csv", code=2)
+    with pytest.raises(sz.MissingFileError) as e:
+        sz.piv_video([tmp_path / "none.png", beads / "pair" / "B.png"], tmp_path / "x.csv")
+    assert isinstance(e.value, FileNotFoundError)
+    assert r.stderr.strip() == "shearzone: error: " + str(e.value)
+    r = cli("piv", beads / "pair" / "A.png", beads / "pair" / "B.png", "-o", tmp_path / "x.csv", "--overlap", 2,
+            code=2)
+    frames = sz.synth_beads(width=64, height=64, diameter=12, u=1, v=0, seed=1)["frames"]
+    with pytest.raises(sz.ConfigError) as e:
+        sz.piv(frames[0], frames[1], overlap=2)
+    assert "--overlap" in str(e.value) and str(e.value) in r.stderr
+    with pytest.raises(sz.ConfigError, match="not-an-option"):
+        sz.piv(frames[0], frames[1], not_an_option=1)
+    with pytest.raises(sz.InputError, match="expected a 2-D"):
+        sz.piv(frames[0][None], frames[1])
+    with pytest.raises(sz.InputError, match="frames must match"):
+        sz.piv(frames[0], frames[1][:32])
+    with pytest.raises(ValueError):
+        sz.fit_erf([1, 2, 3], [1, 2], loss="nonsense")
+
+    # A callback that raises stops the work: its exception, and no output file.
+    def stop(label, k, n):
+        raise RuntimeError("stop here")
+    with pytest.raises(RuntimeError, match="stop here"):
+        sz.piv_video(str(beads / "clip" / "frame_*.png"), tmp_path / "stopped.h5", progress=stop)
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_the_docs_example_runs(tmp_path, monkeypatch):
+    """docs/python.md's example block, as it stands, in an empty folder with
+    data-samples/ beside it."""
+    text = (ROOT / "docs" / "python.md").read_text()
+    block = text.split("```python\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "data-samples").symlink_to(ROOT / "data-samples")
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, "docs/python.md", "exec"), {})
+    assert (tmp_path / "fields.h5").exists() and (tmp_path / "profile.csv").exists()
+
+
+def test_cmake_install_puts_it_where_python_finds_it(tmp_path):
+    """`cmake --install BUILD --prefix P`: P/lib/python3.X/dist-packages/shearzone imports
+    and runs (Debian's layout; /usr/local is on its path)."""
+    build = os.environ["SHEARZONE_BUILD"]
+    subprocess.run(["cmake", "--install", build, "--prefix", tmp_path], check=True, capture_output=True)
+    found = list(tmp_path.glob("lib/python3.*/dist-packages/shearzone/_native*.so"))
+    assert len(found) == 1
+    env = dict(os.environ, PYTHONPATH=str(found[0].parent.parent))
+    r = subprocess.run(["/usr/bin/python3", "-c", "import shearzone; print(shearzone.__file__, shearzone.__version__)"],
+                       capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(str(tmp_path))
