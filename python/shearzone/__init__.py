@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Optional, Sequence, Union
@@ -28,14 +29,14 @@ import numpy as np
 
 from . import _native
 from ._errors import (ConfigError, InputError, InternalError, MissingFileError, NoResultError,
-                      ShearzoneError)
+                      NoResultWarning, ShearzoneError)
 
 __version__ = _native.version
 __all__ = [
     "piv", "piv_video", "read_fields", "Fields", "profile", "width", "fit_erf", "fit_power",
     "collapse_erf", "laos", "laos_logs", "read_log", "read_table", "Table", "simulate", "sim_render",
     "synth_beads", "synth_particles", "run", "InputError", "MissingFileError", "ConfigError",
-    "NoResultError", "InternalError", "ShearzoneError",
+    "NoResultError", "NoResultWarning", "InternalError", "ShearzoneError",
 ]
 
 Progress = Optional[Callable[[str, int, int], None]]
@@ -264,10 +265,17 @@ def profile(fields: PathLike, output: Optional[PathLike] = None, *, progress: Pr
 
 def width(profiles: Union[PathLike, Sequence[PathLike]], output: Optional[PathLike] = None, **options: Any) -> Table:
     """``shearzone width PROFILES -o OUTPUT``: r_c of each profile at ``vc`` (m/s), its
-    bootstrap interval and status. Returns the widths table (rc_m, ci_low_m, ...)."""
+    bootstrap interval and status. Returns the widths table (rc_m, ci_low_m, ...,
+    status). Where no profile gives a usable r_c (the command's exit code 3) the table
+    still comes back, r_c empty (NaN) and the status saying why, with a NoResultWarning."""
     ins = [profiles] if isinstance(profiles, (str, os.PathLike)) else list(profiles)
     with _Output(output, "widths.csv") as out:
-        _run("width", ins, None, dict(options, output=out.path))  # no row ok (exit 3): the statuses say why
+        try:
+            _run("width", ins, None, dict(options, output=out.path))
+        except NoResultError as e:  # the command's exit 3: the table is written, each row's status says why
+            if not os.path.exists(out.path):
+                raise
+            warnings.warn(str(e), NoResultWarning, stacklevel=2)
         return read_table(out.path)
 
 

@@ -25,3 +25,8 @@ class NoResultError(ShearzoneError, RuntimeError):
 
 class InternalError(ShearzoneError, RuntimeError):
     """A broken invariant: a bug in shearzone, never the user's fault (exit code 4)."""
+
+
+class NoResultWarning(UserWarning):
+    """The work ran and wrote its table, but no row holds a usable result (the command's
+    exit code 3): each row's status says why (width)."""

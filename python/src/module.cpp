@@ -95,9 +95,9 @@ void without_gil(const py::object& progress, F&& work) {
   }
 }
 
-/// The header every output carries, naming the Python call.
+/// The header every output carries: the command line that gives the same numbers.
 core::Metadata python_header(const std::vector<std::string>& words) {
-  std::vector<const char*> argv{"python: shearzone"};
+  std::vector<const char*> argv{"shearzone"};  // the command that gives the same output
   for (const auto& w : words) argv.push_back(w.c_str());
   return core::standard_metadata(core::command_line_from_argv(static_cast<int>(argv.size()), argv.data()));
 }
@@ -115,7 +115,7 @@ Options capture(const std::vector<std::string>& words) {
 
 int run(const std::vector<std::string>& words, const py::object& progress) {
   apps::Context ctx;
-  std::vector<const char*> argv{"python: shearzone"};
+  std::vector<const char*> argv{"shearzone"};  // the command that gives the same output
   for (const auto& w : words) argv.push_back(w.c_str());
   ctx.command_line = core::command_line_from_argv(static_cast<int>(argv.size()), argv.data());
   std::vector<std::string> quiet{"-q"};
