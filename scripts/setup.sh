@@ -18,8 +18,8 @@ PACKAGES=(
   clang-14 libfuzzer-14-dev
   # figure scripts (h5py: PIV fields in HDF5; opencv: video frames under the vectors)
   python3 python3-matplotlib python3-numpy python3-h5py python3-opencv
-  # the Python module (python/: pybind11) and its tests
-  python3-dev pybind11-dev python3-pytest
+  # the Python module (python/: pybind11), its tests and its notebook (docs/notebooks)
+  python3-dev pybind11-dev python3-pytest jupyter-nbconvert python3-nbclient python3-ipykernel
 )
 # studies (`shearzone study run`): Snakemake 7.21, and SLURM 22.05 with munge for --slurm and
 # its test cluster. Installed with their recommended packages (the tested recipe: Snakemake

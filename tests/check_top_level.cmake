@@ -4,7 +4,7 @@
 # the ignored outputs of builds, the demo and the README's tour (.gitignore).
 cmake_minimum_required(VERSION 3.20)
 set(known .ci .git .gitignore CMakeLists.txt CMakePresets.json LICENSE README.md apps cmake
-          data-samples docs libanalysis scripts tests)
+          data-samples docs libanalysis pyproject.toml python scripts setup.py tests)
 set(ignored build out demo-output pair rot clip clip2 fits laos)
 find_program(GIT git)
 set(entries "")

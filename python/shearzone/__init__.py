@@ -33,9 +33,9 @@ from ._errors import (ConfigError, InputError, InternalError, MissingFileError, 
 
 __version__ = _native.version
 __all__ = [
-    "piv", "piv_video", "read_fields", "Fields", "profile", "width", "fit_erf", "fit_power",
-    "collapse_erf", "laos", "laos_logs", "read_log", "read_table", "Table", "simulate", "sim_render",
-    "synth_beads", "synth_particles", "run", "InputError", "MissingFileError", "ConfigError",
+    "piv", "piv_video", "read_image", "read_fields", "Fields", "profile", "width", "fit_erf", "fit_power",
+    "collapse_erf", "laos", "laos_logs", "read_log", "read_table", "Table", "Scene", "simulate",
+    "read_checkpoint", "sim_render", "synth", "synth_beads", "synth_particles", "run", "InputError", "MissingFileError", "ConfigError",
     "NoResultError", "NoResultWarning", "InternalError", "ShearzoneError",
 ]
 
@@ -190,13 +190,24 @@ class PivResult:
         return self.flag == 0
 
 
+def _frame(a: Any) -> Any:
+    """A frame as the native side takes it: float64 as float32, C order (no copy when it is)."""
+    if isinstance(a, np.ndarray):
+        if a.dtype == np.float64:
+            a = a.astype(np.float32)
+        return np.ascontiguousarray(a)
+    return a
+
+
 def piv(frame_a: np.ndarray, frame_b: np.ndarray, *, progress: Progress = None, **options: Any) -> PivResult:
     """PIV (or ``method="track"``) of one pair of grey frames held as 2-D arrays:
-    uint8, uint16 or float32 (0..1), C-contiguous (passed without a copy). Options are
-    those of ``shearzone piv`` (windows, overlap, preset, centre, annulus, vane, f_hz,
-    phi0_rad, mask_image, method, bead_diameter_px, ...; docs/piv.md); ``fps`` (Hz)
-    times the pair (dt = 1/fps). The numbers equal the command's on the same images."""
-    out = _native.piv_frames([frame_a, frame_b], _words(options), progress)
+    uint8, uint16, or float (grey levels 0..1). C-contiguous uint8, uint16 and float32
+    arrays are used without a copy; a crop or other strided view, and float64, are
+    copied first (to C order, float32). Options are those of ``shearzone piv`` (windows,
+    overlap, preset, centre, annulus, vane, f_hz, phi0_rad, mask_image, method,
+    bead_diameter_px, ...; docs/piv.md); ``fps`` (Hz) times the pair (dt = 1/fps). The
+    numbers equal the command's on the same images."""
+    out = _native.piv_frames([_frame(frame_a), _frame(frame_b)], _words(options), progress)
     p = out["pairs"][0]
     return PivResult(p["x_px"], p["y_px"], p["u_px"], p["v_px"], p["flag"], p["peak"], p["peak_ratio"],
                      p["dt_s"], dict(out["header"]), list(out["windows_px"]), out["texture_size_px"])
@@ -215,7 +226,7 @@ def piv_video(inputs: Union[PathLike, Sequence[PathLike]], output: PathLike, *, 
 class Fields:
     """The fields of ``piv`` read pair by pair (nothing loaded until asked):
     ``len(fields)`` pairs, ``fields[k]`` a dict of arrays (as PivResult's, plus t_a_s and
-    dt_s), ``fields.attr(name)`` a root attribute (number, text or None), ``fields.header``
+    dt_s in s, and ``masked``: True where the mask (vane, cup, mask image) hid the node), ``fields.attr(name)`` a root attribute (number, text or None), ``fields.header``
     the options the fields were made with."""
 
     def __init__(self, path: PathLike, dt_s: float = 0.04):
@@ -228,7 +239,9 @@ class Fields:
     def __getitem__(self, k: int) -> dict:
         if k < 0:
             k += len(self)
-        return self._f.pair(k)
+        d = self._f.pair(k)
+        d["masked"] = d["flag"] == 2  # the vane, the cup wall, a mask image: no vector there
+        return d
 
     def __iter__(self):
         for k in range(len(self)):
@@ -241,6 +254,12 @@ class Fields:
     def header(self) -> dict:
         text = self.attr("options") or ""
         return dict(line.split(": ", 1) for line in str(text).splitlines() if ": " in line)
+
+
+def read_image(path: PathLike, grey: str = "luma") -> np.ndarray:
+    """An image file as the command reads it: a 2-D grey array (uint8, or uint16 for a
+    16-bit file); ``grey`` is piv's ``--grey`` conversion of colour (luma, mean, green, ...)."""
+    return _native.read_image(os.fspath(path), grey)
 
 
 def read_fields(path: PathLike, dt_s: float = 0.04) -> Fields:
@@ -333,12 +352,37 @@ def fit_power(x, y, sigma=None, **options: Any) -> Fit:
     return f
 
 
-def collapse_erf(table: PathLike, output: Optional[PathLike] = None, **options: Any) -> Table:
-    """``shearzone collapse erf TABLE -o OUTPUT``: the global erf collapse of r_c(phi0)
-    curves over N (options x, y, group, sigma, ...). Returns the long parameter table."""
-    with _Output(output, "collapse.csv") as out:
+def collapse_erf(table: Any = None, *, phi0=None, rc=None, N=None, sigma=None, output: Optional[PathLike] = None,
+                 **options: Any) -> dict:
+    """``shearzone collapse erf TABLE -o OUTPUT``: each N's r_c(phi0) rescaled by its own
+    erf fit, then all N fitted at once with W = W0 (N/N_ref)^-alpha (docs/fit.md).
+    Either a CSV ``table`` with the columns named by ``x``, ``y``, ``group`` and
+    ``sigma`` (the command's options: column names), or arrays: ``phi0`` (rad), ``rc`` (m), ``N`` and
+    optionally ``sigma`` (m), written exactly (shortest round-trip text) to a table the
+    command reads. Other options: group_rtol, absolute_sigma, loss, loss_scale,
+    bootstrap, seed. Returns ``{"parameters", "collapsed", "master"}``, the three tables
+    of the output folder (a temporary one unless ``output`` is given)."""
+    with _Output(output, "collapse") as out, tempfile.TemporaryDirectory(prefix="shearzone-") as tmp:
+        if table is None:
+            if phi0 is None or rc is None or N is None:
+                raise ConfigError("collapse_erf: give a table, or the arrays phi0, rc and N (and sigma)")
+            cols = {"phi0_rad": phi0, "rc_m": rc, "N": N}
+            if sigma is not None:
+                cols["rc_se_m"] = sigma
+            cols = {k: np.asarray(v, dtype=float).ravel() for k, v in cols.items()}
+            if len({len(v) for v in cols.values()}) != 1:
+                raise InputError("collapse_erf: phi0, rc, N" + (", sigma" if sigma is not None else "") +
+                                 f" have {', '.join(str(len(v)) for v in cols.values())} values; expected the same count")
+            table = os.path.join(tmp, "rc_phi0.csv")
+            with open(table, "w", encoding="utf-8") as f:
+                f.write(",".join(cols) + "\n")
+                for row in zip(*cols.values()):
+                    f.write(",".join(repr(float(v)) for v in row) + "\n")
+            options = dict(options, x="phi0_rad", y="rc_m", group="N", sigma="rc_se_m" if sigma is not None else None)
+        elif sigma is not None:  # a table's sigma column, by name
+            options = dict(options, sigma=sigma)
         run("collapse erf", os.fspath(table), output=out.path, **options)
-        return read_table(out.path)
+        return {name: read_table(os.path.join(out.path, name + ".csv")) for name in ("parameters", "collapsed", "master")}
 
 
 # ---------------------------------------------------------------------------- LAOS
@@ -402,14 +446,83 @@ def synth_particles(output: Optional[PathLike] = None, **options: Any) -> dict:
     return _synth("particles", output, options)
 
 
-def simulate(scene: PathLike, output: PathLike, *, progress: Progress = None, **options: Any) -> str:
-    """``shearzone sim SCENE -o OUTPUT``: the contact-dynamics simulation of a scene
-    TOML (docs/sim.md); returns the run folder."""
-    run("sim", os.fspath(scene), progress=progress, output=os.fspath(output), **options)
+class Scene:
+    """A simulator scene as values: ``sections`` maps each section of the scene file
+    (sim, output, box, cylinder, beads, chains, fill, vane, camera, protocol;
+    docs/sim.md) to its keys, in the keys' units (``duration_s`` in s, ``diameter_m``
+    in m, ``max_angle_deg`` in degrees, positions as flat lists x0, y0, z0, x1, ...).
+    ``Scene(sim={"duration_s": 0.1, "time_step_s": 5e-4}, box={...})`` builds one,
+    ``Scene.from_toml(path)`` reads a file (what the file sets, nothing more).
+    ``check()`` applies the rules ``shearzone sim`` applies (ConfigError naming the key),
+    ``to_toml()`` gives the file the command reads back to the same values."""
+
+    def __init__(self, **sections: Mapping[str, Any]):
+        self.sections = {name: dict(keys) for name, keys in sections.items()}
+
+    @classmethod
+    def from_toml(cls, path: PathLike) -> "Scene":
+        return cls(**_native.scene_from_toml(os.fspath(path)))
+
+    def __getitem__(self, section: str) -> dict:
+        return self.sections.setdefault(section, {})
+
+    def __repr__(self) -> str:
+        return f"Scene({', '.join(f'{k}={v!r}' for k, v in self.sections.items())})"
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Scene) and self.sections == other.sections
+
+    def to_toml(self, path: Optional[PathLike] = None, comment: str = "") -> str:
+        """The scene file's text (numbers in their shortest exact form); written to
+        ``path`` when given."""
+        text = _native.scene_to_toml(self.sections, comment)
+        if path is not None:
+            Path(path).write_text(text, encoding="utf-8")
+        return text
+
+    def check(self) -> "Scene":
+        """Every key and every rule between sections, as the command checks them
+        (nothing placed or run); returns the scene."""
+        _native.scene_check(self.sections)
+        return self
+
+
+def simulate(scene: Union[Scene, PathLike], output: PathLike, *, progress: Progress = None,
+             scene_file: Optional[PathLike] = None, **options: Any) -> str:
+    """``shearzone sim SCENE -o OUTPUT``: the contact-dynamics simulation of a scene (a
+    ``Scene`` or a scene TOML; docs/sim.md); options as the command's (restart, phi0,
+    f_hz, cycles, threads, force). A Scene is written to ``scene_file`` (else a
+    temporary file, which the outputs' ``scene`` header then names) and run from it.
+    Returns the run folder; ``read_checkpoint(folder + "/checkpoint.h5")`` reads its end
+    state, ``read_fields(folder + "/surface.h5")`` its surface field."""
+    if isinstance(scene, Scene):
+        scene.check()
+        with tempfile.TemporaryDirectory(prefix="shearzone-") as tmp:
+            path = os.fspath(scene_file) if scene_file is not None else os.path.join(tmp, "scene.toml")
+            scene.to_toml(path)
+            run("sim", path, progress=progress, output=os.fspath(output), **options)
+    else:
+        run("sim", os.fspath(scene), progress=progress, output=os.fspath(output), **options)
     return os.fspath(output)
+
+
+def read_checkpoint(path: PathLike) -> dict:
+    """A simulator checkpoint as arrays: ``position_m``, ``velocity_m_per_s``,
+    ``angular_velocity_rad_per_s`` (n, 3), ``orientation`` (n, 4; unit quaternions w, x,
+    y, z), ``diameter_m``, ``mass_kg``, ``kind`` (0 mobile, 1 fixed, 2 kinematic),
+    ``chain_id`` (n), ``ropes`` (r, 2 body indices), ``step``, ``time_s``,
+    ``time_step_s``, ``n_walls``, ``n_contacts`` and ``state_hash`` (hex, the ``state
+    hash`` that ``shearzone sim`` prints for the run that wrote it)."""
+    return _native.read_checkpoint(os.fspath(path))
 
 
 def sim_render(run_dir: PathLike, output: PathLike, *, progress: Progress = None, **options: Any) -> str:
     """``shearzone sim render RUN -o OUTPUT``: the virtual camera's video of a run."""
     run("sim render", os.fspath(run_dir), progress=progress, output=os.fspath(output), **options)
     return os.fspath(output)
+
+
+class synth:
+    """``synth.beads(...)`` and ``synth.particles(...)``: synth_beads and synth_particles."""
+    beads = staticmethod(synth_beads)
+    particles = staticmethod(synth_particles)

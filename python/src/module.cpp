@@ -44,6 +44,7 @@
 #include "shearzone/pipeline/laos_job.hpp"
 #include "shearzone/pipeline/piv_job.hpp"
 #include "shearzone/piv/texture.hpp"
+#include "bindings.hpp"
 #include "subcommands.hpp"
 
 namespace py = pybind11;
@@ -256,6 +257,17 @@ py::dict fit_dict(const fit::CurveFit& f) {
   return d;
 }
 
+/// Refuses a value that is not a finite number (as the command refuses such a cell),
+/// naming the array and the index; `positive`: also <= 0 (an uncertainty).
+void check_values(const char* name, const std::vector<double>& v, bool positive = false) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!std::isfinite(v[i]))
+      throw InputError(fmt::format("{}[{}] = {}: not a finite number", name, i, v[i]));
+    if (positive && !(v[i] > 0))
+      throw InputError(fmt::format("{}[{}] = {}: not a positive uncertainty", name, i, v[i]));
+  }
+}
+
 py::dict fit_arrays(const std::string& model, std::vector<double> x, std::vector<double> y,
                     std::vector<double> sigma, const std::vector<std::string>& words) {
   std::vector<std::string> all{"fit", model, "<arrays>.csv", "-o", "<arrays>.csv", "--x", "x", "--y", "y"};
@@ -263,8 +275,12 @@ py::dict fit_arrays(const std::string& model, std::vector<double> x, std::vector
   const auto job = capture<pipeline::FitJobOptions>(all);
   job.fit.validate();
   if (x.size() != y.size() || (!sigma.empty() && sigma.size() != x.size()))
-    throw InputError(fmt::format("x, y and sigma: {}, {} and {} values; expected as many of each", x.size(),
-                                 y.size(), sigma.size()));
+    throw InputError(sigma.empty() ? fmt::format("x and y: {} and {} values; expected as many of each", x.size(), y.size())
+                                   : fmt::format("x, y and sigma: {}, {} and {} values; expected as many of each",
+                                                 x.size(), y.size(), sigma.size()));
+  check_values("x", x);
+  check_values("y", y);
+  check_values("sigma", sigma, true);
   py::dict d;
   fit::CurveFit f;
   {
@@ -363,8 +379,13 @@ py::dict laos_arrays(std::vector<double> t, std::vector<double> drive, std::vect
   const auto job = capture<pipeline::LaosJobOptions>(all);
   job.analysis.validate();
   if (drive.size() != response.size() || (!t.empty() && t.size() != drive.size()))
-    throw InputError(fmt::format("t, angle and torque: {}, {} and {} values; expected as many of each", t.size(),
-                                 drive.size(), response.size()));
+    throw InputError(t.empty() ? fmt::format("angle and torque: {} and {} values; expected as many of each",
+                                             drive.size(), response.size())
+                               : fmt::format("t, angle and torque: {}, {} and {} values; expected as many of each",
+                                             t.size(), drive.size(), response.size()));
+  check_values("t", t);
+  check_values("angle", drive);
+  check_values("torque", response);
   const bool convert = !std::isnan(job.stress_constant_Pa_per_N_m);
   if (job.log_constants) throw ConfigError("log_constants: arrays carry no log; give stress_constant and strain_constant");
   const double Cs = convert ? job.stress_constant_Pa_per_N_m : 1.0, Cg = convert ? job.strain_constant_per_rad : 1.0;
@@ -510,4 +531,5 @@ PYBIND11_MODULE(_native, m) {
       .def("__len__", &Fields::size)
       .def("pair", &Fields::pair, py::arg("k"))
       .def("attribute", &Fields::attribute, py::arg("name"));
+  bind_sim(m);
 }

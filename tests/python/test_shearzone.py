@@ -181,15 +181,18 @@ def test_errors_are_the_commands_messages_and_leave_nothing(beads, tmp_path):
     assert sorted(os.listdir(tmp_path)) == []
 
 
-def test_the_docs_example_runs(tmp_path, monkeypatch):
-    """docs/python.md's example block, as it stands, in an empty folder with
+def test_the_docs_examples_run(tmp_path, monkeypatch):
+    """docs/python.md's example blocks, as they stand, in order, in an empty folder with
     data-samples/ beside it."""
     text = (ROOT / "docs" / "python.md").read_text()
-    block = text.split("```python\n", 1)[1].split("```", 1)[0]
+    blocks = [part.split("```", 1)[0] for part in text.split("```python\n")[1:]]
+    assert len(blocks) == 2
     (tmp_path / "data-samples").symlink_to(ROOT / "data-samples")
     monkeypatch.chdir(tmp_path)
-    exec(compile(block, "docs/python.md", "exec"), {})
+    for block in blocks:
+        exec(compile(block, "docs/python.md", "exec"), {})
     assert (tmp_path / "fields.h5").exists() and (tmp_path / "profile.csv").exists()
+    assert (tmp_path / "run" / "checkpoint.h5").exists() and (tmp_path / "scene.toml").exists()
 
 
 def test_cmake_install_puts_it_where_python_finds_it(tmp_path):
@@ -204,3 +207,128 @@ def test_cmake_install_puts_it_where_python_finds_it(tmp_path):
                        capture_output=True, text=True, env=env, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert r.stdout.startswith(str(tmp_path))
+
+
+SCENE = {
+    "sim": {"duration_s": 0.01, "time_step_s": 5e-4},
+    "output": {"snapshot_every": 5, "checkpoint_every": 10},
+    "box": {"min_m": [-0.03, -0.03, 0.0], "max_m": [0.03, 0.03, 0.1]},
+    "beads": {"diameter_m": 0.01, "positions_m": [0, 0, 0.006, 0.0105, 0, 0.006, 0.021, 0, 0.006]},
+    "chains": {"beads_per_chain": 3, "l_max_m": 0.001, "max_angle_deg": 60},
+    "fill": {"count": 2, "min_m": [-0.025, -0.025, 0.03], "max_m": [0.025, 0.025, 0.09]},
+}
+
+
+def test_a_scene_built_in_python_runs_as_its_file(tmp_path):
+    """Scene(...) writes the file the command reads back to the same keys; simulate() on
+    it gives the command's state hash, and the checkpoint reads back as the same arrays."""
+    scene = sz.Scene(**SCENE).check()
+    scene.to_toml(tmp_path / "s.toml")
+    assert sz.Scene.from_toml(tmp_path / "s.toml") == scene
+    r = cli("sim", tmp_path / "s.toml", "-o", tmp_path / "cli")
+    cli_hash = r.stdout.split("state hash ")[1].split()[0]
+    sz.simulate(scene, tmp_path / "py")
+    py, ref = sz.read_checkpoint(tmp_path / "py" / "checkpoint.h5"), sz.read_checkpoint(tmp_path / "cli" / "checkpoint.h5")
+    assert py["state_hash"] == ref["state_hash"] == cli_hash
+    assert py["position_m"].shape == (9, 3) and py["step"] == 20 and py["time_s"] == pytest.approx(0.01)
+    for name in ("position_m", "velocity_m_per_s", "angular_velocity_rad_per_s", "orientation", "diameter_m",
+                 "chain_id", "ropes", "kind"):
+        np.testing.assert_array_equal(py[name], ref[name], err_msg=name)
+    assert sorted(set(py["chain_id"])) == [0, 1, 2] and py["ropes"].shape == (6, 2)
+    # The rules are the command's: a bad key is named, in the scene's terms.
+    with pytest.raises(sz.ConfigError, match=r'unknown key "sim.time_stp_s"'):
+        sz.Scene(sim={"time_stp_s": 1e-3}).check()
+    with pytest.raises(sz.ConfigError, match=r'key "sim.duration_s": nan'):
+        sz.Scene(sim={"duration_s": float("nan")}).check()
+    with pytest.raises(sz.ConfigError, match=r'"sim.threads"'):
+        sz.Scene(sim={"duration_s": 0.01, "threads": 0}).check()
+
+
+def test_synth_namespace_and_field_masks(tmp_path):
+    clip = sz.synth.beads(width=96, height=96, diameter=12, u=1, v=0, seed=2)
+    assert len(clip["frames"]) == 2 and clip["frames"][0].shape == (96, 96)
+    cli("synth", "beads", "-o", tmp_path / "c", "--width", 256, "--height", 256, "--diameter", 16, "--field",
+        "rotation", "--frames", 3, "--vane", "4,6,60", "--seed", 1)
+    fields = sz.piv_video(str(tmp_path / "c" / "frame_*.png"), tmp_path / "f.h5", vane=(4, 6, 60),
+                          centre=(128, 128))
+    f = fields[0]
+    assert f["masked"].dtype == bool and f["masked"].shape == f["flag"].shape
+    assert f["masked"].any() and not f["masked"].all()
+    np.testing.assert_array_equal(f["masked"], f["flag"] == 2)
+
+
+def test_the_notebook_runs_and_its_rc_is_the_commands(tmp_path, monkeypatch):
+    """docs/notebooks/from_video_to_rc.ipynb top to bottom (Debian's nbclient and
+    ipykernel), in an empty folder with data-samples/ beside it; its r_c equals the
+    command's on the clip the notebook made."""
+    import nbformat  # scripts/setup.sh installs python3-nbclient, python3-ipykernel
+    from nbclient import NotebookClient
+    nb = nbformat.read(ROOT / "docs" / "notebooks" / "from_video_to_rc.ipynb", as_version=4)
+    (tmp_path / "data-samples").symlink_to(ROOT / "data-samples")
+    monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")  # the kernel's debugger note on stderr
+    NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.get("output_type") == "error"]
+    assert sum(1 for o in outputs if "image/png" in o.get("data", {})) == 4  # the four figures, inline
+    opts = ["--centre", "128,128", "--radii-px", "10,120", "--m-per-px", "1e-4", "--bin-px", "8"]
+    cli("piv", tmp_path / "clip" / "frame_*.png", "-o", tmp_path / "cli.h5", "--centre", "128,128")
+    cli("profile", tmp_path / "cli.h5", "-o", tmp_path / "cli.csv", *opts)
+    cli("width", tmp_path / "cli.csv", "-o", tmp_path / "w_cli.csv", "--vc", 2e-3)
+    ref, nb_w = sz.read_table(tmp_path / "w_cli.csv"), sz.read_table(tmp_path / "widths.csv")
+    assert nb_w["rc_status"][0] == "ok"
+    for name in ("rc_m", "rc_ci_low_m", "rc_ci_high_m"):
+        assert nb_w[name][0] == ref[name][0], name
+    text = "".join(o.get("text", "") for o in outputs)
+    assert f"r_c = {ref['rc_m'][0] * 1e3:.3f} mm" in text
+
+
+MEMORY_SCRIPT = """
+import resource, sys
+import numpy as np
+import shearzone as sz
+
+def rss_mb(key):
+    for line in open("/proc/self/status"):
+        if line.startswith(key):
+            return int(line.split()[1]) / 1024.0
+
+base = rss_mb("VmRSS:")
+a, b = sz.read_image(sys.argv[1]), sz.read_image(sys.argv[2])
+r = sz.piv(a, b)
+print(base, rss_mb("VmHWM:"), (a.nbytes + b.nbytes) / 2**20, float(np.nanmean(r.u_px)))
+"""
+
+
+def test_piv_of_a_1080p_pair_from_arrays_costs_no_more_memory_than_the_command(tmp_path):
+    """Peak resident memory of piv on two 1920x1080 arrays, above the interpreter with
+    the module imported, is at most the command's own peak on the same pair plus the
+    two arrays (both measured here: /proc's VmHWM and wait4's ru_maxrss)."""
+    cli("synth", "beads", "-o", tmp_path / "hd", "--width", 1920, "--height", 1080, "--diameter", 30, "--u", 2.5,
+        "--v", 1, "--seed", 9)
+    a, b = tmp_path / "hd" / "A.png", tmp_path / "hd" / "B.png"
+    p = subprocess.Popen([CLI, "piv", a, b, "-o", tmp_path / "v.csv"], stdout=subprocess.DEVNULL)
+    _, status, usage = os.wait4(p.pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    cli_mb = usage.ru_maxrss / 1024.0
+    r = subprocess.run(["/usr/bin/python3", "-c", MEMORY_SCRIPT, a, b], capture_output=True, text=True, check=True)
+    base, peak, arrays, u = map(float, r.stdout.split())
+    assert abs(u - 2.5) < 0.1
+    print(f"python: {peak - base:.0f} MB above {base:.0f} MB; the command: {cli_mb:.0f} MB; arrays {arrays:.1f} MB")
+    assert peak - base <= cli_mb + arrays
+
+
+def test_collapse_on_arrays_equals_the_command(tmp_path):
+    table = ROOT / "data-samples" / "widths" / "rc_phi0_synthetic.csv"
+    cli("collapse", "erf", table, "-o", tmp_path / "cli", "--x", "phi0_rad", "--y", "rc_m", "--sigma", "rc_se_m",
+        "--group", "N")
+    t = sz.read_table(table)
+    arrays = sz.collapse_erf(phi0=t["phi0_rad"], rc=t["rc_m"], N=t["N"], sigma=t["rc_se_m"])
+    from_table = sz.collapse_erf(table, x="phi0_rad", y="rc_m", sigma="rc_se_m", group="N")
+    for name in ("parameters", "collapsed", "master"):
+        ref = sz.read_table(tmp_path / "cli" / f"{name}.csv")
+        for result in (arrays, from_table):
+            assert set(result[name].keys()) == set(ref.keys())
+            for col in ref.keys():
+                np.testing.assert_array_equal(result[name][col], ref[col], err_msg=f"{name}.{col}")
+    with pytest.raises(sz.InputError, match="expected the same count"):
+        sz.collapse_erf(phi0=[0.1, 0.2], rc=[1.0], N=[1, 1])

@@ -119,13 +119,15 @@ std::unique_ptr<FrameSource> frames_from_memory(std::vector<cv::Mat> frames, dou
   if (!(fps > 0) || !std::isfinite(fps)) throw ConfigError(fmt::format("fps = {}: must be > 0 for frames in memory", fps));
   for (std::size_t k = 0; k < frames.size(); ++k) {
     const cv::Mat& m = frames[k];
-    if (m.empty() || m.channels() != 1 || (m.depth() != CV_8U && m.depth() != CV_16U && m.depth() != CV_32F))
+    if (m.empty()) throw InputError(fmt::format("{}#{}: an empty array (0 px); expected a 2-D grey image", name, k));
+    if (m.channels() != 1 || (m.depth() != CV_8U && m.depth() != CV_16U && m.depth() != CV_32F))
       throw InputError(fmt::format("{}#{}: expected a 2-D array of uint8, uint16 or float32 grey levels", name, k));
     if (m.size() != frames[0].size() || m.type() != frames[0].type())
       throw InputError(fmt::format("{}#{}: {}x{} px of {}; frame 0 is {}x{} px of {}: frames must match", name, k,
                                    m.cols, m.rows, depth_name(m), frames[0].cols, frames[0].rows,
                                    depth_name(frames[0])));
-    if (m.depth() == CV_32F && !cv::checkRange(m, true, nullptr, 0.0, std::nextafter(1.0, 2.0)))
+    // (checkRange's upper bound is exclusive and compared in float: the float after 1)
+    if (m.depth() == CV_32F && !cv::checkRange(m, true, nullptr, 0.0, std::nextafter(1.0F, 2.0F)))
       throw InputError(fmt::format("{}#{}: float grey levels outside 0..1 (or not finite); expected 0..1", name, k));
   }
   return std::make_unique<MemorySource>(std::move(frames), fps, std::move(name));
