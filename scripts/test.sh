@@ -37,11 +37,12 @@ cmake -S . -B "$BUILD_DIR" -G Ninja \
   -DSHEARZONE_BUILD_TESTS=ON
 cmake --build "$BUILD_DIR" --parallel "$JOBS"
 # The users' build (demo.sh: Release, -O3, no asserts) with warnings as errors: warnings
-# that only the optimiser finds there (GCC's -Wrestrict) fail here too. The library and
-# the command only (its own folder: demo.sh builds build/release without -Werror).
+# that only the optimiser finds there (GCC's -Wrestrict) fail here too. The library, the
+# command and the Python module, as demo.sh builds them (its own folder: demo.sh builds
+# build/release without -Werror).
 if [ "$SANITIZE" = OFF ]; then
   cmake -S . -B build/ci-release -G Ninja -DCMAKE_BUILD_TYPE=Release -DSHEARZONE_BUILD_TESTS=OFF \
-    -DSHEARZONE_WARNINGS_AS_ERRORS=ON -DSHEARZONE_PYTHON=OFF >/dev/null
+    -DSHEARZONE_WARNINGS_AS_ERRORS=ON >/dev/null
   cmake --build build/ci-release --parallel "$JOBS"
 fi
 

@@ -35,6 +35,7 @@
 #include "shearzone/core/progress.hpp"
 #include "shearzone/core/version.hpp"
 #include "shearzone/fit/models.hpp"
+#include "shearzone/io/atomic_output.hpp"
 #include "shearzone/io/field_file.hpp"
 #include "shearzone/io/frames.hpp"
 #include "shearzone/io/image.hpp"
@@ -504,6 +505,7 @@ void raise_as(const char* name, const char* message) {
 PYBIND11_MODULE(_native, m) {
   m.doc() = "shearzone's library, for the Python module (shearzone/__init__.py wraps it)";
   io::configure_decoders();
+  io::leave_signals_to_the_host();  // Ctrl-C: Python's KeyboardInterrupt, the work unwound (no output left)
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

@@ -332,3 +332,52 @@ def test_collapse_on_arrays_equals_the_command(tmp_path):
                 np.testing.assert_array_equal(result[name][col], ref[col], err_msg=f"{name}.{col}")
     with pytest.raises(sz.InputError, match="expected the same count"):
         sz.collapse_erf(phi0=[0.1, 0.2], rc=[1.0], N=[1, 1])
+
+
+def test_long_work_releases_the_gil():
+    """Another Python thread runs while piv works on a 1080p pair (the GIL is released):
+    it counts thousands of loops, where a held GIL would let it run only at the end."""
+    import threading
+    a, b = sz.synth.beads(width=1920, height=1080, diameter=30, u=2.5, v=1, seed=9)["frames"]
+    done, count = threading.Event(), [0]
+
+    def work():
+        sz.piv(a, b)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        count[0] += 1
+    t.join()
+    assert count[0] > 10000, count[0]
+
+
+CTRL_C_SCRIPT = """
+import os, sys
+import shearzone as sz
+out = sys.argv[2]
+def progress(label, done, total):
+    if done == 1:
+        print("started", flush=True)
+try:
+    sz.piv_video(sys.argv[1], out, progress=progress)
+    print("finished")
+except KeyboardInterrupt:
+    print("interrupted", os.path.exists(out), sorted(os.listdir(os.path.dirname(out))))
+"""
+
+
+def test_ctrl_c_stops_a_long_call_and_leaves_no_output(tmp_path):
+    """SIGINT during piv_video: a KeyboardInterrupt in Python, no fields.h5 and no
+    partial file left in its folder."""
+    import signal
+    cli("synth", "beads", "-o", tmp_path / "clip", "--width", 640, "--height", 480, "--diameter", 20, "--u", 1.5,
+        "--frames", 60, "--seed", 2)
+    (tmp_path / "out").mkdir()
+    p = subprocess.Popen(["/usr/bin/python3", "-c", CTRL_C_SCRIPT, str(tmp_path / "clip" / "frame_*.png"),
+                          str(tmp_path / "out" / "fields.h5")], stdout=subprocess.PIPE, text=True)
+    assert p.stdout.readline().strip() == "started"
+    p.send_signal(signal.SIGINT)
+    rest, _ = p.communicate(timeout=60)
+    assert rest.strip() == "interrupted False []", rest

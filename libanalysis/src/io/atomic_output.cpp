@@ -36,6 +36,7 @@ std::atomic<RegistryNode*> g_head{nullptr};
 std::mutex g_registry_mutex;
 std::vector<RegistryNode*> g_nodes;  // index = slot; guarded by g_registry_mutex
 std::once_flag g_handlers_once;
+std::atomic<bool> g_host_handles_signals{false};
 
 extern "C" void cleanup_on_signal(int sig) {
   // Pass 1: files; pass 2: (now empty) staging folders.
@@ -64,7 +65,7 @@ void install_handlers() {
 }
 
 int register_path(const fs::path& p, bool is_dir) {
-  std::call_once(g_handlers_once, install_handlers);
+  if (!g_host_handles_signals.load()) std::call_once(g_handlers_once, install_handlers);
   const std::string s = p.string();
   std::lock_guard lock(g_registry_mutex);
   RegistryNode* node = nullptr;
@@ -178,6 +179,8 @@ std::vector<fs::path> create_missing_folders(const fs::path& dir, const fs::path
 }
 
 }  // namespace
+
+void leave_signals_to_the_host() { g_host_handles_signals.store(true); }
 
 void check_output_allowed(const fs::path& path, bool force) {
   std::error_code ec;

@@ -33,6 +33,13 @@ namespace shearzone::io {
 /// never committed. Cheap: call it before any work.
 void check_output_allowed(const std::filesystem::path& path, bool force);
 
+/// By default the first temporary output installs handlers for SIGINT, SIGTERM and
+/// SIGHUP that remove every pending temporary file and folder, then die of the signal
+/// (the command killed by Ctrl-C leaves nothing behind). A host with its own handlers
+/// (the Python module: Ctrl-C is a KeyboardInterrupt that unwinds the work, and the
+/// destructors remove the temporaries) calls this first, once: no handler is installed.
+void leave_signals_to_the_host();
+
 class AtomicOutput {
  public:
   AtomicOutput(std::filesystem::path final_path, bool force);
