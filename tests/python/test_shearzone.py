@@ -266,6 +266,8 @@ def test_the_notebook_runs_and_its_rc_is_the_commands(tmp_path, monkeypatch):
     nb = nbformat.read(ROOT / "docs" / "notebooks" / "from_video_to_rc.ipynb", as_version=4)
     (tmp_path / "data-samples").symlink_to(ROOT / "data-samples")
     monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")  # the kernel's debugger note on stderr
+    # The kernel imports the module this test imports, whatever the caller's PYTHONPATH.
+    monkeypatch.setenv("PYTHONPATH", os.path.dirname(os.path.dirname(os.path.abspath(sz.__file__))))
     NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     assert not [o for o in outputs if o.get("output_type") == "error"]
