@@ -43,6 +43,8 @@ echo "   figures of the study (made or skipped, and why):"
 sed -e '1,2d' -e 's/^/     /' "$S/out/figures/figures.csv"
 # every figure the study made is a real picture
 "$PY" scripts/check_figures.py "$S/out/figures" $(awk -F, '$2 == "made" { printf "%s.png ", $1 }' "$S/out/figures/figures.csv")
+echo "   the study's report, one page to open in a browser (docs/report.md): $S/out/report.html" \
+     "($(du -h "$S/out/report.html" | cut -f1))"
 echo "== 1. PIV test pair: uniform shift (2.25, -1.5) px"
 "$SZ" synth particles --config data-samples/synth/pair_uniform.toml -o "$OUT/pair_uniform" --force
 echo "== 2. Rotating particle pair (omega = 0.01 rad/frame, counter-clockwise)"
@@ -127,4 +129,4 @@ echo "== 12. Every figure present and a valid PNG"
 echo
 echo "Outputs are in $OUT/:"
 find "$OUT" -maxdepth 2 -type f ! -name 'frame_*' | sort | sed 's/^/  /'
-echo "  $OUT/study/out/: the study's results/ and figures/ (PNG + SVG)"
+echo "  $OUT/study/out/: the study's results/ and figures/ (PNG + SVG); report.html shows them all"

@@ -20,6 +20,8 @@ PACKAGES=(
   python3 python3-matplotlib python3-numpy python3-h5py python3-opencv
   # the Python module (python/: pybind11), its tests and its notebook (docs/notebooks)
   python3-dev pybind11-dev python3-pytest jupyter-nbconvert python3-nbclient python3-ipykernel
+  # the report's checks in a real browser (tests/report: headless Chromium, HTML parser)
+  chromium chromium-driver python3-selenium python3-html5lib
 )
 # studies (`shearzone study run`): Snakemake 7.21, and SLURM 22.05 with munge for --slurm and
 # its test cluster. Installed with their recommended packages (the tested recipe: Snakemake

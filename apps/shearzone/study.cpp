@@ -20,6 +20,7 @@
 
 #include "shearzone/core/error.hpp"
 #include "shearzone/study/study.hpp"
+#include "programs.hpp"
 #include "subcommands.hpp"
 
 #ifndef SHEARZONE_SOURCE_DIR
@@ -105,26 +106,6 @@ void check_stage(const std::string& stage, const std::vector<std::string>& args)
     }
 }
 
-/// The folder of the workflow and figure scripts: $SHEARZONE_SCRIPTS, else the source tree's.
-fs::path scripts_dir() {
-  if (const char* env = std::getenv("SHEARZONE_SCRIPTS"); env && *env) return env;
-  return fs::path(SHEARZONE_SOURCE_DIR) / "scripts";
-}
-
-fs::path find_program(const std::string& name, const std::vector<fs::path>& first) {
-  for (const fs::path& p : first)
-    if (::access(p.c_str(), X_OK) == 0) return p;
-  if (const char* path = std::getenv("PATH"))
-    for (std::string_view rest = path; !rest.empty();) {
-      const auto colon = rest.find(':');
-      const fs::path p = fs::path(std::string(rest.substr(0, colon))) / name;
-      if (::access(p.c_str(), X_OK) == 0) return p;
-      if (colon == std::string_view::npos) break;
-      rest.remove_prefix(colon + 1);
-    }
-  return {};
-}
-
 /// In a forked child: replaces it by argv[0] with its arguments (exit 127 if it cannot run).
 [[noreturn]] void exec_child(std::vector<std::string>& argv) {
   std::vector<char*> args;
@@ -133,27 +114,6 @@ fs::path find_program(const std::string& name, const std::vector<fs::path>& firs
   ::execv(args[0], args.data());
   std::fprintf(stderr, "shearzone: error: cannot run %s\n", args[0]);
   ::_exit(127);
-}
-
-/// Runs argv[0] with its arguments and returns its exit status (128 + signal if killed).
-int run_program(std::vector<std::string> argv, bool silent) {
-  std::fflush(nullptr);
-  const pid_t pid = ::fork();
-  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", argv[0]));
-  if (pid == 0) {
-    if (silent) {
-      const int devnull = ::open("/dev/null", O_WRONLY);
-      if (devnull >= 0) {
-        ::dup2(devnull, 1);
-        ::dup2(devnull, 2);
-      }
-    }
-    exec_child(argv);
-  }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
 /// What a failed workflow left in its log: the failed rule, its input, the job's own
@@ -328,6 +288,47 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
 }
 
 }  // namespace
+
+/// The folder of the workflow and figure scripts: $SHEARZONE_SCRIPTS, else the source tree's.
+fs::path scripts_dir() {
+  if (const char* env = std::getenv("SHEARZONE_SCRIPTS"); env && *env) return env;
+  return fs::path(SHEARZONE_SOURCE_DIR) / "scripts";
+}
+
+fs::path find_program(const std::string& name, const std::vector<fs::path>& first) {
+  for (const fs::path& p : first)
+    if (::access(p.c_str(), X_OK) == 0) return p;
+  if (const char* path = std::getenv("PATH"))
+    for (std::string_view rest = path; !rest.empty();) {
+      const auto colon = rest.find(':');
+      const fs::path p = fs::path(std::string(rest.substr(0, colon))) / name;
+      if (::access(p.c_str(), X_OK) == 0) return p;
+      if (colon == std::string_view::npos) break;
+      rest.remove_prefix(colon + 1);
+    }
+  return {};
+}
+
+/// Runs argv[0] with its arguments and returns its exit status (128 + signal if killed).
+int run_program(std::vector<std::string> argv, bool silent) {
+  std::fflush(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", argv[0]));
+  if (pid == 0) {
+    if (silent) {
+      const int devnull = ::open("/dev/null", O_WRONLY);
+      if (devnull >= 0) {
+        ::dup2(devnull, 1);
+        ::dup2(devnull, 2);
+      }
+    }
+    exec_child(argv);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
 
 std::vector<Subcommand> add_study(CLI::App& root, Context& ctx) {
   CLI::App* st = root.add_subcommand("study", "A whole study (lab clips and torque logs, a simulation grid) from "

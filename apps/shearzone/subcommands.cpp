@@ -17,6 +17,7 @@ std::vector<Subcommand> add_subcommands(CLI::App& root, Context& ctx) {
   for (auto& s : add_laos(root, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_sim(root, ctx)) subs.push_back(std::move(s));
   for (auto& s : add_study(root, ctx)) subs.push_back(std::move(s));
+  for (auto& s : add_report(root, ctx)) subs.push_back(std::move(s));
   CLI::App* collapse = root.add_subcommand(
       "collapse",
       "Data collapse of r_c(phi0) curves: erf (parametric, global Ceres fit) or fss "

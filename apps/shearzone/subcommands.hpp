@@ -68,6 +68,8 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx);
 
 /// `shearzone study run`.
 std::vector<Subcommand> add_study(CLI::App& root, Context& ctx);
+/// `shearzone report`.
+std::vector<Subcommand> add_report(CLI::App& root, Context& ctx);
 
 /// `shearzone width`.
 std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);

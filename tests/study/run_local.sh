@@ -5,7 +5,7 @@
 #     for byte, the simulation's wall-clock times aside);
 #  2. a second run schedules no job;
 #  3. removing one amplitude's width file reruns exactly the jobs that depend on it;
-#  4. adding a clip runs its chain and the dataset's collect/fits/figures, nothing else;
+#  4. adding a clip runs its chain and the dataset's collect/fits/figures and the report, nothing else;
 #  5. adding an amplitude to the grid runs its branches and what depends on them, no pre-shear;
 #  6. the commands the workflow printed, run by hand, give the same files;
 #  7. a second run on a folder in use is refused; a run killed part-way (SIGKILL to its
@@ -71,20 +71,21 @@ grep -q "Nothing to be done" rerun.log || { cat rerun.log; fail "a second run sc
 # 3. one width file removed: that width, the lab's collect, fits, collapse, figures
 rm A/lab/clips/N9_phi0.3/width.csv
 run A 2 width.log
-expect_jobs width.log "all 1" "width 1" "collect_widths 1" "fit_erf 1" "fit_W 1" "fit_rcinf 1" "collapse 1" "figures 1"
+expect_jobs width.log "all 1" "width 1" "collect_widths 1" "fit_erf 1" "fit_W 1" "fit_rcinf 1" "collapse 1" "figures 1" "report 1"
 same A B "the rerun width gave different outputs"
 
 # 4. a new clip: its piv, profile, width, then the lab's collect, fits, figures
 "$SRC/tests/study/make_clips.sh" "$SZ" clips 9 0.4
 run A 2 clip.log
 expect_jobs clip.log "all 1" "lab_piv 1" "profile 1" "width 1" "collect_widths 1" "fit_erf 1" "fit_W 1" \
-  "fit_rcinf 1" "collapse 1" "figures 1"
+  "fit_rcinf 1" "collapse 1" "figures 1" "report 1"
 
 # 5. a new amplitude of the grid: a branch per group and what follows, no pre-shear
 sed -i 's/^phi0_rad = \[0.05, 0.2\]/phi0_rad = [0.05, 0.1, 0.2]/' study.toml
 run A 2 phi0.log
 expect_jobs phi0.log "all 1" "branch 2" "render 2" "sim_piv 2" "sim_laos 2" "profile 2" "width 2" \
-  "collect_widths 1" "collect_laos 1" "fit_erf 1" "collapse 1" "figures 1"
+  "collect_widths 1" "collect_laos 1" "fit_erf 1" "collapse 1" "figures 1" \
+  "report 1"
 
 # 6. by hand: the commands the workflow ran for one clip (Snakemake printed them), run in a
 #    fresh folder, give the same files

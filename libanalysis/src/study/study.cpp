@@ -1,4 +1,5 @@
 // A study file -> the workflow's plan (docs/study.md).
+#include "shearzone/core/version.hpp"
 #include "shearzone/study/study.hpp"
 
 #include <glob.h>
@@ -775,6 +776,7 @@ void write_study_plan(const Study& s, const fs::path& out, const fs::path& shear
   j << "  \"shearzone\": " << json_string(shearzone.string()) << ",\n";
   j << "  \"python\": " << json_string(python.string()) << ",\n";
   j << "  \"scripts\": " << json_string(scripts.string()) << ",\n";
+  j << "  \"version\": " << json_string(kVersion) << ",\n";
   // lab
   j << "  \"clips\": {";
   for (std::size_t i = 0; i < s.clips.size(); ++i) {

@@ -1,0 +1,634 @@
+#!/usr/bin/python3
+"""scripts/report.py: one self-contained HTML page of a run's results (`shearzone report`).
+
+    report.py OUT [-o OUT/report.html] [--frames 6] [--version V] [--quiet]
+
+OUT is a study's output folder (`shearzone study run ... -o OUT`: it holds study.json)
+or one clip's folder holding fields.h5 and, where made, profile.csv and width.csv. The
+page holds, in order: warnings (widths without a usable r_c, clips with many invalid or
+replaced vectors, fits and collapses refused, logs skipped or with a failed amplitude,
+scales given by hand, the final window smaller than the beads), the counts, the result
+tables and the study's figures (SVG), a section per clip (its frames with the vectors
+drawn over them and a slider over the pairs, v(r) with the noise floor and r_c, the
+valid fraction per pair, the PIV settings and the drive phase), a section per torque
+log (Lissajous curves, harmonics, the instrument's own G' and G'') and the provenance
+(versions, command lines, input sizes and SHA-256). Everything is embedded (frames as
+JPEG, plots as SVG, a few lines of JavaScript): no network, no other file. The page
+prints to a tidy PDF (the sliders' frames become a row of stills).
+
+Debian's python3 with numpy, h5py and OpenCV (video frames); no plotting library: the
+plots are drawn as SVG here, so the page is made in about a second per dozen clips.
+"""
+import argparse
+import base64
+import csv
+import glob
+import hashlib
+import html
+import json
+import math
+import os
+import re
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+# A clip is flagged when more than this fraction of its unmasked vectors is not valid
+# (replaced or invalid): beyond it the profile leans on interpolated or missing vectors.
+BAD_VECTOR_FRACTION = 0.10
+# piv's window rule: a final window of at least 2.5 texture half-widths, 2/3 of a bead.
+FINAL_WINDOW_PER_BEAD = 2.0 / 3.0
+
+
+def esc(s):
+    return html.escape(str(s), quote=True)
+
+
+def read_csv(path):
+    """(header dict, column names, rows as lists) of a shearzone CSV; None if absent."""
+    if not os.path.isfile(path):
+        return None
+    header, names, rows = {}, None, []
+    with open(path, newline="", encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    body = []
+    for line in lines:
+        if names is None and line.startswith("#"):
+            k, _, v = line[1:].partition(":")
+            header[k.strip()] = v.strip()
+        else:
+            body.append(line)
+    reader = list(csv.reader(body))
+    if reader:
+        names, rows = reader[0], [r for r in reader[1:] if r]
+    return header, names or [], rows
+
+
+def refused(path):
+    """The `# refused: ...` line a study writes in place of a fit it could not make."""
+    p = os.path.join(path, "refused.txt") if os.path.isdir(path) else path
+    if not os.path.isfile(p):
+        return None
+    with open(p, encoding="utf-8") as f:
+        first = f.readline().strip()
+    return first[len("# refused:"):].strip() if first.startswith("# refused:") else None
+
+
+def num(x):
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def fmt(v, digits=4):
+    x = num(v)
+    if math.isnan(x):
+        return esc(v) if v not in (None, "") else ""
+    if x == 0 or 1e-3 <= abs(x) < 1e5:
+        return f"{x:.{digits}g}"
+    return f"{x:.{digits - 1}e}"
+
+
+def table(names, rows, keep=None, limit=None):
+    """An HTML table of CSV rows (numbers to 4 digits); `keep`: the columns shown."""
+    idx = [i for i, n in enumerate(names) if keep is None or n in keep]
+    out = ["<table><thead><tr>", "".join(f"<th>{esc(names[i])}</th>" for i in idx), "</tr></thead><tbody>"]
+    for r in rows[:limit]:
+        cells = []
+        for i in idx:
+            v = r[i] if i < len(r) else ""
+            cls = ' class="bad"' if names[i].endswith("status") and v not in ("ok", "") else ""
+            cells.append(f"<td{cls}>{fmt(v)}</td>")
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table>")
+    if limit is not None and len(rows) > limit:
+        out.append(f"<p class='note'>{len(rows) - limit} more rows in the CSV.</p>")
+    return "".join(out)
+
+
+# ---------------------------------------------------------------------------- SVG plots
+
+
+def nice_ticks(lo, hi, n=5):
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return [lo]
+    step = 10 ** math.floor(math.log10((hi - lo) / n))
+    for m in (1, 2, 5, 10):
+        if (hi - lo) / (step * m) <= n:
+            step *= m
+            break
+    start = math.ceil(lo / step) * step
+    return [start + k * step for k in range(int((hi - start) / step + 1e-9) + 1)]
+
+
+def svg_plot(series, xlabel, ylabel, title="", hlines=(), vlines=(), width=420, height=260, xlim=None, ylim=None):
+    """A small line/point plot as inline SVG. series: dicts with x, y, optional err,
+    label, colour, style ("line" or "points")."""
+    xs = np.concatenate([np.asarray(s["x"], float) for s in series] + [np.asarray([v for v, _, _ in vlines], float)])
+    ys = np.concatenate([np.asarray(s["y"], float) for s in series] + [np.asarray([v for v, _, _ in hlines], float)])
+    xs, ys = xs[np.isfinite(xs)], ys[np.isfinite(ys)]
+    if xs.size == 0 or ys.size == 0:
+        return "<p class='note'>(no finite values to plot)</p>"
+    x0, x1 = xlim or (float(xs.min()), float(xs.max()))
+    y0, y1 = ylim or (min(0.0, float(ys.min())), float(ys.max()))
+    if x1 <= x0:
+        x0, x1 = x0 - 1, x1 + 1
+    if y1 <= y0:
+        y0, y1 = y0 - 1, y1 + 1
+    pad = 0.05 * (y1 - y0)
+    y0, y1 = (y0 - pad if y0 < 0 else y0), y1 + pad
+    L, R, T, B = 62, 12, 24 if title else 10, 40
+    W, H = width - L - R, height - T - B
+
+    def px(x):
+        return L + (x - x0) / (x1 - x0) * W
+
+    def py(y):
+        return T + (1 - (y - y0) / (y1 - y0)) * H
+
+    o = [f'<svg xmlns="http://www.w3.org/2000/svg" class="plot" width="{width}" height="{height}" '
+         f'viewBox="0 0 {width} {height}" role="img" font-family="sans-serif" font-size="11">']
+    if title:
+        o.append(f'<text x="{width / 2:.1f}" y="15" text-anchor="middle" class="t">{esc(title)}</text>')
+    o.append(f'<rect x="{L}" y="{T}" width="{W}" height="{H}" fill="none" stroke="#999"/>')
+    for t in nice_ticks(x0, x1):
+        o.append(f'<line x1="{px(t):.1f}" y1="{T + H}" x2="{px(t):.1f}" y2="{T + H + 4}" stroke="#999"/>'
+                 f'<text x="{px(t):.1f}" y="{T + H + 15}" text-anchor="middle">{fmt(t, 3)}</text>')
+    for t in nice_ticks(y0, y1):
+        o.append(f'<line x1="{L - 4}" y1="{py(t):.1f}" x2="{L}" y2="{py(t):.1f}" stroke="#999"/>'
+                 f'<text x="{L - 6}" y="{py(t) + 4:.1f}" text-anchor="end">{fmt(t, 3)}</text>')
+    o.append(f'<text x="{L + W / 2:.1f}" y="{height - 6}" text-anchor="middle">{esc(xlabel)}</text>')
+    o.append(f'<text x="14" y="{T + H / 2:.1f}" text-anchor="middle" transform="rotate(-90 14 {T + H / 2:.1f})">'
+             f'{esc(ylabel)}</text>')
+    for v, label, colour in hlines:
+        if math.isfinite(v) and y0 <= v <= y1:
+            o.append(f'<line x1="{L}" y1="{py(v):.1f}" x2="{L + W}" y2="{py(v):.1f}" stroke="{colour}" '
+                     f'stroke-dasharray="4 3"/><text x="{L + W - 4}" y="{py(v) - 4:.1f}" text-anchor="end" '
+                     f'fill="{colour}">{esc(label)}</text>')
+    for v, label, colour in vlines:
+        if math.isfinite(v) and x0 <= v <= x1:
+            o.append(f'<line x1="{px(v):.1f}" y1="{T}" x2="{px(v):.1f}" y2="{T + H}" stroke="{colour}"/>'
+                     f'<text x="{px(v) + 4:.1f}" y="{T + H - 6}" fill="{colour}">{esc(label)}</text>')
+    legend = []
+    for k, s in enumerate(series):
+        c = s.get("colour", ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"][k % 6])
+        x, y = np.asarray(s["x"], float), np.asarray(s["y"], float)
+        ok = np.isfinite(x) & np.isfinite(y)
+        if s.get("style", "line") == "line":
+            pts = " ".join(f"{px(a):.1f},{py(b):.1f}" for a, b in zip(x[ok], y[ok]))
+            o.append(f'<polyline points="{pts}" fill="none" stroke="{c}" stroke-width="1.4"/>')
+        else:
+            err = np.asarray(s.get("err", np.zeros_like(y)), float)
+            for a, b, e in zip(x[ok], y[ok], err[ok]):
+                if math.isfinite(e) and e > 0:
+                    o.append(f'<line x1="{px(a):.1f}" y1="{py(b - e):.1f}" x2="{px(a):.1f}" y2="{py(b + e):.1f}" '
+                             f'stroke="{c}"/>')
+                o.append(f'<circle cx="{px(a):.1f}" cy="{py(b):.1f}" r="2.6" fill="{c}"/>')
+        if s.get("label"):
+            legend.append((s["label"], c))
+    for k, (label, c) in enumerate(legend):
+        o.append(f'<text x="{L + 8}" y="{T + 14 + 13 * k}" fill="{c}">{esc(label)}</text>')
+    o.append("</svg>")
+    return "".join(o)
+
+
+# ---------------------------------------------------------------------------- frames
+
+
+def video_frames(source, indices):
+    """Frames (grey uint8) of a video or an image sequence at the given indices."""
+    import cv2
+    out = {}
+    if os.path.isfile(source) and source.lower().endswith((".mp4", ".avi", ".mov", ".mkv")):
+        cap = cv2.VideoCapture(source)
+        k, want = 0, set(indices)
+        while want and k <= max(indices):
+            ok, img = cap.read()
+            if not ok:
+                break
+            if k in want:
+                out[k] = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+                want.discard(k)
+            k += 1
+        cap.release()
+    else:
+        files = sorted(glob.glob(source)) if any(ch in source for ch in "*?[") else [source]
+        for k in indices:
+            if k < len(files):
+                img = cv2.imread(files[k], cv2.IMREAD_GRAYSCALE)
+                if img is not None:
+                    out[k] = img if img.dtype == np.uint8 else (img // 257).astype(np.uint8)
+    return out
+
+
+def draw_vectors(grey, f, k, centre, vane, rc_px, scale):
+    """The frame with pair k's vectors over it: valid green, replaced orange, invalid
+    red, masked nodes shaded; the cup axis, the vane radius and r_c as circles. Small
+    frames are enlarged (up to 3x, to about 480 px) and a dense grid thinned to one
+    vector per 8 px of the frame, so that the arrows stay readable."""
+    import cv2
+    z = max(1, min(3, int(480 // max(grey.shape[1], 1))))
+    img = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    if z > 1:
+        img = cv2.resize(img, (grey.shape[1] * z, grey.shape[0] * z), interpolation=cv2.INTER_LINEAR)
+    x, y = f["x"], f["y"]
+    u, v, flag = f["u"][k], f["v"][k], f["flag"][k]
+    step = float(x[1] - x[0]) if len(x) > 1 else 8.0
+    thin = max(1, int(math.ceil(8.0 / step)))
+    overlay = img.copy()
+    colours = {0: (60, 200, 60), 1: (0, 150, 255), 3: (40, 40, 230)}
+    for i, yy in enumerate(y):
+        for j, xx in enumerate(x):
+            if flag[i, j] == 2:
+                cv2.rectangle(overlay, (int(z * (xx - step / 2)), int(z * (yy - step / 2))),
+                              (int(z * (xx + step / 2)), int(z * (yy + step / 2))), (90, 90, 90), -1)
+    img = cv2.addWeighted(overlay, 0.45, img, 0.55, 0)
+    for i in range(0, len(y), thin):
+        for j in range(0, len(x), thin):
+            fl = int(flag[i, j])
+            if fl == 2 or not (math.isfinite(u[i, j]) and math.isfinite(v[i, j])):
+                continue
+            a = (int(round(z * x[j])), int(round(z * y[i])))
+            tip = (int(round(z * (x[j] + scale * thin * u[i, j]))), int(round(z * (y[i] + scale * thin * v[i, j]))))
+            cv2.arrowedLine(img, a, tip, colours.get(fl, (40, 40, 230)), 1, cv2.LINE_AA, tipLength=0.3)
+    if centre is not None:
+        c = (int(round(z * centre[0])), int(round(z * centre[1])))
+        cv2.drawMarker(img, c, (255, 255, 0), cv2.MARKER_CROSS, 10, 1)
+        if vane:
+            cv2.circle(img, c, int(round(z * vane)), (255, 255, 0), 1, cv2.LINE_AA)
+        if rc_px and math.isfinite(rc_px):
+            cv2.circle(img, c, int(round(z * rc_px)), (255, 0, 255), 1, cv2.LINE_AA)
+    longest = max(img.shape[:2])
+    if longest > 640:  # the page shows frames at most 640 px wide: fewer bytes
+        sc = 640.0 / longest
+        img = cv2.resize(img, (int(img.shape[1] * sc), int(img.shape[0] * sc)), interpolation=cv2.INTER_AREA)
+    ok, jpg = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    return "data:image/jpeg;base64," + base64.b64encode(jpg.tobytes()).decode("ascii")
+
+
+# ---------------------------------------------------------------------------- a clip
+
+
+class Report:
+    def __init__(self, root, n_frames):
+        self.root, self.n_frames = root, n_frames
+        self.warnings, self.sections, self.inputs, self.commands = [], [], {}, []
+        self.counts = {}
+        self.tally = {}  # what: [done, of]
+
+    def count(self, what, done):
+        t = self.tally.setdefault(what, [0, 0])
+        t[0] += bool(done)
+        t[1] += 1
+
+    def warn(self, where, text, anchor=None):
+        link = f'<a href="#{esc(anchor)}">{esc(where)}</a>' if anchor else esc(where)
+        self.warnings.append(f"<li>{link}: {esc(text)}</li>")
+
+    def command(self, header):
+        if header and header.get("command_line"):
+            self.commands.append(header["command_line"])
+
+    def clip(self, rel, title, video=None, settings=None):
+        """A clip's section: frames with vectors, v(r), valid fraction per pair."""
+        import h5py
+        d = os.path.join(self.root, rel)
+        anchor = "clip-" + rel.replace("/", "-")
+        parts = [f'<section class="clip" id="{esc(anchor)}"><h3>{esc(title)}</h3>']
+        fields_path = os.path.join(d, "fields.h5")
+        width = read_csv(os.path.join(d, "width.csv"))
+        prof = read_csv(os.path.join(d, "profile.csv"))
+        rc_m = status = None
+        if width and width[2]:
+            names, row = width[1], width[2][0]
+            self.command(width[0])
+            get = dict(zip(names, row))
+            rc_m, status = num(get.get("rc_m")), get.get("rc_status", "")
+            self.count("widths with a usable r_c", status == "ok")
+            if status != "ok":
+                self.warn(title, f"r_c {status}" + (f" (a bound: {fmt(rc_m)} m)" if math.isfinite(rc_m) else
+                                                    " (no r_c)"), anchor)
+            parts.append(f"<p>r_c = <b>{fmt(rc_m)} m</b> [{fmt(get.get('rc_ci_low_m'))}, "
+                         f"{fmt(get.get('rc_ci_high_m'))}] ({esc(status)}, {esc(get.get('estimator', ''))}, "
+                         f"v_c = {fmt(width[0].get('v_c_m_per_s'))} m/s)</p>")
+        m_per_px = num(prof[0].get("m_per_px")) if prof else float("nan")
+        if prof:
+            self.command(prof[0])
+            src = prof[0].get("scale_source", "")
+            if src.startswith("--m-per-px"):
+                self.warn(title, f"scale given by hand ({src}), not from the cup's radius", anchor)
+        if os.path.isfile(fields_path):
+            with h5py.File(fields_path, "r") as h:
+                attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
+                flag = h["pairs/flag"][()]
+                f = {"x": h["grid/x_px"][()], "y": h["grid/y_px"][()], "flag": flag}
+                n = flag.shape[0]
+                picks = sorted(set(np.linspace(0, n - 1, min(self.n_frames, n)).round().astype(int).tolist()))
+                f["u"] = {k: h["pairs/u_px"][k] for k in picks}
+                f["v"] = {k: h["pairs/v_px"][k] for k in picks}
+                frame_a = h["pairs/frame_a"][()]
+                t_a = h["pairs/t_a_s"][()]
+            opts = dict(line.split(": ", 1) for line in str(attrs.get("options", "")).splitlines() if ": " in line)
+            self.commands.append(opts.get("command_line", ""))
+            src = str(attrs.get("source", "")).split(" (")[0]
+            if os.path.isfile(src):
+                self.inputs[src] = None
+            unmasked = (flag != 2).sum(axis=(1, 2))
+            bad = ((flag == 1) | (flag == 3)).sum(axis=(1, 2)) / np.maximum(unmasked, 1)
+            if bad.mean() > BAD_VECTOR_FRACTION:
+                self.warn(title, f"{bad.mean():.0%} of the unmasked vectors replaced or invalid "
+                                 f"(worst pair {bad.max():.0%})", anchor)
+            texture = num(attrs.get("texture_size_px"))
+            final = num(attrs.get("piv_final_window_px"))
+            # piv's own rule sizes the final window to at least 2/3 of a bead (docs/piv.md,
+            # "Final windows inside one bead"); windows given by hand may fall below it.
+            if math.isfinite(texture) and math.isfinite(final) and final < FINAL_WINDOW_PER_BEAD * texture:
+                self.warn(title, f"final window {final:g} px is under 2/3 of the beads' {texture:.0f} px: such "
+                                 "windows see smooth shading and fail or read low (docs/piv.md)", anchor)
+            centre = (num(attrs.get("centre_x_px")), num(attrs.get("centre_y_px")))
+            centre = centre if all(map(math.isfinite, centre)) else None
+            vane = None
+            for w in opts.get("command_line", "").split("--vane ")[1:2]:
+                vane = num(w.split()[0].split(",")[2]) if w.split() and len(w.split()[0].split(",")) == 3 else None
+            rc_px = rc_m / m_per_px if rc_m is not None and math.isfinite(m_per_px) else None
+            frames = video_frames(video or src, [int(frame_a[k]) for k in picks])
+            typical = np.nanpercentile(np.hypot(f["u"][picks[-1]], f["v"][picks[-1]]), 95) if picks else 1.0
+            scale = 0.8 * (f["x"][1] - f["x"][0] if len(f["x"]) > 1 else 8) / max(typical, 1e-3)
+            images = [(k, draw_vectors(frames[int(frame_a[k])], f, k, centre, vane, rc_px, scale))
+                      for k in picks if int(frame_a[k]) in frames]
+            if images:
+                parts.append(f'<div class="frames" data-n="{len(images)}">')
+                for i, (k, uri) in enumerate(images):
+                    parts.append(f'<figure class="frame{" shown" if i == 0 else ""}"><img src="{uri}" '
+                                 f'alt="pair {k}: vectors over frame {int(frame_a[k])}"><figcaption>pair {k}, '
+                                 f't = {t_a[k]:.3g} s (vectors x {scale:.2g})</figcaption></figure>')
+                parts.append(f'<input type="range" min="0" max="{len(images) - 1}" value="0" class="slider" '
+                             f'aria-label="pair"></div>')
+                parts.append("<p class='note'>green: valid; orange: replaced; red: invalid; grey: masked; "
+                             "cyan: cup axis and vane radius; magenta: r_c.</p>")
+            else:
+                parts.append(f"<p class='note'>(the frames of {esc(src)} are not readable from here)</p>")
+            parts.append('<div class="plots">')
+            if prof and prof[2]:
+                names, rows = prof[1], prof[2]
+                col = {n: np.array([num(r[i]) for r in rows]) for i, n in enumerate(names)}
+                series = [{"x": col["r_m"] * 1e3, "y": col["v_abs_m_per_s"] * 1e3, "err": col.get(
+                    "v_abs_sem_m_per_s", np.zeros(len(rows))) * 1e3, "style": "points", "label": "mean |v|"}]
+                noise = np.nanmedian(col.get("v_noise_m_per_s", np.array([np.nan]))) * 1e3
+                vc = num(width[0].get("v_c_m_per_s")) * 1e3 if width else float("nan")
+                parts.append(svg_plot(series, "r (mm)", "v (mm/s)", "v(r)",
+                                      hlines=[(noise, "noise floor", "#888"), (vc, "v_c", "#d62728")],
+                                      vlines=[(rc_m * 1e3 if rc_m is not None else float("nan"), "r_c", "#c0c")]))
+            parts.append(svg_plot([{"x": t_a, "y": 1 - bad, "label": "valid fraction"}], "t (s)",
+                                  "valid / unmasked", "vectors per pair", ylim=(0, 1)))
+            parts.append("</div>")
+            keys = ("piv_windows_px", "piv_overlap", "preset", "grey_conversion", "piv_final_window_px",
+                    "texture_size_px", "vane_phase_rad", "phase_auto", "f_Hz", "phi0_rad", "N")
+            rows = [(k, opts.get(k, attrs.get(k))) for k in keys if opts.get(k, attrs.get(k)) is not None]
+            rows.append(("source", attrs.get("source", "")))
+            parts.append("<details><summary>PIV settings and drive phase</summary><table>" +
+                         "".join(f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows) +
+                         "</table></details>")
+        else:
+            parts.append("<p class='bad'>no fields.h5: PIV did not run or was refused.</p>")
+            self.warn(title, "no PIV fields", anchor)
+        parts.append("</section>")
+        self.sections.append(("clips", "".join(parts)))
+
+    def log(self, rel, title):
+        d = os.path.join(self.root, rel)
+        anchor = "log-" + rel.replace("/", "-")
+        parts = [f'<section class="log" id="{esc(anchor)}"><h3>{esc(title)}</h3>']
+        why = refused(d)
+        summary = read_csv(os.path.join(d, "summary.csv"))
+        self.count("torque logs analysed", not (why or not summary))
+        if why or not summary:
+            self.warn(title, f"log skipped: {why or 'no summary.csv'}", anchor)
+            parts.append(f"<p class='bad'>skipped: {esc(why or 'no summary')}</p></section>")
+            self.sections.append(("logs", "".join(parts)))
+            return
+        header, names, rows = summary
+        self.command(header)
+        for r in rows:
+            st = dict(zip(names, r)).get("status", "ok")
+            if st != "ok":
+                self.warn(title, f"amplitude {fmt(dict(zip(names, r)).get('phi0_rad'))} rad: {st}", anchor)
+        keep = ("segment", "amplitude", "phi0_rad", "K1_prime_N_m_per_rad", "K1_dprime_N_m_per_rad", "tan_delta_1",
+                "I3_over_I1", "e3_over_e1", "v3_over_v1", "S", "T", "status", "instrument_f_Hz",
+                "instrument_G_prime_Pa", "instrument_G_dprime_Pa")
+        parts.append(table(names, rows, keep=keep))
+        series = []
+        for path in sorted(glob.glob(os.path.join(d, "lissajous_*.csv"))):
+            lj = read_csv(path)
+            if lj and lj[2]:
+                n = lj[1]
+                xi = next((i for i, c in enumerate(n) if c.startswith(("angle", "strain", "drive"))), 1)
+                yi = next((i for i, c in enumerate(n) if c.startswith(("torque", "stress", "response"))), 2)
+                series.append({"x": [num(r[xi]) for r in lj[2]], "y": [num(r[yi]) for r in lj[2]],
+                               "label": os.path.basename(path)[:-4], "xl": n[xi], "yl": n[yi]})
+        if series:
+            parts.append(svg_plot(series, series[0]["xl"], series[0]["yl"], "Lissajous curves", width=460,
+                                  height=320, ylim=None))
+        harm = read_csv(os.path.join(d, "harmonics.csv"))
+        if harm:
+            parts.append("<details><summary>harmonics</summary>" + table(harm[1], harm[2], limit=60) + "</details>")
+        parts.append("</section>")
+        self.sections.append(("logs", "".join(parts)))
+
+
+# ---------------------------------------------------------------------------- the page
+
+CSS = """
+body{font:14px/1.4 system-ui,sans-serif;margin:1.5em auto;max-width:1100px;color:#222;padding:0 1em}
+h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;margin-top:1.6em}h3{margin:1.2em 0 .4em}
+table{border-collapse:collapse;margin:.5em 0;font-size:12px}td,th{border:1px solid #ddd;padding:2px 6px;
+text-align:right}th{background:#f4f4f4}td.bad,.bad{color:#b00}.note{color:#666;font-size:12px}
+ul.warnings li{color:#8a4b00}.plots{display:flex;flex-wrap:wrap;gap:12px}svg.plot text{font-size:11px}
+svg.plot .t{font-weight:bold}
+.frames figure{display:none;margin:0}.frames figure.shown{display:block}.frames img{max-width:100%}
+.slider{width:320px}.figure svg{max-width:100%;height:auto}details{margin:.4em 0}
+@media print{.frames figure{display:inline-block;width:32%}.slider{display:none}section{break-inside:avoid}}
+"""
+
+JS = """
+document.querySelectorAll('.frames').forEach(function (box) {
+  var figs = box.querySelectorAll('figure');
+  var s = box.querySelector('input.slider');
+  if (!s) return;
+  s.addEventListener('input', function () {
+    figs.forEach(function (f, i) { f.classList.toggle('shown', i === Number(s.value)); });
+  });
+});
+"""
+
+
+def sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def inline_svg(path):
+    with open(path, encoding="utf-8") as f:
+        text = f.read()
+    start = text.find("<svg")
+    if start < 0:
+        return ""
+    # matplotlib's <metadata> block (RDF naming its vocabularies by URL) is not drawn
+    return re.sub(r"<metadata>.*?</metadata>", "", text[start:], flags=re.S)
+
+
+def study_report(root, rep):
+    with open(os.path.join(root, "study.json"), encoding="utf-8") as f:
+        study = json.load(f)
+    rep.title = f"Study {study.get('study_file', root)}"
+    rep.inputs[study["study_file"]] = None
+    clips, logs = study.get("clips", {}), study.get("logs", {})
+    for name in sorted(clips):
+        rep.clip(f"lab/clips/{name}", f"clip {name}", video=clips[name].get("video"))
+        rep.inputs[clips[name].get("video")] = None
+    for name in sorted(logs):
+        rep.log(f"lab/logs/{name}", f"log {name}")
+        src = logs[name].get("log") if isinstance(logs[name], dict) else None
+        if src:
+            rep.inputs[src] = None
+    branches = 0
+    for g in sorted(study.get("groups", {})):
+        for b in sorted(study.get("branches", {})):
+            branches += 1
+            rel = f"sim/{g}/{b}"
+            rep.clip(rel, f"simulated {g} {b}", video=os.path.join(root, f"sim/{g}/video_{b}/video.mp4"))
+            rep.log(f"{rel}/laos", f"torque of {g} {b}")
+    rep.counts = {"clips": len(clips), "torque logs": len(logs), "simulated branches": branches}
+    results = []
+    for ds in sorted(study.get("datasets", {})):
+        d = os.path.join(root, "results", ds)
+        results.append(f"<h3>dataset {esc(ds)}</h3>")
+        for name, what, keep in (
+                ("rc_phi0.csv", "r_c(φ0) per clip", ("item", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m",
+                                                     "rc_status", "estimator")),
+                ("erf_wide.csv", "erf fit per N", None), ("W_power_summary.csv", "W(N) power law", None),
+                ("rcinf_power_summary.csv", "r_c∞(N) − r_c∞(1) power law", None),
+                ("laos_summary.csv", "LAOS per log and amplitude", ("source", "N", "phi0_rad", "K1_prime_N_m_per_rad",
+                                                                    "tan_delta_1", "I3_over_I1", "status")),
+                ("tau_power_summary.csv", "τ_max(N) power law", None)):
+            p = os.path.join(d, name)
+            if not os.path.exists(p):
+                continue
+            why = refused(p)
+            if name.endswith("summary.csv") or name == "erf_wide.csv":
+                rep.count("fits made", not why)
+            if why:
+                rep.warn(f"{ds}: {what}", f"refused: {why}")
+                results.append(f"<p class='bad'>{esc(what)}: refused ({esc(why)})</p>")
+                continue
+            t = read_csv(p)
+            rep.command(t[0])
+            results.append(f"<h4>{esc(what)} <span class='note'>({esc(name)})</span></h4>" +
+                           table(t[1], t[2], keep=keep))
+            if name == "erf_wide.csv":
+                for r in t[2]:
+                    row = dict(zip(t[1], r))
+                    if row.get("status", "ok") != "ok":
+                        msg = row.get("message", "")
+                        rep.warn(f"{ds}: erf fit N = {row.get('group', '?')}",
+                                 row.get("status", "") + (f": {msg}" if msg else ""))
+        c = os.path.join(d, "collapse_erf")
+        if os.path.isdir(c):
+            why = refused(c)
+            rep.count("fits made", not why)
+            if why:
+                rep.warn(f"{ds}: collapse", f"refused: {why}")
+            else:
+                t = read_csv(os.path.join(c, "parameters.csv"))
+                if t:
+                    results.append("<h4>collapse erf <span class='note'>(collapse_erf/parameters.csv)</span></h4>" +
+                                   table(t[1], t[2]))
+    rep.results = "".join(results)
+    figs = sorted(glob.glob(os.path.join(root, "figures", "*.svg")))
+    rep.figures = "".join(f'<figure class="figure"><figcaption>{esc(os.path.basename(p))}</figcaption>'
+                          f"{inline_svg(p)}</figure>" for p in figs)
+
+
+def folder_report(root, rep):
+    rep.title = f"Run {os.path.abspath(root)}"
+    rep.clip(".", os.path.basename(os.path.abspath(root)) or root)
+    rep.counts = {"clips": 1}
+    rep.results, rep.figures = "", ""
+
+
+def write_page(rep, out_path):
+    warnings = ("<ul class='warnings'>" + "".join(rep.warnings) + "</ul>") if rep.warnings else \
+        "<p>No warnings: every width usable, every fit made, every log read.</p>"
+    counts = ", ".join(f"{v} {k}" for k, v in rep.counts.items())
+    if rep.tally:
+        counts += "; " + ", ".join(f"{k}: {d} of {n}" for k, (d, n) in rep.tally.items())
+    provenance = ["<table><tr><th>input</th><th>bytes</th><th>SHA-256</th></tr>"]
+    for p in sorted(k for k in rep.inputs if k):
+        if os.path.isfile(p):
+            provenance.append(f"<tr><td>{esc(p)}</td><td>{os.path.getsize(p)}</td><td><code>{sha256(p)}</code></td></tr>")
+    provenance.append("</table><details><summary>command lines</summary><pre>" +
+                      esc("\n".join(dict.fromkeys(c for c in rep.commands if c))) + "</pre></details>")
+    sections = {"clips": [], "logs": []}
+    for kind, text in rep.sections:
+        sections[kind].append(text)
+    page = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{esc(rep.title)}</title>",
+            f"<meta name='viewport' content='width=device-width'><style>{CSS}</style></head><body>",
+            f"<h1>{esc(rep.title)}</h1><p>{esc(counts)}; shearzone {esc(rep.version)}</p>",
+            f"<h2 id='warnings'>Warnings ({len(rep.warnings)})</h2>{warnings}"]
+    if rep.results:
+        page.append(f"<h2 id='results'>Results</h2>{rep.results}")
+    if rep.figures:
+        page.append(f"<h2 id='figures'>Figures</h2>{rep.figures}")
+    if sections["clips"]:
+        page.append("<h2 id='clips'>Clips</h2>" + "".join(sections["clips"]))
+    if sections["logs"]:
+        page.append("<h2 id='logs'>Torque logs</h2>" + "".join(sections["logs"]))
+    page.append(f"<h2 id='provenance'>Provenance</h2>{''.join(provenance)}")
+    page.append(f"<script>{JS}</script></body></html>\n")
+    tmp = out_path + ".partial"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write("".join(page))
+    os.replace(tmp, out_path)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out", help="a study's output folder, or a folder holding fields.h5")
+    ap.add_argument("-o", "--output", help="the page (default: OUT/report.html)")
+    ap.add_argument("--frames", type=int, default=6, help="frames per clip under the slider (1..50)")
+    ap.add_argument("--version", default="", help="the shearzone version, for the page's header")
+    ap.add_argument("--quiet", action="store_true", help="no summary line")
+    a = ap.parse_args()
+    prog = "shearzone: error: "
+    if not os.path.isdir(a.out):
+        print(f"{prog}{a.out}: no such folder; expected a study's output folder or a piv output folder",
+              file=sys.stderr)
+        return 2
+    if not 1 <= a.frames <= 50:
+        print(f"{prog}--frames {a.frames}: expected 1..50", file=sys.stderr)
+        return 2
+    rep = Report(a.out, a.frames)
+    rep.version = a.version
+    if os.path.isfile(os.path.join(a.out, "study.json")):
+        study_report(a.out, rep)
+    elif os.path.isfile(os.path.join(a.out, "fields.h5")):
+        folder_report(a.out, rep)
+    else:
+        print(f"{prog}{a.out}: neither study.json nor fields.h5; expected a study's output folder or a folder "
+              "holding piv's fields.h5", file=sys.stderr)
+        return 2
+    out = a.output or os.path.join(a.out, "report.html")
+    write_page(rep, out)
+    if not a.quiet:
+        print(f"report: {out} ({os.path.getsize(out) / 1e6:.1f} MB; {len(rep.warnings)} warnings)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

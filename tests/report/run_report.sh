@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# run_report.sh SHEARZONE SOURCE_DIR WORK: the report of a study and of one clip, as a
+# reader gets it (CTest "report: ..."): the tiny study (tests/study/tiny) writes
+# report.html itself; check_report.py loads it in headless Chromium (valid HTML,
+# self-contained, no console error, images and SVGs drawn, sliders working, a non-blank
+# screenshot) and finds its noise-limited width and its skipped torque log in the
+# warnings at the top; a copy of the study with one clip's PIV gone (a clip that failed
+# under --keep-going) shows that clip there too; a single clip's folder gets its page;
+# bad folders are refused with one line and no page.
+set -euo pipefail
+SZ=$1 SRC=$2 WORK=$3
+fail() { echo "run_report.sh: FAIL: $*" >&2; exit 1; }
+rm -rf "$WORK"
+mkdir -p "$WORK/logs"
+cd "$WORK"
+cp "$SRC/tests/study/tiny/study.toml" "$SRC/tests/study/tiny/cup.toml" .
+for n in 1 4 9; do "$SRC/tests/study/make_clips.sh" "$SZ" clips "$n" 0.1 0.2 0.3; done
+cp "$SRC/data-samples/laos/vane_N1.csv" "$SRC/data-samples/laos/vane_N9.csv" logs/
+"$SZ" -q study run study.toml -o out --jobs 2 > study.log 2>&1 || { cat study.log; fail "study run"; }
+[ -f out/report.html ] || fail "the study wrote no report.html"
+CHECK=(/usr/bin/python3 "$SRC/tests/report/check_report.py")
+"${CHECK[@]}" out/report.html --screenshot report.png --warning "r_c noise_limited" \
+    --warning "log skipped" || fail "the study's report"
+
+# A clip whose PIV failed (the study run with --keep-going): named at the top.
+cp -r out broken
+rm broken/lab/clips/N4_phi0.2/fields.h5
+"$SZ" -q report broken --force || fail "report of the broken copy"
+"${CHECK[@]}" broken/report.html --warning "clip N4_phi0.2</a>: no PIV fields" --warning "r_c noise_limited" \
+    --warning "log skipped" || fail "the broken study's report"
+
+# One clip's folder.
+"$SZ" report out/lab/clips/N9_phi0.3 -o clip.html --frames 4 > clip.out || fail "report of one clip"
+grep -q "^report: clip.html" clip.out || fail "no summary line: $(cat clip.out)"
+"${CHECK[@]}" clip.html || fail "the clip's report"
+
+# Refusals: one line, exit 2, no page.
+for bad in "nowhere" "logs"; do
+  if "$SZ" report "$bad" -o bad.html 2> err.txt; then fail "report $bad: exit 0"; fi
+  [ "$(wc -l < err.txt)" -eq 1 ] || fail "report $bad: $(cat err.txt)"
+  [ ! -e bad.html ] || fail "report $bad left bad.html"
+done
+if "$SZ" report out 2> err.txt; then fail "an existing report.html replaced without --force"; fi
+grep -q "use --force" err.txt || fail "$(cat err.txt)"
+echo "run_report.sh: ok"
