@@ -512,16 +512,16 @@ def study_report(root, rep):
         for name, what, keep in (
                 ("rc_phi0.csv", "r_c(φ0) per clip", ("item", "N", "phi0_rad", "rc_m", "rc_ci_low_m", "rc_ci_high_m",
                                                      "rc_status", "estimator")),
-                ("erf_wide.csv", "erf fit per N", None), ("W_power_summary.csv", "W(N) power law", None),
-                ("rcinf_power_summary.csv", "r_c∞(N) − r_c∞(1) power law", None),
+                ("erf_wide.csv", "erf fit per N", None), ("W_power.csv", "W(N) power law", None),
+                ("rcinf_power.csv", "r_c∞(N) − r_c∞(1) power law", None),
                 ("laos_summary.csv", "LAOS per log and amplitude", ("source", "N", "phi0_rad", "K1_prime_N_m_per_rad",
                                                                     "tan_delta_1", "I3_over_I1", "status")),
-                ("tau_power_summary.csv", "τ_max(N) power law", None)):
+                ("tau_power.csv", "τ_max(N) power law", None)):
             p = os.path.join(d, name)
             if not os.path.exists(p):
                 continue
             why = refused(p)
-            if name.endswith("summary.csv") or name == "erf_wide.csv":
+            if name.endswith("power.csv") or name == "erf_wide.csv":
                 rep.count("fits made", not why)
             if why:
                 rep.warn(f"{ds}: {what}", f"refused: {why}")
@@ -565,7 +565,8 @@ def folder_report(root, rep):
 def write_page(rep, out_path):
     warnings = ("<ul class='warnings'>" + "".join(rep.warnings) + "</ul>") if rep.warnings else \
         "<p>No warnings: every width usable, every fit made, every log read.</p>"
-    counts = ", ".join(f"{v} {k}" for k, v in rep.counts.items())
+    one = {"clips": "clip", "torque logs": "torque log", "simulated branches": "simulated branch"}
+    counts = ", ".join(f"{v} {one.get(k, k) if v == 1 else k}" for k, v in rep.counts.items())
     if rep.tally:
         counts += "; " + ", ".join(f"{k}: {d} of {n}" for k, (d, n) in rep.tally.items())
     provenance = ["<table><tr><th>input</th><th>bytes</th><th>SHA-256</th></tr>"]
