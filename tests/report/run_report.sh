@@ -30,7 +30,7 @@ rm broken/lab/clips/N4_phi0.2/fields.h5
     --warning "log skipped" || fail "the broken study's report"
 
 # One clip's folder.
-"$SZ" report out/lab/clips/N9_phi0.3 -o clip.html --frames 4 > clip.out || fail "report of one clip"
+"$SZ" report out/lab/clips/N9_phi0.3 -o clip.html --frames 4 | tee clip.out
 grep -q "^report: clip.html" clip.out || fail "no summary line: $(cat clip.out)"
 "${CHECK[@]}" clip.html || fail "the clip's report"
 
