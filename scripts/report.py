@@ -350,9 +350,9 @@ class Report:
                                  "windows see smooth shading and fail or read low (docs/piv.md)", anchor)
             centre = (num(attrs.get("centre_x_px")), num(attrs.get("centre_y_px")))
             centre = centre if all(map(math.isfinite, centre)) else None
-            vane = None
-            for w in opts.get("command_line", "").split("--vane ")[1:2]:
-                vane = num(w.split()[0].split(",")[2]) if w.split() and len(w.split()[0].split(",")) == 3 else None
+            # the vane as piv masked it (its header, whether from flags or --config)
+            m = re.search(r"radius ([0-9.eE+-]+) px", opts.get("mask_vane", ""))
+            vane = num(m.group(1)) if m else None
             rc_px = rc_m / m_per_px if rc_m is not None and math.isfinite(m_per_px) else None
             frames = video_frames(video or src, [int(frame_a[k]) for k in picks])
             typical = np.nanpercentile(np.hypot(f["u"][picks[-1]], f["v"][picks[-1]]), 95) if picks else 1.0
@@ -386,7 +386,7 @@ class Report:
                                   "valid / unmasked", "vectors per pair", ylim=(0, 1)))
             parts.append("</div>")
             keys = ("piv_windows_px", "piv_overlap", "preset", "grey_conversion", "piv_final_window_px",
-                    "texture_size_px", "vane_phase_rad", "phase_auto", "f_Hz", "phi0_rad", "N")
+                    "texture_size_px", "mask_vane", "vane_phase_rad", "phase_auto", "f_Hz", "phi0_rad", "N")
             rows = [(k, opts.get(k, attrs.get(k))) for k in keys if opts.get(k, attrs.get(k)) is not None]
             rows.append(("source", attrs.get("source", "")))
             parts.append("<details><summary>PIV settings and drive phase</summary><table>" +

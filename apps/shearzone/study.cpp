@@ -181,7 +181,7 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
   ::close(fds[0]);
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
@@ -309,7 +309,6 @@ fs::path find_program(const std::string& name, const std::vector<fs::path>& firs
   return {};
 }
 
-/// Runs argv[0] with its arguments and returns its exit status (128 + signal if killed).
 int run_program(std::vector<std::string> argv, bool silent) {
   std::fflush(nullptr);
   const pid_t pid = ::fork();
@@ -326,7 +325,7 @@ int run_program(std::vector<std::string> argv, bool silent) {
   }
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError("waiting for snakemake failed");
+    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
