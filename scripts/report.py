@@ -198,10 +198,30 @@ def svg_plot(series, xlabel, ylabel, title="", hlines=(), vlines=(), width=420, 
 # ---------------------------------------------------------------------------- frames
 
 
+def frame_source(source_attr):
+    """What piv read, from its `source` attribute: a video's path ("clip.mp4 (640x480,
+    ...)"), or the list of images ("4 images (first ... last), 25 fps": the files of
+    the first one's folder and extension from first to last, in order)."""
+    m = re.match(r"^\d+ images \((.+) \.\.\. (.+)\), ", source_attr)
+    if m:
+        first, last = m.group(1), m.group(2)
+        ext = os.path.splitext(first)[1]
+        names = sorted(glob.glob(os.path.join(glob.escape(os.path.dirname(first)), "*" + ext)))
+        return [n for n in names if first <= n <= last]
+    return source_attr.split(" (")[0]
+
+
 def video_frames(source, indices):
-    """Frames (grey uint8) of a video or an image sequence at the given indices."""
+    """Frames (grey uint8) of a video, an image list or a glob at the given indices."""
     import cv2
     out = {}
+    if isinstance(source, list):
+        for k in indices:
+            if k < len(source):
+                img = cv2.imread(source[k], cv2.IMREAD_GRAYSCALE)
+                if img is not None:
+                    out[k] = img if img.dtype == np.uint8 else (img // 257).astype(np.uint8)
+        return out
     if os.path.isfile(source) and source.lower().endswith((".mp4", ".avi", ".mov", ".mkv")):
         cap = cv2.VideoCapture(source)
         k, want = 0, set(indices)
@@ -333,9 +353,10 @@ class Report:
                 t_a = h["pairs/t_a_s"][()]
             opts = dict(line.split(": ", 1) for line in str(attrs.get("options", "")).splitlines() if ": " in line)
             self.commands.append(opts.get("command_line", ""))
-            src = str(attrs.get("source", "")).split(" (")[0]
-            if os.path.isfile(src):
-                self.inputs[src] = None
+            src = frame_source(str(attrs.get("source", "")))
+            for p in ([src] if isinstance(src, str) else src):
+                if os.path.isfile(p):
+                    self.inputs[p] = None
             unmasked = (flag != 2).sum(axis=(1, 2))
             bad = ((flag == 1) | (flag == 3)).sum(axis=(1, 2)) / np.maximum(unmasked, 1)
             if bad.mean() > BAD_VECTOR_FRACTION:

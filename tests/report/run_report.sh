@@ -6,7 +6,8 @@
 # screenshot) and finds its noise-limited width and its skipped torque log in the
 # warnings at the top; a copy of the study with one clip's PIV gone (a clip that failed
 # under --keep-going) shows that clip there too; a single clip's folder gets its page;
-# bad folders are refused with one line and no page.
+# so does a real image sequence (data-samples/pivlab-sand); bad folders are refused with
+# one line and no page.
 set -euo pipefail
 SZ=$1 SRC=$2 WORK=$3
 fail() { echo "run_report.sh: FAIL: $*" >&2; exit 1; }
@@ -33,6 +34,13 @@ rm broken/lab/clips/N4_phi0.2/fields.h5
 "$SZ" report out/lab/clips/N9_phi0.3 -o clip.html --frames 4 | tee clip.out
 grep -q "^report: clip.html" clip.out || fail "no summary line: $(cat clip.out)"
 "${CHECK[@]}" clip.html || fail "the clip's report"
+
+# Real frames read as an image list (PIVlab's sand, data-samples): the frames under the vectors.
+mkdir sand
+"$SZ" -q piv "$SRC/data-samples/pivlab-sand/Fuerteventura_*.jpeg" -o sand/fields.h5
+"$SZ" -q report sand
+grep -q "data:image/jpeg" sand/report.html || fail "the sand clip's page shows no frame"
+"${CHECK[@]}" sand/report.html || fail "the sand clip's report"
 
 # Refusals: one line, exit 2, no page.
 for bad in "nowhere" "logs"; do
