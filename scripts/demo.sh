@@ -118,6 +118,8 @@ echo "== 10b. The closed loop: the large branch filmed by a virtual camera, the 
 # settings and two pair spacings: r_c from the video and from the truth, per row.
 "$SZ" sim check "$OUT/sim_cup" -o "$OUT/sim_cup/check" --size 256,192 --vc 2e-3 --final-windows 8,16 --spacings 1,2 --force
 "$PY" scripts/plot_closed_loop.py "$OUT/sim_cup/check"
+# Its page: the rows and the chart, the video's vectors beside the camera's truth.
+"$SZ" report "$OUT/sim_cup/check" --force
 echo "== 11. Ground-truth plots"
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \
     --image "$OUT/pair_rotation/A.png" --every 2

@@ -227,6 +227,15 @@ def cases(work):
         ("width_vector_radii_negative_sd", ["width", "profile_bad_radii.csv", "-o", "w.csv"], 2, ["w.csv"],
          r"profile_bad_radii.csv:[0-9]+: column \"r_vectors_sd_m\": -0.001; expected a standard deviation >= 0"),
     ]
+    # --- report: folders whose files are not what shearzone wrote (hand-edited, cut short).
+    c += [
+        ("report_study_json_garbage", ["report", "rep_json"], 2, ["rep_json/report.html"],
+         r"rep_json/study.json: line 1: not valid JSON"),
+        ("report_fields_not_hdf5", ["report", "rep_h5"], 2, ["rep_h5/report.html"],
+         r"rep_h5/fields.h5: not a readable HDF5 file"),
+        ("report_closed_loop_no_columns", ["report", "rep_loop"], 2, ["rep_loop/report.html"],
+         r"rep_loop/closed_loop.csv: no column or key 'branch'"),
+    ]
     return c
 
 
@@ -279,6 +288,11 @@ def make_inputs(bin_, work):
         for i in range(500)))
     with open(os.path.join(work, "wide.csv"), "w") as f:
         f.write("phi0_rad," + ",".join(f"column_with_a_long_name_{i}" for i in range(400000)) + "\n0.1,0.2\n")
+    for d, name, text in (("rep_json", "study.json", '{"study_file": "s.toml", clips'),
+                          ("rep_h5", "fields.h5", "not HDF5\n"),
+                          ("rep_loop", "closed_loop.csv", "# tool: shearzone\nrun,setting\nr,w\n")):
+        os.makedirs(os.path.join(work, d), exist_ok=True)
+        w(os.path.join(d, name), text)
     w("u_big.toml", "u = 2147483648\n")
     w("fill_1e9.toml", "[sim]\nduration_s = 0.01\n" + SIM_BOX + "[beads]\ndiameter_m = 0.001\n"
       "[fill]\ncount = 1000000000\nmin_m = [-0.01, -0.01, 0.01]\nmax_m = [0.01, 0.01, 0.05]\n")

@@ -3,8 +3,10 @@
 
     report.py OUT [-o OUT/report.html] [--frames 6] [--version V] [--quiet]
 
-OUT is a study's output folder (`shearzone study run ... -o OUT`: it holds study.json)
-or one clip's folder holding fields.h5 and, where made, profile.csv and width.csv. The
+OUT is a study's output folder (`shearzone study run ... -o OUT`: it holds study.json),
+a closed loop's folder (`shearzone sim check ... -o OUT`: closed_loop.csv; its rows, the
+chart, and the video's vectors beside the camera's truth per branch and setting) or one
+clip's folder holding fields.h5 and, where made, profile.csv and width.csv. The
 page holds, in order: warnings (widths without a usable r_c, clips with many invalid or
 replaced vectors, fits and collapses refused, logs skipped or with a failed amplitude,
 scales given by hand, the final window smaller than the beads), the counts, the result
@@ -12,7 +14,8 @@ tables and the study's figures (SVG), a section per clip (its frames with the ve
 drawn over them and a slider over the pairs, v(r) with the noise floor and r_c, the
 valid fraction per pair, the PIV settings and the drive phase), a section per torque
 log (Lissajous curves, harmonics, the instrument's own G' and G'') and the provenance
-(versions, command lines, input sizes and SHA-256). Everything is embedded (frames as
+(versions, command lines, input sizes and SHA-256). A folder or file that is not as
+shearzone wrote it: one line naming it on stderr, exit code 2, no page. Everything is embedded (frames as
 JPEG, plots as SVG, a few lines of JavaScript): no network, no other file. The page
 prints to a tidy PDF (the sliders' frames become a row of stills).
 
@@ -46,10 +49,29 @@ def esc(s):
     return html.escape(str(s), quote=True)
 
 
+class Refusal(Exception):
+    """An input the page cannot be made from: one line, exit code 2."""
+
+
+# The file being read, for the one line that names it when a file is not what a
+# shearzone output holds (a hand-edited CSV, a truncated HDF5 file).
+CURRENT = {"file": None}
+
+
+def open_h5(path):
+    import h5py
+    CURRENT["file"] = path
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise Refusal(f"{path}: not a readable HDF5 file ({str(e).split(' (')[0]}); expected piv's fields")
+
+
 def read_csv(path):
     """(header dict, column names, rows as lists) of a shearzone CSV; None if absent."""
     if not os.path.isfile(path):
         return None
+    CURRENT["file"] = path
     header, names, rows = {}, None, []
     with open(path, newline="", encoding="utf-8") as f:
         lines = f.read().splitlines()
@@ -289,6 +311,63 @@ def draw_vectors(grey, f, k, centre, vane, rc_px, scale):
     return "data:image/jpeg;base64," + base64.b64encode(jpg.tobytes()).decode("ascii")
 
 
+def truth_frames(path, frames, frame_a, frame_b, picks, centre, vane, scale):
+    """A closed loop's truth field (the same layout as fields.h5) drawn over the video's
+    frame for each picked pair: {pair: (data URI, truth's frame a, frame b)}. The truth's
+    pair is the one with the same frames, else the one from the same first frame."""
+    import h5py
+    out = {}
+    with open_h5(path) as h:
+        ta, tb = h["pairs/frame_a"][()], h["pairs/frame_b"][()]
+        g = {"x": h["grid/x_px"][()], "y": h["grid/y_px"][()], "u": {}, "v": {}, "flag": {}}
+        for k in picks:
+            fa, fb = int(frame_a[k]), int(frame_b[k])
+            same = np.flatnonzero((ta == fa) & (tb == fb))
+            j = same if same.size else np.flatnonzero(ta == fa)
+            if not j.size or fa not in frames:
+                continue
+            j = int(j[0])
+            g["u"][k], g["v"][k], g["flag"][k] = h["pairs/u_px"][j], h["pairs/v_px"][j], h["pairs/flag"][j]
+            out[k] = (draw_vectors(frames[fa], g, k, centre, vane, None, scale), int(ta[j]), int(tb[j]))
+    return out
+
+
+def drive_plot(fields_path, attrs, opts, centre, vane):
+    """The drive's phase at a glance: per pair, the beads' mean angular velocity next
+    to the vane (valid vectors in the inner third of the gap, v_theta / r) against the
+    vane's own, dphi/dt = phi0 2 pi f cos(2 pi f t + phase) at the pair's middle, scaled
+    by the beads' in-phase amplitude. Curves in step: the phase piv masked the vane with is the
+    beads'. Empty without a sinusoidal drive, a centre or a vane."""
+    import h5py
+    f_hz, phi0 = num(attrs.get("f_Hz")), num(attrs.get("phi0_rad"))
+    phase = num(opts.get("vane_phase_rad", attrs.get("vane_phase_rad")))
+    if not (centre and vane and f_hz > 0 and phi0 > 0 and math.isfinite(phase)):
+        return ""
+    with open_h5(fields_path) as h:
+        x, y = h["grid/x_px"][()], h["grid/y_px"][()]
+        u, v, flag = h["pairs/u_px"][()], h["pairs/v_px"][()], h["pairs/flag"][()]
+        t = h["pairs/t_a_s"][()] + 0.5 * h["pairs/dt_s"][()]
+        dt = h["pairs/dt_s"][()]
+    dx, dy = np.meshgrid(x - centre[0], y - centre[1])
+    r = np.hypot(dx, dy)
+    cup = num(attrs.get("cup_radius_px"))
+    outer = vane + (cup - vane) / 3 if math.isfinite(cup) and cup > vane else 1.5 * vane
+    ring = (r > vane) & (r <= outer)
+    # v_theta (docs/formats.md, convention_rotation): (u (y - yc) - v (x - xc)) / r
+    omega = (u * dy - v * dx) / np.maximum(r, 1e-9) ** 2
+    use = ring[None] & (flag == 0) & np.isfinite(omega)
+    beads = np.where(use.any(axis=(1, 2)), np.where(use, omega, 0).sum(axis=(1, 2)) /
+                     np.maximum(use.sum(axis=(1, 2)), 1), np.nan) / dt
+    drive = phi0 * 2 * math.pi * f_hz * np.cos(2 * math.pi * f_hz * t + phase)
+    # the drive scaled by the beads' in-phase part (least squares): a negative factor or
+    # a visible lag says the phase (or the sense of rotation) is not the beads'
+    ok = np.isfinite(beads)
+    k = float(beads[ok] @ drive[ok] / max(drive[ok] @ drive[ok], 1e-30)) if ok.any() else 1.0
+    return svg_plot([{"x": t, "y": beads, "label": "beads next to the vane"},
+                     {"x": t, "y": k * drive, "label": f"the vane's dφ/dt × {k:.2g}", "colour": "#888"}],
+                    "t (s)", "angular velocity (rad/s)", f"drive phase {phase:.3g} rad")
+
+
 # ---------------------------------------------------------------------------- a clip
 
 
@@ -312,17 +391,23 @@ class Report:
         if header and header.get("command_line"):
             self.commands.append(header["command_line"])
 
-    def clip(self, rel, title, video=None, settings=None):
-        """A clip's section: frames with vectors, v(r), valid fraction per pair."""
+    def clip(self, rel, title, video=None, truth=None, overlays=(), kind="clips", check_width=True):
+        """A clip's section: frames with vectors, v(r), valid fraction per pair. For a
+        closed loop, `truth` = (label, fields path): the truth's vectors over the same
+        frame beside the video's; `overlays`: (label, profile.csv, width.csv) drawn in
+        v(r) beside the video's profile."""
         import h5py
-        d = os.path.join(self.root, rel)
+        d = os.path.normpath(os.path.join(self.root, rel))
         anchor = "clip-" + rel.replace("/", "-")
         parts = [f'<section class="clip" id="{esc(anchor)}"><h3>{esc(title)}</h3>']
         fields_path = os.path.join(d, "fields.h5")
         width = read_csv(os.path.join(d, "width.csv"))
         prof = read_csv(os.path.join(d, "profile.csv"))
         rc_m = status = None
-        if width and width[2]:
+        if width and width[2] and not check_width:
+            get = dict(zip(width[1], width[2][0]))
+            rc_m = num(get.get("rc_m"))
+        elif width and width[2]:
             names, row = width[1], width[2][0]
             self.command(width[0])
             get = dict(zip(names, row))
@@ -341,7 +426,7 @@ class Report:
             if src.startswith("--m-per-px"):
                 self.warn(title, f"scale given by hand ({src}), not from the cup's radius", anchor)
         if os.path.isfile(fields_path):
-            with h5py.File(fields_path, "r") as h:
+            with open_h5(fields_path) as h:
                 attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
                 flag = h["pairs/flag"][()]
                 f = {"x": h["grid/x_px"][()], "y": h["grid/y_px"][()], "flag": flag}
@@ -350,6 +435,7 @@ class Report:
                 f["u"] = {k: h["pairs/u_px"][k] for k in picks}
                 f["v"] = {k: h["pairs/v_px"][k] for k in picks}
                 frame_a = h["pairs/frame_a"][()]
+                frame_b = h["pairs/frame_b"][()]
                 t_a = h["pairs/t_a_s"][()]
             opts = dict(line.split(": ", 1) for line in str(attrs.get("options", "")).splitlines() if ": " in line)
             self.commands.append(opts.get("command_line", ""))
@@ -380,14 +466,26 @@ class Report:
             scale = 0.8 * (f["x"][1] - f["x"][0] if len(f["x"]) > 1 else 8) / max(typical, 1e-3)
             images = [(k, draw_vectors(frames[int(frame_a[k])], f, k, centre, vane, rc_px, scale))
                       for k in picks if int(frame_a[k]) in frames]
+            truth_images = {}
+            if truth and os.path.isfile(truth[1]):
+                truth_images = truth_frames(truth[1], frames, frame_a, frame_b, picks, centre, vane, scale)
             if images:
                 parts.append(f'<div class="frames" data-n="{len(images)}">')
                 for i, (k, uri) in enumerate(images):
-                    parts.append(f'<figure class="frame{" shown" if i == 0 else ""}"><img src="{uri}" '
-                                 f'alt="pair {k}: vectors over frame {int(frame_a[k])}"><figcaption>pair {k}, '
-                                 f't = {t_a[k]:.3g} s (vectors x {scale:.2g})</figcaption></figure>')
+                    fa, fb = int(frame_a[k]), int(frame_b[k])
+                    pics = (f'<img src="{uri}" alt="pair {k}: vectors over frame {fa}">')
+                    caption = f"pair {k} (frames {fa} → {fb}), t = {t_a[k]:.3g} s (vectors x {scale:.2g})"
+                    if truth:
+                        tk = truth_images.get(k)
+                        pics = (f'<div class="side"><div><p>the video, {esc(truth[2])}</p>{pics}</div><div>'
+                                f'<p>{esc(truth[0])}' + (f' (frames {tk[1]} → {tk[2]})</p><img src="{tk[0]}" '
+                                                         f'alt="pair {k}: {esc(truth[0])}">' if tk else
+                                                         ": no pair from this frame</p>") + "</div></div>")
+                    parts.append(f'<figure class="frame{" shown" if i == 0 else ""}">{pics}<figcaption>'
+                                 f'{caption}</figcaption></figure>')
                 parts.append(f'<input type="range" min="0" max="{len(images) - 1}" value="0" class="slider" '
-                             f'aria-label="pair"></div>')
+                             f'aria-label="pair"><button type="button" class="play" aria-label="play">play'
+                             f'</button></div>')
                 parts.append("<p class='note'>green: valid; orange: replaced; red: invalid; grey: masked; "
                              "cyan: cup axis and vane radius; magenta: r_c.</p>")
             else:
@@ -400,11 +498,22 @@ class Report:
                     "v_abs_sem_m_per_s", np.zeros(len(rows))) * 1e3, "style": "points", "label": "mean |v|"}]
                 noise = np.nanmedian(col.get("v_noise_m_per_s", np.array([np.nan]))) * 1e3
                 vc = num(width[0].get("v_c_m_per_s")) * 1e3 if width else float("nan")
+                vlines = [(rc_m * 1e3 if rc_m is not None else float("nan"), "r_c" + (" video" if overlays else ""),
+                           "#c0c")]
+                for (label, p_path, w_path), c in zip(overlays, ("#2ca02c", "#ff7f0e", "#8c564b")):
+                    op, ow = read_csv(p_path), read_csv(w_path)
+                    if op and op[2]:
+                        oc = {n: np.array([num(r[i]) for r in op[2]]) for i, n in enumerate(op[1])}
+                        series.append({"x": oc["r_m"] * 1e3, "y": oc["v_abs_m_per_s"] * 1e3, "label": label,
+                                       "colour": c})
+                    if ow and ow[2]:
+                        vlines.append((num(dict(zip(ow[1], ow[2][0])).get("rc_m")) * 1e3, "", c))
                 parts.append(svg_plot(series, "r (mm)", "v (mm/s)", "v(r)",
                                       hlines=[(noise, "noise floor", "#888"), (vc, "v_c", "#d62728")],
-                                      vlines=[(rc_m * 1e3 if rc_m is not None else float("nan"), "r_c", "#c0c")]))
+                                      vlines=vlines))
             parts.append(svg_plot([{"x": t_a, "y": 1 - bad, "label": "valid fraction"}], "t (s)",
                                   "valid / unmasked", "vectors per pair", ylim=(0, 1)))
+            parts.append(drive_plot(fields_path, attrs, opts, centre, vane))
             parts.append("</div>")
             keys = ("piv_windows_px", "piv_overlap", "preset", "grey_conversion", "piv_final_window_px",
                     "texture_size_px", "mask_vane", "vane_phase_rad", "phase_auto", "f_Hz", "phi0_rad", "N")
@@ -417,7 +526,7 @@ class Report:
             parts.append("<p class='bad'>no fields.h5: PIV did not run or was refused.</p>")
             self.warn(title, "no PIV fields", anchor)
         parts.append("</section>")
-        self.sections.append(("clips", "".join(parts)))
+        self.sections.append((kind, "".join(parts)))
 
     def log(self, rel, title):
         d = os.path.join(self.root, rel)
@@ -470,8 +579,8 @@ text-align:right}th{background:#f4f4f4}td.bad,.bad{color:#b00}.note{color:#666;f
 ul.warnings li{color:#8a4b00}.plots{display:flex;flex-wrap:wrap;gap:12px}svg.plot text{font-size:11px}
 svg.plot .t{font-weight:bold}
 .frames figure{display:none;margin:0}.frames figure.shown{display:block}.frames img{max-width:100%}
-.slider{width:320px}.figure svg{max-width:100%;height:auto}details{margin:.4em 0}
-@media print{.frames figure{display:inline-block;width:32%}.slider{display:none}section{break-inside:avoid}}
+.slider{width:320px}.side{display:flex;gap:8px}.side>div{flex:1}.side p{margin:0;font-size:12px}.figure svg{max-width:100%;height:auto}details{margin:.4em 0}
+@media print{.frames figure{display:inline-block;width:32%}.slider,.play{display:none}section{break-inside:avoid}}
 """
 
 JS = """
@@ -479,8 +588,19 @@ document.querySelectorAll('.frames').forEach(function (box) {
   var figs = box.querySelectorAll('figure');
   var s = box.querySelector('input.slider');
   if (!s) return;
-  s.addEventListener('input', function () {
+  function show() {
     figs.forEach(function (f, i) { f.classList.toggle('shown', i === Number(s.value)); });
+  }
+  s.addEventListener('input', show);
+  var play = box.querySelector('button.play'), timer = null;
+  if (!play) return;
+  play.addEventListener('click', function () {
+    if (timer) { clearInterval(timer); timer = null; play.textContent = 'play'; return; }
+    play.textContent = 'pause';
+    timer = setInterval(function () {
+      s.value = String((Number(s.value) + 1) % figs.length);
+      show();
+    }, 400);
   });
 });
 """
@@ -505,8 +625,16 @@ def inline_svg(path):
 
 
 def study_report(root, rep):
-    with open(os.path.join(root, "study.json"), encoding="utf-8") as f:
-        study = json.load(f)
+    path = os.path.join(root, "study.json")
+    CURRENT["file"] = path
+    with open(path, encoding="utf-8") as f:
+        try:
+            study = json.load(f)
+        except ValueError as e:
+            raise Refusal(f"{path}: line {getattr(e, 'lineno', '?')}: not valid JSON ({getattr(e, 'msg', e)}); "
+                          "expected the study.json that study run writes")
+    if not isinstance(study, dict) or "study_file" not in study:
+        raise Refusal(f"{path}: no \"study_file\" key; expected the study.json that study run writes")
     rep.title = f"Study {study.get('study_file', root)}"
     rep.inputs[study["study_file"]] = None
     clips, logs = study.get("clips", {}), study.get("logs", {})
@@ -583,10 +711,101 @@ def folder_report(root, rep):
     rep.results, rep.figures = "", ""
 
 
+# A closed loop's video r_c is flagged when it lies further than this from the camera's
+# truth: the bound docs/sim.md measures the pipeline against (half a bead).
+CHECK_RC_TOLERANCE_D = 0.5
+
+
+def check_report(root, rep):
+    """A `sim check` folder: closed_loop.csv's rows, the chart of r_c error and PIV
+    error against PIV time, and per branch and setting the video's vectors beside the
+    camera's truth over the same frames, with the video's v(r) against both truths'."""
+    header, names, rows = read_csv(os.path.join(root, "closed_loop.csv"))
+    rep.title = f"Closed loop {header.get('run', os.path.abspath(root))}"
+    rep.command(header)
+    get = [dict(zip(names, r)) for r in rows]
+    branches = list(dict.fromkeys(g["branch"] for g in get))
+    rep.counts = {"simulated branches": len(branches), "settings": len(dict.fromkeys(g["setting"] for g in get)),
+                  "rows": len(rows)}
+    for g in get:
+        where = f"{g['branch']}, {g['setting']}"
+        anchor = "clip-" + f"{g['branch']}/{g['setting']}".replace("/", "-")
+        sv, sc = g.get("rc_video_status", ""), g.get("rc_centres_status", "")
+        err = num(g.get("rc_error_centres_over_d"))
+        same = sv == sc and (sv != "ok" or abs(err) <= CHECK_RC_TOLERANCE_D)
+        rep.count(f"rows whose r_c is the camera truth's (same status, within {CHECK_RC_TOLERANCE_D:g} d)", same)
+        if sv != sc:
+            rep.warn(where, f"r_c of the video {sv}, of the camera's truth {sc}", anchor)
+        elif sv == "ok" and abs(err) > CHECK_RC_TOLERANCE_D:
+            rep.warn(where, f"r_c of the video {err:+.2f} d from the camera's truth", anchor)
+    def rc(g, which):
+        st = g.get(f"rc_{which}_status", "")
+        lo, hi = g.get(f"rc_{which}_ci_low_m", ""), g.get(f"rc_{which}_ci_high_m", "")
+        text = f"{fmt(g.get(f'rc_{which}_m'))}" + (f" [{fmt(lo)}, {fmt(hi)}]" if lo and hi else "")
+        return f"<td{' class=bad' if st != 'ok' else ''}>{text} {esc(st)}</td>"
+
+    cells = ["branch", "φ0 (rad)", "N", "setting", "pairs", "r_c video (m)", "r_c camera truth (m)",
+             "r_c surface field (m)", "error vs camera (d)", "error vs surface (d)", "PIV RMS error (px)",
+             "invalid", "PIV (s)"]
+    out = ["<table><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in cells) + "</tr></thead><tbody>"]
+    for g in get:
+        out.append("<tr>" + "".join(f"<td>{fmt(g.get(k))}</td>" for k in ("branch", "phi0_rad", "N")) +
+                   f'<td><a href="#{esc("clip-" + g["branch"] + "-" + g["setting"])}">{esc(g["setting"])}</a></td>'
+                   f"<td>{fmt(g.get('pairs'))}</td>" + rc(g, "video") + rc(g, "centres") + rc(g, "surface") +
+                   "".join(f"<td>{fmt(g.get(k), 3)}</td>" for k in ("rc_error_centres_over_d", "rc_error_over_d",
+                                                                     "piv_rms_error_px", "invalid_fraction",
+                                                                     "piv_s")) + "</tr>")
+    out.append("</tbody></table>")
+    results = ["<h3>closed_loop.csv</h3>", "".join(out),
+               "<p class='note'>The camera's truth: the beads' centre motion on the same camera (bead by bead for "
+               "track settings); the surface field: the simulator's material points, spin included; errors in "
+               "bead diameters d; r_c intervals in brackets.</p>"]
+    col = {n: np.array([num(g.get(n)) for g in get]) for n in names}
+    series = []
+    for b in branches:
+        m = np.array([g["branch"] == b for g in get])
+        series.append({"x": col["piv_s"][m], "y": col["rc_error_centres_over_d"][m], "style": "points", "label": b})
+    chart = [svg_plot(series, "PIV time (s)", "(r_c video − camera truth) / d", "r_c error against PIV time",
+                      hlines=[(CHECK_RC_TOLERANCE_D, "+d/2", "#888"), (-CHECK_RC_TOLERANCE_D, "−d/2", "#888"),
+                              (0.0, "", "#bbb")])]
+    series = [{"x": s_["x"], "y": col["piv_rms_error_px"][np.array([g["branch"] == s_["label"] for g in get])],
+               "style": "points", "label": s_["label"]} for s_ in series]
+    chart.append(svg_plot(series, "PIV time (s)", "RMS error per vector (px)", "PIV error against PIV time"))
+    results.append('<div class="plots">' + "".join(chart) + "</div>")
+    rep.results = "".join(results)
+    rep.figures = ""
+    claimed = {(g["branch"], g["setting"]) for g in get}
+    for g in get:
+        b, setting = g["branch"], g["setting"]
+        rel = f"{b}/{setting}"
+        if not os.path.isdir(os.path.join(root, rel)):
+            # windows sized to the beads: the row names the windows used, the folder the ones asked for
+            k = "_" + setting.rsplit("_", 1)[-1]
+            spare = [os.path.basename(p) for p in sorted(glob.glob(os.path.join(root, b, "*" + k)))
+                     if (b, os.path.basename(p)) not in claimed and os.path.isfile(os.path.join(p, "fields.h5"))]
+            if spare:
+                rel = f"{b}/{spare[0]}"
+                claimed.add((b, spare[0]))
+        bdir = os.path.join(root, b)
+        track = setting.startswith("track_")
+        truth = (("the camera's truth bead by bead", os.path.join(root, rel, "truth_beads.h5"), "tracked") if track
+                 else ("the camera's truth", os.path.join(bdir, "truth_centres.h5"), "PIV"))
+        overlays = [("camera truth", os.path.join(root, rel, "truth_beads_profile.csv"),
+                     os.path.join(root, rel, "truth_beads_width.csv")) if track else
+                    ("camera truth", os.path.join(bdir, "truth_centres_profile.csv"),
+                     os.path.join(bdir, "truth_centres_width.csv")),
+                    ("surface field", os.path.join(bdir, "truth_surface_profile.csv"),
+                     os.path.join(bdir, "truth_surface_width.csv"))]
+        rep.clip(rel, f"{b}, {setting}", video=os.path.join(bdir, "video", "video.mp4"), truth=truth,
+                 overlays=overlays, kind="branches", check_width=False)
+        rep.inputs[os.path.join(bdir, "video", "video.mp4")] = None
+
+
 def write_page(rep, out_path):
     warnings = ("<ul class='warnings'>" + "".join(rep.warnings) + "</ul>") if rep.warnings else \
         "<p>No warnings: every width usable, every fit made, every log read.</p>"
-    one = {"clips": "clip", "torque logs": "torque log", "simulated branches": "simulated branch"}
+    one = {"clips": "clip", "torque logs": "torque log", "simulated branches": "simulated branch",
+           "settings": "setting", "rows": "row"}
     counts = ", ".join(f"{v} {one.get(k, k) if v == 1 else k}" for k, v in rep.counts.items())
     if rep.tally:
         counts += "; " + ", ".join(f"{k}: {d} of {n}" for k, (d, n) in rep.tally.items())
@@ -596,7 +815,7 @@ def write_page(rep, out_path):
             provenance.append(f"<tr><td>{esc(p)}</td><td>{os.path.getsize(p)}</td><td><code>{sha256(p)}</code></td></tr>")
     provenance.append("</table><details><summary>command lines</summary><pre>" +
                       esc("\n".join(dict.fromkeys(c for c in rep.commands if c))) + "</pre></details>")
-    sections = {"clips": [], "logs": []}
+    sections = {"clips": [], "logs": [], "branches": []}
     for kind, text in rep.sections:
         sections[kind].append(text)
     page = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{esc(rep.title)}</title>",
@@ -609,19 +828,26 @@ def write_page(rep, out_path):
         page.append(f"<h2 id='figures'>Figures</h2>{rep.figures}")
     if sections["clips"]:
         page.append("<h2 id='clips'>Clips</h2>" + "".join(sections["clips"]))
+    if sections["branches"]:
+        page.append("<h2 id='branches'>The video beside the truth, per branch and setting</h2>" +
+                    "".join(sections["branches"]))
     if sections["logs"]:
         page.append("<h2 id='logs'>Torque logs</h2>" + "".join(sections["logs"]))
     page.append(f"<h2 id='provenance'>Provenance</h2>{''.join(provenance)}")
     page.append(f"<script>{JS}</script></body></html>\n")
     tmp = out_path + ".partial"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write("".join(page))
-    os.replace(tmp, out_path)
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write("".join(page))
+        os.replace(tmp, out_path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("out", help="a study's output folder, or a folder holding fields.h5")
+    ap.add_argument("out", help="a study's output folder, a sim check folder, or a folder holding fields.h5")
     ap.add_argument("-o", "--output", help="the page (default: OUT/report.html)")
     ap.add_argument("--frames", type=int, default=6, help="frames per clip under the slider (1..50)")
     ap.add_argument("--version", default="", help="the shearzone version, for the page's header")
@@ -629,24 +855,34 @@ def main():
     a = ap.parse_args()
     prog = "shearzone: error: "
     if not os.path.isdir(a.out):
-        print(f"{prog}{a.out}: no such folder; expected a study's output folder or a piv output folder",
-              file=sys.stderr)
+        print(f"{prog}{a.out}: no such folder; expected a study's output folder, a sim check folder or a folder "
+              "holding piv's fields.h5", file=sys.stderr)
         return 2
     if not 1 <= a.frames <= 50:
         print(f"{prog}--frames {a.frames}: expected 1..50", file=sys.stderr)
         return 2
     rep = Report(a.out, a.frames)
     rep.version = a.version
-    if os.path.isfile(os.path.join(a.out, "study.json")):
-        study_report(a.out, rep)
-    elif os.path.isfile(os.path.join(a.out, "fields.h5")):
-        folder_report(a.out, rep)
-    else:
-        print(f"{prog}{a.out}: neither study.json nor fields.h5; expected a study's output folder or a folder "
-              "holding piv's fields.h5", file=sys.stderr)
-        return 2
     out = a.output or os.path.join(a.out, "report.html")
-    write_page(rep, out)
+    try:
+        if os.path.isfile(os.path.join(a.out, "study.json")):
+            study_report(a.out, rep)
+        elif os.path.isfile(os.path.join(a.out, "closed_loop.csv")):
+            check_report(a.out, rep)
+        elif os.path.isfile(os.path.join(a.out, "fields.h5")):
+            folder_report(a.out, rep)
+        else:
+            raise Refusal(f"{a.out}: none of study.json, closed_loop.csv or fields.h5; expected a study's output "
+                          "folder, a sim check folder or a folder holding piv's fields.h5")
+        write_page(rep, out)
+    except Refusal as e:
+        print(f"{prog}{e}", file=sys.stderr)
+        return 2
+    except (KeyError, ValueError, IndexError, TypeError, OSError, UnicodeDecodeError) as e:
+        # a file shearzone wrote, then altered or cut short: name it rather than the line of code
+        what = f"no column or key {e}" if isinstance(e, KeyError) else str(e).splitlines()[0] if str(e) else type(e).__name__
+        print(f"{prog}{CURRENT['file'] or a.out}: {what}; expected the file as shearzone wrote it", file=sys.stderr)
+        return 2
     if not a.quiet:
         print(f"report: {out} ({os.path.getsize(out) / 1e6:.1f} MB; {len(rep.warnings)} warnings)")
     return 0

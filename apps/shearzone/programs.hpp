@@ -19,4 +19,7 @@ std::filesystem::path find_program(const std::string& name, const std::vector<st
 /// `silent`: its stdout and stderr go to /dev/null.
 int run_program(std::vector<std::string> argv, bool silent);
 
+/// Runs argv[0] as run_program does, its stdout to ours and its stderr into `err`.
+int run_program_capture(std::vector<std::string> argv, std::string& err);
+
 }  // namespace shearzone::apps

@@ -1,9 +1,12 @@
-// `shearzone report OUT`: one self-contained HTML page of a study's or a clip's results
-// (scripts/report.py: warnings first, result tables, figures, vectors over the frames,
-// v(r), Lissajous curves, provenance; docs/report.md).
+// `shearzone report OUT`: one self-contained HTML page of a study's, a closed loop's or a
+// clip's results (scripts/report.py: warnings first, result tables, figures, vectors over
+// the frames, v(r), Lissajous curves, provenance; docs/report.md).
+#include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -26,12 +29,14 @@ struct ReportCli {
 
 int run_report(ReportCli& s, const Context& ctx) {
   if (!fs::is_directory(s.folder))
-    throw InputError(fmt::format("{}: no such folder; expected a study's output folder or a folder holding piv's "
-                                 "fields.h5",
+    throw InputError(fmt::format("{}: no such folder; expected a study's output folder, a sim check folder or a "
+                                 "folder holding piv's fields.h5",
                                  s.folder));
-  if (!fs::is_regular_file(fs::path(s.folder) / "study.json") && !fs::is_regular_file(fs::path(s.folder) / "fields.h5"))
-    throw InputError(fmt::format("{}: neither study.json nor fields.h5; expected a study's output folder or a folder "
-                                 "holding piv's fields.h5",
+  const fs::path f(s.folder);
+  if (!fs::is_regular_file(f / "study.json") && !fs::is_regular_file(f / "closed_loop.csv") &&
+      !fs::is_regular_file(f / "fields.h5"))
+    throw InputError(fmt::format("{}: none of study.json, closed_loop.csv or fields.h5; expected a study's output "
+                                 "folder, a sim check folder or a folder holding piv's fields.h5",
                                  s.folder));
   const std::string output = s.output.empty() ? (fs::path(s.folder) / "report.html").string() : s.output;
   io::check_output_allowed(output, s.force);
@@ -46,9 +51,21 @@ int run_report(ReportCli& s, const Context& ctx) {
   std::vector<std::string> argv{python.string(), script.string(), s.folder, "--output", output,
                                 "--frames", std::to_string(s.frames), "--version", kVersion};
   if (ctx.level == core::LogLevel::kQuiet) argv.emplace_back("--quiet");
-  const int rc = run_program(argv, false);
-  if (rc == 2) return kExitInputError;  // the script printed its one line
-  if (rc != 0) throw InternalError(fmt::format("{} exited with status {}", script.string(), rc));
+  std::string err;
+  const int rc = run_program_capture(argv, err);
+  // The script's refusal is one line "shearzone: error: ..."; a crash ends in its last line.
+  while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
+  const std::string last = err.substr(err.find_last_of('\n') == std::string::npos ? 0 : err.find_last_of('\n') + 1);
+  constexpr std::string_view kPrefix = "shearzone: error: ";
+  if (rc == 2 && last.starts_with(kPrefix)) throw InputError(last.substr(kPrefix.size()));
+  if (rc == 128 + SIGINT || rc == 128 + SIGTERM) {  // Ctrl-C: end as the script did (no page was made)
+    std::raise(rc - 128);
+    throw InternalError(fmt::format("{}: interrupted", script.string()));
+  }
+  if (rc != 0)
+    throw InternalError(fmt::format("{} exited with status {}{}{}", script.string(), rc, last.empty() ? "" : ": ",
+                                    last));
+  if (!err.empty()) std::fprintf(stderr, "%s\n", err.c_str());
   return kExitOk;
 }
 
@@ -56,9 +73,11 @@ int run_report(ReportCli& s, const Context& ctx) {
 
 std::vector<Subcommand> add_report(CLI::App& root, Context& ctx) {
   auto s = std::make_shared<ReportCli>();
-  CLI::App* c = root.add_subcommand("report", "One self-contained HTML page of a study's or a clip's results "
-                                              "(warnings first; docs/report.md)");
-  c->add_option("folder", s->folder, "A study's output folder (study.json) or a folder holding piv's fields.h5")
+  CLI::App* c = root.add_subcommand("report", "One self-contained HTML page of a study's, a closed loop's or a "
+                                              "clip's results (warnings first; docs/report.md)");
+  c->add_option("folder", s->folder,
+                "A study's output folder (study.json), a sim check folder (closed_loop.csv) or a folder holding "
+                "piv's fields.h5")
       ->required();
   c->add_option("-o,--output", s->output, "The page (default: FOLDER/report.html)");
   c->add_option("--frames", s->frames, "Frames per clip under the slider; range: 1..50")->check(CLI::Range(1, 50));

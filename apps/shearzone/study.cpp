@@ -329,6 +329,35 @@ int run_program(std::vector<std::string> argv, bool silent) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+int run_program_capture(std::vector<std::string> argv, std::string& err) {
+  std::fflush(nullptr);
+  int fds[2];
+  if (::pipe(fds) != 0) throw ConfigError(fmt::format("cannot start {}: pipe failed", argv[0]));
+  const pid_t pid = ::fork();
+  if (pid < 0) throw ConfigError(fmt::format("cannot start {}: fork failed", argv[0]));
+  if (pid == 0) {
+    ::close(fds[0]);
+    ::dup2(fds[1], 2);
+    ::close(fds[1]);
+    exec_child(argv);
+  }
+  ::close(fds[1]);
+  char buf[4096];
+  for (;;) {
+    const ssize_t n = ::read(fds[0], buf, sizeof buf);
+    if (n > 0) {
+      err.append(buf, static_cast<std::size_t>(n));
+    } else if (n == 0 || errno != EINTR) {
+      break;
+    }
+  }
+  ::close(fds[0]);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
 std::vector<Subcommand> add_study(CLI::App& root, Context& ctx) {
   CLI::App* st = root.add_subcommand("study", "A whole study (lab clips and torque logs, a simulation grid) from "
                                               "one TOML file to every result and figure, via Snakemake");

@@ -8,7 +8,7 @@ reader gets it (ctest "report: ...").
 3. In headless Chromium (Debian's chromium and chromium-driver through
    python3-selenium): no console error, every image decoded with a non-zero size,
    every SVG drawn with a non-zero size, each frame slider changes the frame shown,
-   and the screenshot is not blank (its pixels vary).
+   each play button steps through the frames by itself, and the screenshot is not blank (its pixels vary).
 4. Each --warning TEXT appears in the warnings list at the top.
 Prints one line per failure and exits 1 if any."""
 import argparse
@@ -84,6 +84,17 @@ def main():
             " return before === 0 && after === figs.length - 1; })")
         if not all(moved):
             fails.append(f"{moved.count(False)} of {len(moved)} frame sliders do not change the frame")
+        # Each play button steps through the frames by itself (0.4 s per frame) and pauses.
+        played = driver.execute_async_script(
+            "const done = arguments[arguments.length - 1];"
+            " const boxes = Array.from(document.querySelectorAll('.frames')).filter(b =>"
+            "   b.querySelectorAll('figure').length > 1);"
+            " boxes.forEach(b => b.querySelector('button.play').click());"
+            " setTimeout(() => done(boxes.map(b => { const figs = Array.from(b.querySelectorAll('figure'));"
+            "   b.querySelector('button.play').click();"
+            "   return figs.findIndex(f => getComputedStyle(f).display !== 'none') > 0; })), 1000);")
+        if not all(played):
+            fails.append(f"{played.count(False)} of {len(played)} play buttons do not step the frames")
         png = driver.get_screenshot_as_png()
         import numpy as np
         import cv2
@@ -98,7 +109,8 @@ def main():
     for f in fails:
         print(f"check_report: {a.report}: {f}")
     if not fails:
-        print(f"check_report: {a.report}: valid, self-contained, {n_sliders} frame sliders work, no console error")
+        print(f"check_report: {a.report}: valid, self-contained, {n_sliders} frame sliders and play buttons work, "
+              "no console error")
     return 1 if fails else 0
 
 

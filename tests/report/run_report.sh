@@ -6,8 +6,9 @@
 # screenshot) and finds its noise-limited width and its skipped torque log in the
 # warnings at the top; a copy of the study with one clip's PIV gone (a clip that failed
 # under --keep-going) shows that clip there too; a single clip's folder gets its page;
-# so does a real image sequence (data-samples/pivlab-sand); bad folders are refused with
-# one line and no page.
+# so does a real image sequence (data-samples/pivlab-sand) and a closed loop's folder
+# (sim check: the video beside the camera's truth); bad folders are refused with one
+# line and no page.
 set -euo pipefail
 SZ=$1 SRC=$2 WORK=$3
 fail() { echo "run_report.sh: FAIL: $*" >&2; exit 1; }
@@ -41,6 +42,19 @@ mkdir sand
 "$SZ" -q report sand
 grep -q "data:image/jpeg" sand/report.html || fail "the sand clip's page shows no frame"
 "${CHECK[@]}" sand/report.html || fail "the sand clip's report"
+
+# A closed loop (sim check, PIV and tracking): its rows, the chart, and per branch and
+# setting the video's vectors beside the camera's truth over the same frames.
+"$SZ" -q sim "$SRC/data-samples/sim/filmed_cup.toml" -o run
+"$SZ" -q sim check run -o check --size 256,192 --vc 2e-3 --final-windows 16 --methods piv,track
+"$SZ" report check | tee check.out
+grep -q "^report: check/report.html" check.out || fail "no summary line: $(cat check.out)"
+"${CHECK[@]}" check/report.html --warning "run, w64-32-16_k1</a>: r_c of the video below_at_vane, of the camera&#x27;s truth ok" \
+    || fail "the closed loop's report"
+for want in "r_c error against PIV time" "alt=\"pair 0: the camera&#x27;s truth\"" \
+    "alt=\"pair 0: the camera&#x27;s truth bead by bead\"" ">surface field<"; do
+  grep -qF "$want" check/report.html || fail "the closed loop's page lacks $want"
+done
 
 # Refusals: one line, exit 2, no page.
 for bad in "nowhere" "logs"; do
