@@ -210,7 +210,9 @@ def main():
         if ds["widths"]:
             table = F.path(f"{R}/rc_phi0.csv")
             rows = read_csv(table) if os.path.exists(table) else []
-            vc = num(header(F.path(ds["widths"][0])).get("v_c_m_per_s")) if rows else math.nan
+            # v_c from a width that was made (a clip piv refused holds only `# refused:`)
+            made = [w for w in ds["widths"] if F.usable(w) is None]
+            vc = num(header(F.path(made[0])).get("v_c_m_per_s")) if rows and made else math.nan
             seed0 = None
             for N in sorted({int(num(r["N"])) for r in rows if math.isfinite(num(r["N"]))}):
                 items = [r["item"] for r in rows if int(num(r["N"])) == N]

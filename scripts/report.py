@@ -93,8 +93,8 @@ def refused(path):
     p = os.path.join(path, "refused.txt") if os.path.isdir(path) else path
     if not os.path.isfile(p):
         return None
-    with open(p, encoding="utf-8") as f:
-        first = f.readline().strip()
+    with open(p, encoding="utf-8", errors="replace") as f:
+        first = f.readline(4096).strip()
     return first[len("# refused:"):].strip() if first.startswith("# refused:") else None
 
 
@@ -374,6 +374,7 @@ def drive_plot(fields_path, attrs, opts, centre, vane):
 class Report:
     def __init__(self, root, n_frames):
         self.root, self.n_frames = root, n_frames
+        self.shearzone, self.version = None, ""
         self.warnings, self.sections, self.inputs, self.commands = [], [], {}, []
         self.counts = {}
         self.tally = {}  # what: [done, of]
@@ -383,15 +384,18 @@ class Report:
         t[0] += bool(done)
         t[1] += 1
 
-    def warn(self, where, text, anchor=None):
+    def warn(self, where, text, anchor=None, first=False):
+        """A warning; `first`: what did not run at all (a clip refused or without fields,
+        a log skipped, a fit refused), listed before the rest."""
         link = f'<a href="#{esc(anchor)}">{esc(where)}</a>' if anchor else esc(where)
-        self.warnings.append(f"<li>{link}: {esc(text)}</li>")
+        self.warnings.append((0 if first else 1, len(self.warnings), f"<li>{link}: {esc(text)}</li>"))
 
     def command(self, header):
         if header and header.get("command_line"):
             self.commands.append(header["command_line"])
 
-    def clip(self, rel, title, video=None, truth=None, overlays=(), kind="clips", check_width=True):
+    def clip(self, rel, title, video=None, truth=None, overlays=(), kind="clips", check_width=True,
+             tally="clips through PIV"):
         """A clip's section: frames with vectors, v(r), valid fraction per pair. For a
         closed loop, `truth` = (label, fields path): the truth's vectors over the same
         frame beside the video's; `overlays`: (label, profile.csv, width.csv) drawn in
@@ -425,7 +429,13 @@ class Report:
             src = prof[0].get("scale_source", "")
             if src.startswith("--m-per-px"):
                 self.warn(title, f"scale given by hand ({src}), not from the cup's radius", anchor)
-        if os.path.isfile(fields_path):
+        why = refused(fields_path) if os.path.isfile(fields_path) else None
+        if tally:
+            self.count(tally, os.path.isfile(fields_path) and why is None)
+        if why:
+            parts.append(f"<p class='bad'>refused by piv: {esc(why)}</p>")
+            self.warn(title, f"refused: {why}", anchor, first=True)
+        elif os.path.isfile(fields_path):
             with open_h5(fields_path) as h:
                 attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in h.attrs.items()}
                 flag = h["pairs/flag"][()]
@@ -524,11 +534,45 @@ class Report:
                          "</table></details>")
         else:
             parts.append("<p class='bad'>no fields.h5: PIV did not run or was refused.</p>")
-            self.warn(title, "no PIV fields", anchor)
+            self.warn(title, "no PIV fields", anchor, first=True)
         parts.append("</section>")
         self.sections.append((kind, "".join(parts)))
 
-    def log(self, rel, title):
+    def inspect(self, rel, fallback=None):
+        """Starts `shearzone laos --inspect` on the log a LAOS folder was made from, with
+        the options it was made with (the summary's command_line, less -o, -q and
+        --force): what the log holds (format, segments, skipped blocks and why). None
+        without the binary (--shearzone) or the command line."""
+        import shlex
+        import subprocess
+        summary = read_csv(os.path.join(self.root, rel, "summary.csv"))
+        cmd = summary[0].get("command_line") if summary else None
+        # a log LAOS refused has no summary: the study's own words for it
+        words = shlex.split(cmd)[1:] if cmd else fallback
+        if not (self.shearzone and words):
+            return None
+        out, skip = [], False
+        for w in words:
+            if skip:
+                skip = False
+            elif w in ("-o", "--output"):
+                skip = True
+            elif w not in ("-q", "--quiet", "--force", "-v", "--verbose"):
+                out.append(w)
+        if "laos" not in out:
+            return None
+        return subprocess.Popen([self.shearzone, *out, "--inspect"], stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, cwd=self.root)
+
+    @staticmethod
+    def inspected(proc):
+        if proc is None:
+            return ""
+        text = proc.communicate()[0]
+        return ("<details><summary>what the log holds (<code>laos --inspect</code>: format, segments, skipped "
+                f"blocks)</summary><pre>{esc(text.strip())}</pre></details>")
+
+    def log(self, rel, title, inspect=None):
         d = os.path.join(self.root, rel)
         anchor = "log-" + rel.replace("/", "-")
         parts = [f'<section class="log" id="{esc(anchor)}"><h3>{esc(title)}</h3>']
@@ -536,8 +580,9 @@ class Report:
         summary = read_csv(os.path.join(d, "summary.csv"))
         self.count("torque logs analysed", not (why or not summary))
         if why or not summary:
-            self.warn(title, f"log skipped: {why or 'no summary.csv'}", anchor)
-            parts.append(f"<p class='bad'>skipped: {esc(why or 'no summary')}</p></section>")
+            self.warn(title, f"log skipped: {why or 'no summary.csv'}", anchor, first=True)
+            parts.append(f"<p class='bad'>skipped: {esc(why or 'no summary')}</p>{self.inspected(inspect)}"
+                         "</section>")
             self.sections.append(("logs", "".join(parts)))
             return
         header, names, rows = summary
@@ -565,6 +610,7 @@ class Report:
         harm = read_csv(os.path.join(d, "harmonics.csv"))
         if harm:
             parts.append("<details><summary>harmonics</summary>" + table(harm[1], harm[2], limit=60) + "</details>")
+        parts.append(self.inspected(inspect))
         parts.append("</section>")
         self.sections.append(("logs", "".join(parts)))
 
@@ -641,9 +687,13 @@ def study_report(root, rep):
     for name in sorted(clips):
         rep.clip(f"lab/clips/{name}", f"clip {name}", video=clips[name].get("video"))
         rep.inputs[clips[name].get("video")] = None
+    lab_laos = study.get("args", {}).get("lab_laos", [])
+    inspections = {name: rep.inspect(f"lab/logs/{name}", ["laos", logs[name]["file"], *lab_laos])
+                   if isinstance(logs[name], dict) and logs[name].get("file") else rep.inspect(f"lab/logs/{name}")
+                   for name in sorted(logs)}  # run side by side
     for name in sorted(logs):
-        rep.log(f"lab/logs/{name}", f"log {name}")
-        src = logs[name].get("log") if isinstance(logs[name], dict) else None
+        rep.log(f"lab/logs/{name}", f"log {name}", inspect=inspections[name])
+        src = logs[name].get("file") if isinstance(logs[name], dict) else None
         if src:
             rep.inputs[src] = None
     branches = 0
@@ -651,7 +701,8 @@ def study_report(root, rep):
         for b in sorted(study.get("branches", {})):
             branches += 1
             rel = f"sim/{g}/{b}"
-            rep.clip(rel, f"simulated {g} {b}", video=os.path.join(root, f"sim/{g}/video_{b}/video.mp4"))
+            rep.clip(rel, f"simulated {g} {b}", video=os.path.join(root, f"sim/{g}/video_{b}/video.mp4"),
+                     tally="simulated branches through PIV")
             rep.log(f"{rel}/laos", f"torque of {g} {b}")
     rep.counts = {"clips": len(clips), "torque logs": len(logs), "simulated branches": branches}
     results = []
@@ -673,7 +724,7 @@ def study_report(root, rep):
             if name.endswith("power.csv") or name == "erf_wide.csv":
                 rep.count("fits made", not why)
             if why:
-                rep.warn(f"{ds}: {what}", f"refused: {why}")
+                rep.warn(f"{ds}: {what}", f"refused: {why}", first=True)
                 results.append(f"<p class='bad'>{esc(what)}: refused ({esc(why)})</p>")
                 continue
             t = read_csv(p)
@@ -692,7 +743,7 @@ def study_report(root, rep):
             why = refused(c)
             rep.count("fits made", not why)
             if why:
-                rep.warn(f"{ds}: collapse", f"refused: {why}")
+                rep.warn(f"{ds}: collapse", f"refused: {why}", first=True)
             else:
                 t = read_csv(os.path.join(c, "parameters.csv"))
                 if t:
@@ -797,12 +848,13 @@ def check_report(root, rep):
                     ("surface field", os.path.join(bdir, "truth_surface_profile.csv"),
                      os.path.join(bdir, "truth_surface_width.csv"))]
         rep.clip(rel, f"{b}, {setting}", video=os.path.join(bdir, "video", "video.mp4"), truth=truth,
-                 overlays=overlays, kind="branches", check_width=False)
+                 overlays=overlays, kind="branches", check_width=False, tally=None)
         rep.inputs[os.path.join(bdir, "video", "video.mp4")] = None
 
 
 def write_page(rep, out_path):
-    warnings = ("<ul class='warnings'>" + "".join(rep.warnings) + "</ul>") if rep.warnings else \
+    listed = "".join(w for _, _, w in sorted(rep.warnings))
+    warnings = f"<ul class='warnings'>{listed}</ul>" if rep.warnings else \
         "<p>No warnings: every width usable, every fit made, every log read.</p>"
     one = {"clips": "clip", "torque logs": "torque log", "simulated branches": "simulated branch",
            "settings": "setting", "rows": "row"}
@@ -852,6 +904,7 @@ def main():
     ap.add_argument("--frames", type=int, default=6, help="frames per clip under the slider (1..50)")
     ap.add_argument("--version", default="", help="the shearzone version, for the page's header")
     ap.add_argument("--quiet", action="store_true", help="no summary line")
+    ap.add_argument("--shearzone", help="the shearzone binary: each lab log's `laos --inspect` on the page")
     a = ap.parse_args()
     prog = "shearzone: error: "
     if not os.path.isdir(a.out):
@@ -863,6 +916,7 @@ def main():
         return 2
     rep = Report(a.out, a.frames)
     rep.version = a.version
+    rep.shearzone = a.shearzone
     out = a.output or os.path.join(a.out, "report.html")
     try:
         if os.path.isfile(os.path.join(a.out, "study.json")):

@@ -19,6 +19,10 @@ std::filesystem::path find_program(const std::string& name, const std::vector<st
 /// `silent`: its stdout and stderr go to /dev/null.
 int run_program(std::vector<std::string> argv, bool silent);
 
+/// The running `shearzone` binary (/proc/self/exe); empty when the host is another
+/// program (the Python module in its interpreter).
+std::filesystem::path shearzone_executable();
+
 /// Runs argv[0] as run_program does, its stdout to ours and its stderr into `err`.
 int run_program_capture(std::vector<std::string> argv, std::string& err);
 

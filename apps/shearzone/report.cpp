@@ -48,8 +48,10 @@ int run_report(ReportCli& s, const Context& ctx) {
   // Debian's interpreter: numpy, h5py and OpenCV come from its packages.
   const fs::path python = find_program("python3", {"/usr/bin/python3"});
   if (python.empty()) throw ConfigError("python3: not found (scripts/setup.sh installs it)");
+  // --shearzone: this binary, for each lab log's `laos --inspect` on the page (empty: none)
   std::vector<std::string> argv{python.string(), script.string(), s.folder, "--output", output,
-                                "--frames", std::to_string(s.frames), "--version", kVersion};
+                                "--frames", std::to_string(s.frames), "--version", kVersion,
+                                "--shearzone", shearzone_executable().string()};
   if (ctx.level == core::LogLevel::kQuiet) argv.emplace_back("--quiet");
   std::string err;
   const int rc = run_program_capture(argv, err);

@@ -148,7 +148,12 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
     log << line << '\n';
     // A job's own error line (some jobs' refusals are tolerated by the workflow, such as
     // width's exit 3): the last one before Snakemake reports a failed job is its message.
-    if (line.rfind("shearzone: error: ", 0) == 0 && !in_error) last_job_error = line.substr(18);
+    // (our own scripts' lines too: "collect.py: error: ...")
+    if (!in_error) {
+      const auto tag = line.find(": error: ");
+      if (tag != std::string::npos && tag > 0 && line.find_first_of(" \t") > tag)
+        last_job_error = line.substr(line.rfind("shearzone: error: ", 0) == 0 ? 18 : 0);
+    }
     if (line.rfind("Error in rule ", 0) == 0) {
       in_error = true;
       if (failure.rule.empty()) {
@@ -281,8 +286,26 @@ int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
       what += fmt::format(", {} simulated group{} x {} amplitude{}", study.groups.size(),
                           study.groups.size() == 1 ? "" : "s", study.sim_phi0_rad.size(),
                           study.sim_phi0_rad.size() == 1 ? "" : "s");
-    std::printf("study: %s done -> %s (figures: %s/figures/figures.csv)\n", what.c_str(), s.output.c_str(),
-                s.output.c_str());
+    // Refusals are results (docs/study.md): count the clips piv refused and the logs
+    // LAOS skipped, whose reasons the report lists first.
+    auto refused = [](const fs::path& p) {
+      std::ifstream in(p, std::ios::binary);
+      std::string first(10, '\0');
+      in.read(first.data(), 10);
+      return in && first == "# refused:";
+    };
+    std::size_t clips_refused = 0, logs_skipped = 0;
+    for (const auto& c : study.clips)
+      clips_refused += refused(fs::path(s.output) / "lab" / "clips" / c.name / "fields.h5");
+    for (const auto& l : study.logs)
+      logs_skipped += refused(fs::path(s.output) / "lab" / "logs" / l.name / "refused.txt");
+    std::string refusals;
+    if (clips_refused > 0)
+      refusals += fmt::format("; {} clip{} refused by piv", clips_refused, clips_refused == 1 ? "" : "s");
+    if (logs_skipped > 0)
+      refusals += fmt::format("; {} torque log{} skipped", logs_skipped, logs_skipped == 1 ? "" : "s");
+    std::printf("study: %s done%s -> %s (every warning: %s/report.html)\n", what.c_str(), refusals.c_str(),
+                s.output.c_str(), s.output.c_str());
   }
   return kExitOk;
 }
@@ -327,6 +350,14 @@ int run_program(std::vector<std::string> argv, bool silent) {
   while (::waitpid(pid, &status, 0) < 0)
     if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+fs::path shearzone_executable() {
+  char self[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", self, sizeof self - 1);
+  if (n <= 0) return {};
+  const fs::path path(std::string(self, static_cast<std::size_t>(n)));
+  return path.filename().string().rfind("shearzone", 0) == 0 ? path : fs::path();
 }
 
 int run_program_capture(std::vector<std::string> argv, std::string& err) {

@@ -7,7 +7,8 @@
 widths: one row per input, in the order given, the width file's columns plus `item` (its
         folder: the clip or the group/branch) and `rc_se_m`, the standard error the fits
         weigh with: (rc_ci_high_m - rc_ci_low_m) / (2 z), z the normal quantile of the
-        width's `confidence` (1.96 at 0.95); empty where the interval is.
+        width's `confidence` (1.96 at 0.95); empty where the interval is. A width that
+        holds only `# refused:` (a clip piv refused) is named in a `# skipped:` line.
 laos:   the rows of every summary.csv, with `item` (the LAOS folder); a folder that LAOS
         refused (refused.txt) is named in a `# skipped:` line (exit 2 when all were).
 Columns must agree between inputs (else exit 2, one line naming the first column that
@@ -53,6 +54,12 @@ def main():
             with open(refused, encoding="utf-8") as f:
                 meta_lines.append(f"# skipped: {path}: {f.read().strip().lstrip('# ')}\n")
             continue
+        if kind == "widths":
+            with open(src, encoding="utf-8") as f:
+                first = f.readline().strip()
+            if first.startswith("# refused:"):  # a clip piv refused: its width holds the reason
+                meta_lines.append(f"# skipped: {src}: {first.lstrip('# ')}\n")
+                continue
         cols, rows = rows_of(src)
         if cols0 is None:
             cols0, first = cols, src
@@ -83,7 +90,8 @@ def main():
                 table.append(r + [item])
             meta_lines.append(f"# source: {src}\n")
     if cols0 is None:
-        fail(f"{out}: every input was refused (see its refused.txt)")
+        first = next((m[len("# skipped: "):].strip() for m in meta_lines if m.startswith("# skipped: ")), "")
+        fail(f"{out}: every input was refused; the first: {first}")
     extra = ["item", "rc_se_m"] if kind == "widths" else ["item"]
     if kind == "widths":
         meta_lines.append("# rc_se_m: (rc_ci_high_m - rc_ci_low_m) / (2 z): the interval's half-width as a "
