@@ -20,8 +20,10 @@ case "${1:-}" in
   --all) LABEL_ARGS=() ;;
   # Under the sanitizers, all but the local study workflow (100-220 s here without them:
   # Snakemake running the same binary's jobs that the other tests cover one by one, the
-  # study's Catch2 and CLI tests included); the default step runs it.
-  --sanitize) SANITIZE=ON; LABEL_ARGS=(-LE slow -E "^study: local") ;;
+  # study's Catch2 and CLI tests included) and the report's browser test (a tiny study,
+  # a closed loop and PIV again, then Python and Chromium checks of the page: the C++
+  # it runs is the other tests'); the default step runs both.
+  --sanitize) SANITIZE=ON; LABEL_ARGS=(-LE slow -E "^(study: local|report:)") ;;
 esac
 # The sanitizer build keeps warnings as warnings: GCC 12 reports false
 # -Wmaybe-uninitialized inside <regex> and <functional> under -fsanitize.
