@@ -10,13 +10,12 @@
 //                zero-impulse row is skipped; 0: never freeze),
 //                threads (integer in [1, 256], default 1: the engine's slab-parallel
 //                sweep; bit-identical runs for a fixed count, another count is another
-//                Gauss–Seidel order), sweep_order ("alternate": forward and backward
-//                in turn, the default; "forward": always forward, fewer sweeps under
-//                shear), anderson_depth (integer in [0, 10], default 0: Anderson
-//                acceleration of the sweeps over this many columns; 0: plain NLGS).
-//                A scene with a [vane] defaults to sweep_order = "forward" and
-//                anderson_depth = 3 (the sheared cup's fastest solver; each key still
-//                overrides)
+//                Gauss–Seidel order), sweep_order ("forward", the default: always
+//                forward; "alternate": forward and backward in turn), anderson_depth
+//                (integer in [0, 10], default 3: Anderson acceleration of the sweeps
+//                over this many columns; 0: plain NLGS). The defaults are the fastest
+//                solver measured on every kind of scene (docs/sim.md, "Solver"); the
+//                engine's own World::Options keep alternating NLGS
 //     [output]   snapshot_every, checkpoint_every (steps; 0: none / only at the end),
 //                diagnostics_every (steps)
 //     [box]      min_m = [x, y, z], max_m = [x, y, z], friction, lid (bool):
