@@ -237,14 +237,17 @@ def video_frames(source, indices):
     """Frames (grey uint8) of a video, an image list or a glob at the given indices."""
     import cv2
     out = {}
+    if not isinstance(source, list) and not (os.path.isfile(source) and
+                                             source.lower().endswith((".mp4", ".avi", ".mov", ".mkv"))):
+        # a glob or one image: the same as a list of images
+        source = sorted(glob.glob(source)) if any(ch in source for ch in "*?[") else [source]
     if isinstance(source, list):
         for k in indices:
             if k < len(source):
                 img = cv2.imread(source[k], cv2.IMREAD_GRAYSCALE)
                 if img is not None:
                     out[k] = img if img.dtype == np.uint8 else (img // 257).astype(np.uint8)
-        return out
-    if os.path.isfile(source) and source.lower().endswith((".mp4", ".avi", ".mov", ".mkv")):
+    else:
         cap = cv2.VideoCapture(source)
         k, want = 0, set(indices)
         while want and k <= max(indices):
@@ -256,13 +259,6 @@ def video_frames(source, indices):
                 want.discard(k)
             k += 1
         cap.release()
-    else:
-        files = sorted(glob.glob(source)) if any(ch in source for ch in "*?[") else [source]
-        for k in indices:
-            if k < len(files):
-                img = cv2.imread(files[k], cv2.IMREAD_GRAYSCALE)
-                if img is not None:
-                    out[k] = img if img.dtype == np.uint8 else (img // 257).astype(np.uint8)
     return out
 
 
@@ -372,7 +368,9 @@ def drive_plot(fields_path, attrs, opts, centre, vane):
     # the drive scaled by the beads' in-phase part (least squares): a negative factor or
     # a visible lag says the phase (or the sense of rotation) is not the beads'
     ok = np.isfinite(beads)
-    k = float(beads[ok] @ drive[ok] / max(drive[ok] @ drive[ok], 1e-30)) if ok.any() else 1.0
+    if not ok.any():  # no valid vector next to the vane: nothing to set the drive against
+        return ""
+    k = float(beads[ok] @ drive[ok] / max(drive[ok] @ drive[ok], 1e-30))
     return svg_plot([{"x": t, "y": beads, "label": "beads next to the vane"},
                      {"x": t, "y": k * drive, "label": f"the vane's dφ/dt × {k:.2g}", "colour": "#888"}],
                     "t (s)", "angular velocity (rad/s)", f"drive phase {phase:.3g} rad")

@@ -116,6 +116,14 @@ void check_stage(const std::string& stage, const std::vector<std::string>& args)
   ::_exit(127);
 }
 
+/// Waits for a child and returns its exit status (128 + signal if killed).
+int wait_exit_status(pid_t pid, const std::string& name) {
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", name));
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
 /// What a failed workflow left in its log: the failed rule, its input, the job's own
 /// error line.
 struct WorkflowFailure {
@@ -184,10 +192,7 @@ int run_workflow(std::vector<std::string> argv, const fs::path& log_path, Workfl
   }
   if (!pending.empty()) line_done(pending);
   ::close(fds[0]);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return wait_exit_status(pid, argv[0]);
 }
 
 int run_study(CLI::App& root, StudyCli& s, const Context& ctx) {
@@ -346,10 +351,7 @@ int run_program(std::vector<std::string> argv, bool silent) {
     }
     exec_child(argv);
   }
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return wait_exit_status(pid, argv[0]);
 }
 
 fs::path shearzone_executable() {
@@ -383,10 +385,7 @@ int run_program_capture(std::vector<std::string> argv, std::string& err) {
     }
   }
   ::close(fds[0]);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) throw ConfigError(fmt::format("waiting for {} failed", argv[0]));
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return wait_exit_status(pid, argv[0]);
 }
 
 std::vector<Subcommand> add_study(CLI::App& root, Context& ctx) {
