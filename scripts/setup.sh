@@ -11,7 +11,9 @@ PACKAGES=(
   g++ cmake ninja-build ccache pkg-config git
   # libraries (Debian 12: OpenCV 4.6, Eigen 3.4, Ceres 2.1, GSL 2.7, HDF5 1.10)
   libopencv-dev libeigen3-dev libceres-dev libgsl-dev libhdf5-dev
-  libtbb-dev libfftw3-dev libfmt-dev libavutil-dev
+  libtbb-dev libfftw3-dev libfmt-dev
+  # video frames decoded on one thread (io/video.cpp: FFmpeg's own libraries)
+  libavformat-dev libavcodec-dev libswscale-dev libavutil-dev
   # header-only libraries
   catch2 libcli11-dev libtoml11-dev
   # fuzzing (scripts/fuzz.sh: libFuzzer targets built with clang, ASan + UBSan)

@@ -18,7 +18,11 @@
 #include <opencv2/videoio.hpp>
 
 extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/frame.h>
 #include <libavutil/log.h>
+#include <libswscale/swscale.h>
 }
 
 #include "shearzone/core/error.hpp"
@@ -164,6 +168,132 @@ std::optional<Mp4Clock> read_mp4_clock(const std::string& path) {
 
 }  // namespace
 
+/// One video stream decoded by libavcodec on the calling thread only. OpenCV 4.6 opens
+/// its decoder with one thread per CPU (frame threading) and offers no option to change
+/// that; on a damaged stream the threads' concealment, and which read() the decoder's
+/// error lines fall into, then vary from run to run. Decoded on one thread, the same
+/// file gives the same frames, the same damaged flags and the same times on every run
+/// and machine. Frames are converted to BGR as OpenCV converts them (swscale, bicubic,
+/// over the coded size, then cropped), so an intact file gives OpenCV's own pixels.
+class VideoReader::Decoder {
+ public:
+  explicit Decoder(const std::string& path) : path_(path) {
+    try {
+      open();
+    } catch (...) {
+      release();  // the destructor does not run for a constructor that throws
+      throw;
+    }
+  }
+  ~Decoder() { release(); }
+  Decoder(const Decoder&) = delete;
+  Decoder& operator=(const Decoder&) = delete;
+
+  /// The next frame in display order as BGR, its presentation time in s (NaN when the
+  /// stream gives none) and whether the decoder reported an error or concealed while
+  /// making it. False at the end of the stream.
+  bool next(cv::Mat& bgr, double& t_s, bool& damaged);
+
+ private:
+  void open() {
+    const std::string& path = path_;
+    if (avformat_open_input(&fmt_, path.c_str(), nullptr, nullptr) < 0) {
+      fmt_ = nullptr;
+      throw InputError(fmt::format("{}: cannot open as video", path));
+    }
+    if (avformat_find_stream_info(fmt_, nullptr) < 0)
+      throw InputError(fmt::format("{}: cannot read the container's stream information", path));
+    const AVCodec* codec = nullptr;
+    stream_ = av_find_best_stream(fmt_, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
+    if (stream_ < 0 || codec == nullptr)
+      throw InputError(fmt::format("{}: no video stream this FFmpeg build can decode", path));
+    ctx_ = avcodec_alloc_context3(codec);
+    packet_ = av_packet_alloc();
+    frame_ = av_frame_alloc();
+    if (ctx_ == nullptr || packet_ == nullptr || frame_ == nullptr)
+      throw InternalError(fmt::format("{}: cannot allocate the decoder", path));
+    const AVStream* st = fmt_->streams[stream_];
+    if (avcodec_parameters_to_context(ctx_, st->codecpar) < 0)
+      throw InputError(fmt::format("{}: the video stream's parameters are not usable", path));
+    ctx_->thread_count = 1;  // the point of this class: one thread, the same frames every run
+    ctx_->thread_type = 0;
+    ctx_->pkt_timebase = st->time_base;
+    if (avcodec_open2(ctx_, codec, nullptr) < 0)
+      throw InputError(fmt::format("{}: cannot open the decoder for the video stream", path));
+    time_base_ = av_q2d(st->time_base);
+    start_ = st->start_time == AV_NOPTS_VALUE ? 0 : st->start_time;
+  }
+  void release() {
+    sws_freeContext(sws_);
+    sws_ = nullptr;
+    av_frame_free(&frame_);
+    av_packet_free(&packet_);
+    avcodec_free_context(&ctx_);
+    if (fmt_ != nullptr) avformat_close_input(&fmt_);
+  }
+  void to_bgr(cv::Mat& bgr);
+
+  std::string path_;
+  AVFormatContext* fmt_ = nullptr;
+  AVCodecContext* ctx_ = nullptr;
+  AVPacket* packet_ = nullptr;
+  AVFrame* frame_ = nullptr;
+  SwsContext* sws_ = nullptr;
+  int stream_ = -1;
+  double time_base_ = 0.0;
+  std::int64_t start_ = 0;
+  bool flushing_ = false;
+  cv::Mat full_;
+};
+
+bool VideoReader::Decoder::next(cv::Mat& bgr, double& t_s, bool& damaged) {
+  av_log_set_callback(count_ffmpeg_log);
+  const std::int64_t errors_before = g_ffmpeg_errors.load();
+  int flagged = 0;
+  for (;;) {
+    const int r = avcodec_receive_frame(ctx_, frame_);
+    if (r == 0) break;
+    if (r == AVERROR_EOF) return false;
+    if (r != AVERROR(EAGAIN)) {
+      ++flagged;  // a frame the decoder could not make: the next one follows damage
+      if (flushing_) return false;
+      continue;
+    }
+    if (flushing_) return false;
+    const int got = av_read_frame(fmt_, packet_);
+    if (got < 0) {
+      flushing_ = true;
+      avcodec_send_packet(ctx_, nullptr);
+      continue;
+    }
+    if (packet_->stream_index == stream_ && avcodec_send_packet(ctx_, packet_) < 0)
+      ++flagged;  // a packet that does not decode: its frame is lost
+    av_packet_unref(packet_);
+  }
+  damaged = flagged > 0 || g_ffmpeg_errors.load() != errors_before || frame_->decode_error_flags != 0 ||
+            (frame_->flags & AV_FRAME_FLAG_CORRUPT) != 0;
+  const std::int64_t pts = frame_->best_effort_timestamp;
+  t_s = pts == AV_NOPTS_VALUE ? std::nan("") : static_cast<double>(pts - start_) * time_base_;
+  to_bgr(bgr);
+  av_frame_unref(frame_);
+  return true;
+}
+
+void VideoReader::Decoder::to_bgr(cv::Mat& bgr) {
+  // As OpenCV 4.6: the whole coded picture converted with bicubic chroma, then the
+  // displayed width x height kept.
+  const int cw = std::max(ctx_->coded_width, frame_->width), ch = std::max(ctx_->coded_height, frame_->height);
+  sws_ = sws_getCachedContext(sws_, cw, ch, static_cast<AVPixelFormat>(frame_->format), cw, ch, AV_PIX_FMT_BGR24,
+                              SWS_BICUBIC, nullptr, nullptr, nullptr);
+  if (sws_ == nullptr)
+    throw InputError(fmt::format("{}: frame pixel format {} cannot be converted", path_, frame_->format));
+  full_.create(ch, cw, CV_8UC3);
+  std::uint8_t* dst[4] = {full_.data, nullptr, nullptr, nullptr};
+  int dst_step[4] = {static_cast<int>(full_.step[0]), 0, 0, 0};
+  sws_scale(sws_, frame_->data, frame_->linesize, 0, ch, dst, dst_step);
+  bgr = full_(cv::Rect(0, 0, frame_->width, frame_->height)).clone();
+}
+
 bool looks_like_video(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   char h[12] = {};
@@ -201,6 +331,14 @@ VideoReader::VideoReader(const std::filesystem::path& path, double fps_override)
   if (info_.width <= 0 || info_.height <= 0)
     throw InputError(fmt::format("{}: video has no frames of a known size", path_));
   check_image_size(info_.width, info_.height, path_);
+  // OpenCV turns frames by the stream's display matrix; so does read().
+  if (cap_->get(cv::CAP_PROP_ORIENTATION_AUTO) != 0) {
+    const int angle = static_cast<int>(std::lround(cap_->get(cv::CAP_PROP_ORIENTATION_META)));
+    rotate_ = angle == 90 ? cv::ROTATE_90_CLOCKWISE : angle == 180 ? cv::ROTATE_180
+              : angle == 270 ? cv::ROTATE_90_COUNTERCLOCKWISE : -1;
+  }
+  cap_.reset();  // its decoder threads are not needed: frames come from our own decoder
+  decoder_ = std::make_unique<Decoder>(path_);
   if (fps_override > 0) {
     info_.fps = fps_override;  // frames timed index / fps; the container's clocks unused
     return;
@@ -229,30 +367,23 @@ VideoReader::~VideoReader() = default;
 
 bool VideoReader::read(cv::Mat& gray, double& t_s) {
   cv::Mat frame;
-  bool ok = false;
-  av_log_set_callback(count_ffmpeg_log);  // OpenCV may have installed its own at open
-  const std::int64_t errors_before = g_ffmpeg_errors.load();
-  try {
-    ok = cap_->read(frame);
-  } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("{}: frame {}: cannot decode: {}", path_, next_, e.what()));
-  }
-  if (!ok || frame.empty()) {
+  double stamp = 0.0;
+  bool damaged = false;
+  if (!decoder_->next(frame, stamp, damaged)) {
     if (info_.frame_count > 0 && next_ < info_.frame_count)
       throw InputError(fmt::format("{}: frame {}: cannot decode; the container declares {} "
                                    "frames (truncated or corrupt file?)",
                                    path_, next_, info_.frame_count));
     return false;
   }
+  if (rotate_ >= 0) cv::rotate(frame, frame, rotate_);
   if (frame.size() != cv::Size(info_.width, info_.height))
     throw InputError(fmt::format("{}: frame {}: size {}x{} differs from the first frame's {}x{}",
                                  path_, next_, frame.cols, frame.rows, info_.width,
                                  info_.height));
-  // The FFmpeg back-end reports the presentation time of the frame just read, except for
-  // the frames an H.264 decoder still holds at the end of the stream (B-frame delay):
-  // OpenCV 4.6 reports 0 for those. A time that does not move forward is such a gap:
-  // the frame follows the previous one by 1/fps.
-  t_s = fps_override_ > 0 ? static_cast<double>(next_) / fps_override_ : cap_->get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+  // The presentation time of the frame, from the stream's start. A frame without one,
+  // or with one that does not move forward, follows the previous one by 1/fps.
+  t_s = fps_override_ > 0 ? static_cast<double>(next_) / fps_override_ : stamp;
   if (!std::isfinite(t_s) || t_s < 0) t_s = static_cast<double>(next_) / info_.fps;
   if (next_ > 0 && !(t_s > last_t_s_)) t_s = last_t_s_ + 1.0 / info_.fps;
   last_t_s_ = t_s;
@@ -260,7 +391,7 @@ bool VideoReader::read(cv::Mat& gray, double& t_s) {
   if (gray.empty())
     throw InputError(fmt::format("{}: frame {}: unsupported sample depth; expected 8-bit video",
                                  path_, next_));
-  last_damaged_ = g_ffmpeg_errors.load() != errors_before;
+  last_damaged_ = damaged;
   damaged_ += last_damaged_;
   ++next_;
   return true;

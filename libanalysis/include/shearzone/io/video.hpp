@@ -1,9 +1,12 @@
-// shearzone/io/video.hpp: reading and writing video (OpenCV's FFmpeg back-end).
+// shearzone/io/video.hpp: reading and writing video (FFmpeg, through OpenCV for writing).
 //
-// VideoReader gives grey frames with their timestamps from the container
-// (CAP_PROP_POS_MSEC), so that velocity = displacement / (t_b - t_a) holds even for
-// variable frame rates; a time that does not move forward (the frames an H.264 decoder
-// flushes at the end of a stream come with 0) is the previous one plus 1/fps. A file that will not open, or whose frames stop decoding
+// VideoReader gives grey frames with their presentation times from the container, so
+// that velocity = displacement / (t_b - t_a) holds even for variable frame rates; a
+// frame without a time, or with one that does not move forward, is the previous one
+// plus 1/fps. The container's rate, frame count and codec are OpenCV's; the frames are
+// decoded by libavcodec on one thread (OpenCV decodes on one thread per CPU, and a
+// damaged stream then gives other frames on every run), converted to BGR as OpenCV
+// converts them, so an intact file reads as OpenCV reads it. A file that will not open, or whose frames stop decoding
 // before the frame count the container declares, is an InputError naming the file
 // and the frame index.
 //
@@ -57,8 +60,9 @@ class VideoReader {
   void set_grey_mode(GreyMode mode) { grey_mode_ = mode; }
   /// Index of the frame the next read() returns.
   std::int64_t next_index() const { return next_; }
-  /// True if FFmpeg reported a decode error while the last read() decoded its frame
-  /// (the frame holds concealed, invented pixels); and how many such frames so far.
+  /// True if the decoder reported an error, concealed, or lost a frame while the last
+  /// read() decoded its frame (the frame holds concealed, invented pixels, or follows a
+  /// lost one); and how many such frames so far. The same on every run.
   bool last_frame_damaged() const { return last_damaged_; }
   std::int64_t damaged_frames() const { return damaged_; }
   /// True when frames are timed index / fps (the container's stamps unused).
@@ -66,8 +70,11 @@ class VideoReader {
 
  private:
   std::string path_;
-  std::unique_ptr<cv::VideoCapture> cap_;
+  class Decoder;
+  std::unique_ptr<cv::VideoCapture> cap_;  ///< open while the container's properties are read
+  std::unique_ptr<Decoder> decoder_;
   VideoInfo info_;
+  int rotate_ = -1;  ///< cv::RotateFlags from the display matrix, or -1
   std::int64_t next_ = 0;
   double last_t_s_ = 0.0;  ///< the previous frame's time
   double fps_override_ = 0.0;  ///< > 0: frames timed index / fps_override_
