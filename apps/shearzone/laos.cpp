@@ -53,6 +53,9 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
       throw ConfigError(fmt::format("--cycles \"{}\": expected cycle numbers >= 1 or \"all\"", cy));
     j.analysis.cycles.push_back(v);
   }
+  for (const char* o : {"--spp-harmonics", "--spp-tolerance"})
+    if (c.get_option(o)->count() > 0 && !j.spp)
+      throw ConfigError(fmt::format("{} sets the SPP analysis; expected it with --spp", o));
   if (s.inspect) {
     std::fputs(pipeline::inspect_laos_logs(j).c_str(), stdout);
     return kExitOk;
@@ -97,6 +100,24 @@ int run_laos(CLI::App& c, LaosCli& s, const Context& ctx) {
                        : "",
                   segment_cell(r.segment).c_str(), r.x0, r.r_max, r.K1p, r.K1pp, r.tan_delta,
                   r.I3_over_I1, r.phi_d, r.M, r.cycles_used, r.cycles_complete, laos::amplitude_status_name(r.status));
+    if (j.spp) {
+      // A measure not given shows its status in place of the value.
+      const auto cell = [](const laos::SppMeasure& m) {
+        return m.status == laos::SppStatus::kOk ? fmt::format("{:.4g}", m.value)
+                                                : std::string(laos::spp_status_name(m.status));
+      };
+      std::printf("  spp (spp_summary.csv): %3s %4s %18s %19s %19s\n", "#", "M", ss ? "cage/Pa" : "cage/Nm/rad",
+                  ss ? "static_yield/Pa" : "static_yield/Nm", ss ? "dynamic_yield/Pa" : "dynamic_yield/Nm");
+      for (std::size_t i = 0; i < sum.spp_rows.size(); ++i) {
+        const auto& r = sum.spp_rows[i];
+        if (r.M == 0) {
+          std::printf("  %27zu  too coarse for the third harmonic (spp_summary.csv)\n", i + 1);
+          continue;
+        }
+        std::printf("  %27zu %4d %18s %19s %19s\n", i + 1, r.M, cell(r.cage).c_str(), cell(r.static_yield).c_str(),
+                    cell(r.dynamic_yield).c_str());
+      }
+    }
   }
   return kExitOk;
 }
@@ -168,6 +189,16 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
   c->add_option("--strain-constant", j.strain_constant_per_rad,
                 "Vane strain constant, 1/rad; range: > 0 (with --stress-constant)");
   c->add_flag("--log-constants", j.log_constants, "Stress/strain constants from the log (TRIOS)");
+  c->add_flag("--spp", j.spp,
+              "Within the cycle (sequence of physical processes): transient moduli per sample (spp_NN.csv), "
+              "cage modulus and yield stresses per amplitude (spp_summary.csv)");
+  c->add_option("--spp-harmonics", j.spp_options.max_harmonic,
+                "SPP: highest odd harmonic of the response (capped by the sampling)")
+      ->capture_default_str();
+  c->add_option("--spp-tolerance", j.spp_options.max_relative_change,
+                "SPP: largest noise spread or truncation change of a cycle measure, as a fraction of it, for "
+                "the measure to be given")
+      ->capture_default_str();
   return {{c, [c, s, &ctx] { return run_laos(*c, *s, ctx); }}};
 }
 

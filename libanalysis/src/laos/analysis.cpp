@@ -386,6 +386,7 @@ std::optional<AmplitudeResult> analyse_block(const Waveform& w, const std::strin
     const long k = std::clamp(static_cast<long>(std::floor(theta[i] / kTwoPi)), kmin, kend - 1);
     A.sample_cycle.push_back(static_cast<int>(k - kmin + 1));
     A.theta.push_back(theta[i]);
+    A.weight.push_back(wsum[i]);
     if (A.timed) A.time_s.push_back(t[i]);
     A.drive.push_back(x[i]);
     A.response.push_back(r[i]);
@@ -608,6 +609,7 @@ AmplitudeResult analyse_closed_cycle(const Waveform& w, const AnalysisOptions& o
   A.phi_d = A.E_d / (4.0 * A.x0 * A.r_max);
   A.sample_cycle.assign(N, 1);
   A.theta = theta;
+  A.weight.assign(N, 1.0);
   A.drive = x;
   A.response = r;
   return A;

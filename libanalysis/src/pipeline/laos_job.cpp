@@ -90,6 +90,7 @@ void LaosJobOptions::validate() const {
     throw ConfigError("laos: --stress-constant/--strain-constant and --log-constants exclude each other");
   for (const auto& [k, v] : tags)
     if (k.empty()) throw ConfigError(fmt::format("laos: --tag \"={}\": expected KEY=VALUE", v));
+  if (spp) spp_options.validate();
 }
 
 namespace {
@@ -208,6 +209,26 @@ core::Metadata laos_metadata(const LaosJobOptions& o, const core::Metadata& head
                             "(frequency, G', G'', torque amplitude); empty when the log has none");
   add("laos_sign", "phi > 0 counter-clockwise as the camera sees it; tau > 0 when the motor drives "
                    "towards +phi; an elastic sample has K' > 0");
+  if (o.spp) {
+    add("spp_model", "Rogers' sequence of physical processes, Fourier mode: P = (x, xdot/omega, r) with x = x0 "
+                     "sin(theta), xdot/omega = x0 cos(theta) (the drive's fundamental about its mid level) and r "
+                     "from the odd harmonics n <= M_spp of a fit over the used cycles, weighted by Lanczos "
+                     "sigma factors sinc(n/(M_spp+2))/sinc(1/(M_spp+2)); G't = -B_x/B_r, G''t = -B_xdot/B_r "
+                     "(B: the binormal of P), delta_t = atan(G''t/G't) + pi [G't < 0], r_d = r - G't x - G''t "
+                     "xdot/omega, x_eq = x - r_d/G't; rates d/dt = omega d/dtheta");
+    add("spp_harmonics_requested", std::to_string(o.spp_options.max_harmonic));
+    add("spp_cycle_measures", "on both loading branches (from a zero crossing of r to its extremum), the mean "
+                              "of the magnitudes: cage = G't where r = 0; static yield = r where G't first "
+                              "changes sign + to -; dynamic yield = r at the smallest dG't/dtheta (where G't "
+                              "falls below half the cage value)");
+    add("spp_checks", fmt::format("a measure is given (status ok) when its spread over {} redraws of the odd "
+                                  "harmonics from their standard errors and its change from M_spp to M_check "
+                                  "(the largest odd number <= (M_spp+1)/2) are both within {:.3g} % of it; "
+                                  "else noise_limited or truncation_limited and no value (the _unchecked "
+                                  "column keeps it); G't and G''t per sample carry standard errors from those "
+                                  "of the harmonics",
+                                  o.spp_options.bootstrap, 100 * o.spp_options.max_relative_change));
+  }
   add("laos_chebyshev", "e_n = K'_n (-1)^((n-1)/2), v_n = K''_n/omega, K_M = sum n K'_n, K_L = sum e_n, "
                         "eta_M = sum n v_n (-1)^((n-1)/2), eta_L = sum v_n (odd n <= M); S = (K_L - "
                         "K_M)/K_L, T = (eta_L - eta_M)/eta_L");
@@ -358,6 +379,106 @@ void write_lissajous(io::AtomicOutputSet& set, const core::Metadata& meta, const
   }
 }
 
+/// The SPP of one amplitude, or why it has none (a record too coarse for n = 3).
+struct SppItem {
+  std::optional<laos::SppResult> R;
+  std::string refused;
+};
+
+std::vector<SppItem> spp_of(const LaosJobOptions& o, const std::vector<Item>& items) {
+  std::vector<SppItem> out;
+  laos::SppOptions so = o.spp_options;
+  so.drift = o.analysis.drift;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    SppItem s;
+    const std::string context = fmt::format("{}: amplitude {}", items[i].source, i + 1);
+    try {
+      s.R = laos::analyse_spp(items[i].A, so, context);
+    } catch (const InputError& e) {
+      s.refused = e.what();
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+/// spp_summary.csv: a row per amplitude, the cycle measures with their checks.
+void write_spp_summary(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
+                       const std::vector<SppItem>& spp, bool ss, const Names& nm) {
+  const std::string K = nm.K, ru = nm.r.substr(nm.r.find('_'));
+  const std::string sy = ss ? "static_yield_stress" : "static_yield_torque";
+  const std::string dy = ss ? "dynamic_yield_stress" : "dynamic_yield_torque";
+  std::vector<std::string> cols = {"source", "segment", "amplitude", "N", nm.x0, "M_spp", "M_check"};
+  auto add_measure_cols = [&](const std::string& name, const std::string& unit) {
+    cols.push_back(name + unit);
+    cols.push_back(name + "_unchecked" + unit);
+    cols.push_back(name + "_noise_sd" + unit);
+    cols.push_back(name + "_truncation_change" + unit);
+    cols.push_back(name + "_status");
+  };
+  add_measure_cols(ss ? "cage_modulus" : "cage_stiffness", "_" + K);
+  add_measure_cols(sy, ru);
+  add_measure_cols(dy, ru);
+  cols.push_back("spp_status");
+  auto& f = set.add("spp_summary.csv");
+  io::CsvWriter w(f.stream(), meta, cols);
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    std::vector<std::string> row = {items[i].source, items[i].segment, std::to_string(i + 1), items[i].N,
+                                    format_number_nan_empty(items[i].A.x0)};
+    const auto& R = spp[i].R;
+    row.push_back(R ? std::to_string(R->M) : "");
+    row.push_back(R ? std::to_string(R->M_check) : "");
+    for (const laos::SppMeasure* m : {R ? &R->cage_modulus : nullptr, R ? &R->static_yield : nullptr,
+                                      R ? &R->dynamic_yield : nullptr}) {
+      const laos::SppMeasure none;
+      const laos::SppMeasure& v = m != nullptr ? *m : none;
+      for (double x : {v.value, v.estimate, v.noise_sd, v.truncation_change}) row.push_back(format_number_nan_empty(x));
+      row.push_back(m != nullptr ? laos::spp_status_name(v.status) : "");
+    }
+    row.push_back(R ? "ok" : "refused: " + spp[i].refused);
+    w.row(row);
+  }
+}
+
+/// spp_NN.csv: the transient quantities at every sample of amplitude NN.
+void write_spp_samples(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
+                       const std::vector<SppItem>& spp, bool ss, const Names& nm) {
+  const std::string K = nm.K, r = nm.r.substr(0, nm.r.find('_')), ru = nm.r.substr(nm.r.find('_'));
+  const std::string x = nm.x.substr(0, nm.x.find('_'));
+  const std::string xu = ss ? "" : "_rad";
+  const std::string G = ss ? "Gt" : "Kt";
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    if (!spp[i].R) continue;
+    const auto& A = items[i].A;
+    const auto& R = *spp[i].R;
+    core::Metadata lm = meta;
+    lm.emplace_back("source", items[i].source);
+    lm.emplace_back("segment", items[i].segment);
+    lm.emplace_back("amplitude", std::to_string(i + 1));
+    if (!items[i].N.empty()) lm.emplace_back("N", items[i].N);
+    lm.emplace_back(nm.x0, format_number_nan_empty(A.x0));
+    lm.emplace_back("M_spp", std::to_string(R.M));
+    auto& f = set.add(fmt::format("spp_{:02d}.csv", i + 1));
+    io::CsvWriter w(f.stream(), lm,
+                    {"cycle", "theta_rad", "t_s", x + xu, x + "dot_over_omega" + xu, r + ru, r + "_spp" + ru,
+                     G + "_prime_" + K, G + "_prime_se_" + K, G + "_dprime_" + K, G + "_dprime_se_" + K,
+                     "delta_t_rad", "d" + G + "_prime_dt_" + K + "_per_s",
+                     "d" + G + "_dprime_dt_" + K + "_per_s", r + "_d" + ru, x + "_eq" + xu});
+    const double th0 = A.theta_origin;
+    for (std::size_t k = 0; k < R.points.size(); ++k) {
+      const laos::SppPoint& p = R.points[k];
+      w.row(std::vector<std::string>{
+          std::to_string(A.sample_cycle[k]), format_number_nan_empty(p.theta - th0),
+          A.timed ? format_number_nan_empty(A.time_s[k]) : "", format_number_nan_empty(p.x),
+          format_number_nan_empty(p.rate), format_number_nan_empty(A.response[k]), format_number_nan_empty(p.r),
+          format_number_nan_empty(p.Gp), format_number_nan_empty(p.Gp_se), format_number_nan_empty(p.Gpp),
+          format_number_nan_empty(p.Gpp_se), format_number_nan_empty(p.delta),
+          format_number_nan_empty(p.dGp * R.omega), format_number_nan_empty(p.dGpp * R.omega),
+          format_number_nan_empty(p.r_d), format_number_nan_empty(p.x_eq)});
+    }
+  }
+}
+
 }  // namespace
 
 LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& header) {
@@ -386,6 +507,17 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
   write_cycles(set, meta, an.items, ss, nm);
   write_harmonics(set, meta, an.items, ss, nm);
   write_lissajous(set, meta, an.items, nm);
+  if (o.spp) {
+    const std::vector<SppItem> spp = spp_of(o, an.items);
+    for (const auto& s : spp) {
+      sum.spp_refused += s.R ? 0 : 1;
+      LaosJobSummary::SppRow row;
+      if (s.R) row = {s.R->M, s.R->cage_modulus, s.R->static_yield, s.R->dynamic_yield};
+      sum.spp_rows.push_back(row);
+    }
+    write_spp_summary(set, meta, an.items, spp, ss, nm);
+    write_spp_samples(set, meta, an.items, spp, ss, nm);
+  }
   sum.files = set.final_paths();
   set.commit_all();
   return sum;

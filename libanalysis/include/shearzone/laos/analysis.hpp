@@ -126,6 +126,7 @@ struct AmplitudeResult {
   // Samples of the used cycles (for the Lissajous output), response inertia-corrected.
   std::vector<int> sample_cycle;
   std::vector<double> theta, time_s, drive, response;
+  std::vector<double> weight;  ///< each sample's quadrature weight in the fit over the used cycles
 };
 
 struct RecordResult {

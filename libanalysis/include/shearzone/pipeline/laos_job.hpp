@@ -19,6 +19,7 @@
 #include "shearzone/core/unset.hpp"
 #include "shearzone/io/oscillation_log.hpp"
 #include "shearzone/laos/analysis.hpp"
+#include "shearzone/laos/spp.hpp"
 
 namespace shearzone::pipeline {
 
@@ -38,6 +39,10 @@ struct LaosJobOptions {
   double stress_constant_Pa_per_N_m = core::kUnset;
   double strain_constant_per_rad = core::kUnset;
   bool log_constants = false;
+  /// --spp: the transient moduli within the cycle (laos/spp.hpp): spp_summary.csv and
+  /// spp_NN.csv beside the other tables.
+  bool spp = false;
+  laos::SppOptions spp_options;
   void validate() const;
 };
 
@@ -53,6 +58,12 @@ struct LaosJobSummary {
   bool stress_strain = false;  ///< outputs in Pa / strain units
   std::vector<LaosSummaryRow> rows;
   std::size_t logs = 0, skipped_blocks = 0;
+  std::size_t spp_refused = 0;  ///< amplitudes too coarse for SPP (with --spp)
+  struct SppRow {
+    int M = 0;                   ///< 0: refused (too coarse)
+    laos::SppMeasure cage, static_yield, dynamic_yield;
+  };
+  std::vector<SppRow> spp_rows;  ///< with --spp: one per row of `rows`
   std::vector<std::filesystem::path> files;
 };
 

@@ -1,0 +1,302 @@
+#include "shearzone/laos/spp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "shearzone/core/error.hpp"
+#include "shearzone/laos/harmonics.hpp"
+
+namespace shearzone::laos {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2.0 * kPi;
+/// Phases per cycle on which the cycle measures are searched (and refined between).
+constexpr int kGrid = 4096;
+/// The truncation error at M bounded from the change between M and about M/2: an error
+/// falling as M^(-1/2) (the slowest measured: the static yield stress of the closed-form
+/// yielding responses, docs/laos.md) is the change times 1/(sqrt(2) - 1).
+constexpr double kTruncationErrorPerChange = 1.0 / (std::numbers::sqrt2 - 1.0);
+
+int largest_odd_at_most(int m) { return m % 2 == 1 ? m : m - 1; }
+
+/// Lanczos' σ factor of harmonic n for a series cut after M, relative to the
+/// fundamental's (a linear response keeps its moduli exactly).
+double sigma_factor(int n, int M) {
+  auto sinc = [](double x) { return x == 0 ? 1.0 : std::sin(kPi * x) / (kPi * x); };
+  const double m = static_cast<double>(M + 2);
+  return sinc(n / m) / sinc(1.0 / m);
+}
+
+/// The response and its θ-derivatives σ', σ'', σ''' on the measure grid, from a table of
+/// sin nθ_k, cos nθ_k for the odd n <= M.
+struct Grid {
+  int M = 0;
+  std::vector<int> n;            ///< the odd harmonics
+  std::vector<double> s, c;      ///< [k * n.size() + j]
+  std::vector<double> theta;
+  explicit Grid(int M_) : M(M_) {
+    for (int k = 1; k <= M; k += 2) n.push_back(k);
+    theta.resize(kGrid);
+    s.resize(static_cast<std::size_t>(kGrid) * n.size());
+    c.resize(s.size());
+    for (int k = 0; k < kGrid; ++k) {
+      theta[static_cast<std::size_t>(k)] = kTwoPi * k / kGrid;
+      for (std::size_t j = 0; j < n.size(); ++j) {
+        const double a = n[j] * theta[static_cast<std::size_t>(k)];
+        s[static_cast<std::size_t>(k) * n.size() + j] = std::sin(a);
+        c[static_cast<std::size_t>(k) * n.size() + j] = std::cos(a);
+      }
+    }
+  }
+};
+
+struct Curve {
+  std::vector<double> r, Gp, dGp;
+};
+
+/// σ, G'_t and dG'_t/dθ on the grid for odd coefficients a, b (index n).
+Curve curve(const Grid& g, const std::vector<double>& a, const std::vector<double>& b, double x0) {
+  Curve cv;
+  cv.r.resize(kGrid);
+  cv.Gp.resize(kGrid);
+  cv.dGp.resize(kGrid);
+  const std::size_t J = g.n.size();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(kGrid); ++k) {
+    double r0 = 0, r1 = 0, r2 = 0, r3 = 0;
+    for (std::size_t j = 0; j < J; ++j) {
+      const double nn = g.n[j], an = a[static_cast<std::size_t>(g.n[j])], bn = b[static_cast<std::size_t>(g.n[j])];
+      const double sn = g.s[k * J + j], cn = g.c[k * J + j];
+      const double even = an * sn + bn * cn, odd = an * cn - bn * sn;
+      r0 += even;
+      r1 += nn * odd;
+      r2 -= nn * nn * even;
+      r3 -= nn * nn * nn * odd;
+    }
+    const double st = std::sin(g.theta[k]), ct = std::cos(g.theta[k]);
+    cv.r[k] = r0;
+    cv.Gp[k] = (ct * r1 - st * r2) / x0;
+    cv.dGp[k] = -st * (r1 + r3) / x0;
+  }
+  return cv;
+}
+
+struct CycleMeasures {
+  double cage = core::kUnset, static_yield = core::kUnset, dynamic_yield = core::kUnset;
+};
+
+/// One loading branch: sign +1 from an upward zero crossing of σ to its maximum, −1
+/// from a downward crossing to its minimum. Values as magnitudes.
+CycleMeasures branch(const Curve& cv, int sign) {
+  CycleMeasures m;
+  const auto K = static_cast<long>(kGrid);
+  auto at = [&](const std::vector<double>& v, long k) { return v[static_cast<std::size_t>(((k % K) + K) % K)]; };
+  auto r = [&](long k) { return sign * at(cv.r, k); };
+  long peak = 0;
+  for (long k = 1; k < K; ++k)
+    if (r(k) > r(peak)) peak = k;
+  if (!(r(peak) > 0)) return m;
+  long start = peak;  // the last phase before the peak with σ < 0 (sign-adjusted)
+  while (start > peak - K && r(start) >= 0) --start;
+  if (start == peak - K) return m;  // σ never changes sign
+  // Cage modulus: G'_t at the zero of σ between start and start + 1.
+  const double f0 = -r(start) / (r(start + 1) - r(start));
+  m.cage = at(cv.Gp, start) + f0 * (at(cv.Gp, start + 1) - at(cv.Gp, start));
+  // Static yield: σ where G'_t first goes from > 0 to <= 0.
+  for (long k = start + 1; k < peak; ++k)
+    if (at(cv.Gp, k) > 0 && at(cv.Gp, k + 1) <= 0) {
+      const double f = at(cv.Gp, k) / (at(cv.Gp, k) - at(cv.Gp, k + 1));
+      m.static_yield = r(k) + f * (r(k + 1) - r(k));
+      break;
+    }
+  // Dynamic yield: σ at the smallest dG'_t/dθ, the minimum refined by a parabola; only
+  // where the branch loses at least half of the cage modulus (no yield otherwise: a
+  // linear response's rate is rounding noise, and its minimum anywhere).
+  double lowest = at(cv.Gp, start);
+  for (long k = start + 1; k <= peak; ++k) lowest = std::min(lowest, at(cv.Gp, k));
+  if (!(m.cage > 0) || !(lowest <= 0.5 * m.cage)) return m;
+  long low = start + 1;
+  for (long k = start + 1; k <= peak; ++k)
+    if (at(cv.dGp, k) < at(cv.dGp, low)) low = k;
+  const double ym = at(cv.dGp, low - 1), y0 = at(cv.dGp, low), yp = at(cv.dGp, low + 1);
+  const double den = ym - 2 * y0 + yp;
+  const double off = den > 0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0;
+  const long nb = off >= 0 ? low + 1 : low - 1;
+  m.dynamic_yield = r(low) + std::abs(off) * (r(nb) - r(low));
+  return m;
+}
+
+CycleMeasures measures(const Grid& g, const std::vector<double>& a, const std::vector<double>& b, double x0) {
+  const Curve cv = curve(g, a, b, x0);
+  const CycleMeasures up = branch(cv, +1), down = branch(cv, -1);
+  auto mean = [](double u, double v) { return std::isnan(u) || std::isnan(v) ? core::kUnset : 0.5 * (u + v); };
+  return {mean(up.cage, down.cage), mean(up.static_yield, down.static_yield),
+          mean(up.dynamic_yield, down.dynamic_yield)};
+}
+
+/// Odd coefficients r = Σ a_n sin nθ + b_n cos nθ of the fit, weighted for a cut at M.
+void weighted(const HarmonicFit& fit, int M, std::vector<double>& a, std::vector<double>& b) {
+  a.assign(static_cast<std::size_t>(M + 1), 0.0);
+  b.assign(a.size(), 0.0);
+  for (int n = 1; n <= M; n += 2) {
+    const double w = sigma_factor(n, M) * fit.amplitude;
+    a[static_cast<std::size_t>(n)] = w * fit.Kp[static_cast<std::size_t>(n)];
+    b[static_cast<std::size_t>(n)] = w * fit.Kpp[static_cast<std::size_t>(n)];
+  }
+}
+
+SppMeasure judge(double estimate, double at_check, const std::vector<double>& draws, double tolerance) {
+  SppMeasure m;
+  m.estimate = estimate;
+  if (std::isnan(estimate)) return m;  // not_found
+  m.truncation_change = estimate - at_check;
+  double s = 0, s2 = 0;
+  std::size_t k = 0, missing = 0;
+  for (double v : draws) {
+    if (std::isnan(v)) {
+      ++missing;
+      continue;
+    }
+    s += v;
+    s2 += v * v;
+    ++k;
+  }
+  const double mean = k > 0 ? s / static_cast<double>(k) : 0.0;
+  m.noise_sd = k > 1 ? std::sqrt(std::max(0.0, (s2 - static_cast<double>(k) * mean * mean) /
+                                                   static_cast<double>(k - 1)))
+                     : core::kUnset;
+  const double limit = tolerance * std::abs(estimate);
+  // A redraw that loses the crossing counts against the measure as a large spread.
+  if (std::isnan(m.noise_sd) || m.noise_sd > limit || missing * 20 > draws.size())
+    m.status = SppStatus::kNoiseLimited;
+  else if (std::isnan(at_check) || kTruncationErrorPerChange * std::abs(m.truncation_change) > limit)
+    m.status = SppStatus::kTruncationLimited;
+  else {
+    m.status = SppStatus::kOk;
+    m.value = estimate;
+  }
+  return m;
+}
+
+}  // namespace
+
+void SppOptions::validate() const {
+  if (max_harmonic < 3 || max_harmonic > 999)
+    throw ConfigError(fmt::format("--spp-harmonics {}: expected 3..999", max_harmonic));
+  if (bootstrap < 20 || bootstrap > 100000)
+    throw ConfigError(fmt::format("SPP redraws {}: expected 20..100000", bootstrap));
+  if (!(max_relative_change > 0 && max_relative_change < 1))
+    throw ConfigError(fmt::format("--spp-tolerance {}: expected a fraction in (0, 1)", max_relative_change));
+}
+
+const char* spp_status_name(SppStatus s) {
+  switch (s) {
+    case SppStatus::kOk: return "ok";
+    case SppStatus::kNoiseLimited: return "noise_limited";
+    case SppStatus::kTruncationLimited: return "truncation_limited";
+    case SppStatus::kNotFound: return "not_found";
+  }
+  return "unknown";
+}
+
+SppPoint spp_point(const std::vector<double>& a, const std::vector<double>& b, double x0, double theta,
+                   const std::vector<double>* a_se, const std::vector<double>* b_se) {
+  const double st = std::sin(theta), ct = std::cos(theta);
+  double r0 = 0, r1 = 0, r2 = 0, r3 = 0, var_p = 0, var_pp = 0;
+  for (std::size_t n = 1; n < a.size(); n += 2) {
+    const double nn = static_cast<double>(n), sn = std::sin(nn * theta), cn = std::cos(nn * theta);
+    const double even = a[n] * sn + b[n] * cn, odd = a[n] * cn - b[n] * sn;
+    r0 += even;
+    r1 += nn * odd;
+    r2 -= nn * nn * even;
+    r3 -= nn * nn * nn * odd;
+    if (a_se != nullptr && b_se != nullptr) {
+      // G'_t x0 = ct r1 − st r2 and −G''_t x0 = st r1 + ct r2 are linear in a_n, b_n.
+      const double dp_da = ct * nn * cn + st * nn * nn * sn, dp_db = -ct * nn * sn + st * nn * nn * cn;
+      const double dpp_da = st * nn * cn - ct * nn * nn * sn, dpp_db = -st * nn * sn - ct * nn * nn * cn;
+      const double sa = (*a_se)[n], sb = (*b_se)[n];
+      var_p += dp_da * dp_da * sa * sa + dp_db * dp_db * sb * sb;
+      var_pp += dpp_da * dpp_da * sa * sa + dpp_db * dpp_db * sb * sb;
+    }
+  }
+  SppPoint p;
+  if (a_se != nullptr && b_se != nullptr) {
+    p.Gp_se = std::sqrt(var_p) / x0;
+    p.Gpp_se = std::sqrt(var_pp) / x0;
+  }
+  p.theta = theta;
+  p.x = x0 * st;
+  p.rate = x0 * ct;
+  p.r = r0;
+  p.Gp = (ct * r1 - st * r2) / x0;
+  p.Gpp = -(st * r1 + ct * r2) / x0;
+  p.delta = std::atan(p.Gpp / p.Gp) + (p.Gp < 0 ? kPi : 0.0);
+  p.dGp = -st * (r1 + r3) / x0;
+  p.dGpp = -ct * (r1 + r3) / x0;
+  p.r_d = r0 - p.Gp * p.x - p.Gpp * p.rate;
+  p.x_eq = p.Gp != 0 ? p.x - p.r_d / p.Gp : core::kUnset;
+  return p;
+}
+
+SppResult analyse_spp(const AmplitudeResult& A, const SppOptions& o, const std::string& context) {
+  o.validate();
+  SppResult R;
+  R.M = largest_odd_at_most(std::min(o.max_harmonic, A.M_cap));
+  if (R.M < 3)
+    throw InputError(fmt::format("{}: SPP needs the odd harmonics up to at least n = 3; the sampling allows "
+                                 "M = {} (samples per cycle or angle steps too coarse)",
+                                 context, A.M_cap));
+  R.M_check = largest_odd_at_most((R.M + 1) / 2);
+  R.x0 = A.x0;
+  R.omega = A.omega;
+  HarmonicFitOptions fo;
+  fo.max_harmonic = R.M;
+  fo.drift = o.drift && A.status != AmplitudeStatus::kClosedCycle;
+  const HarmonicFit fit = fit_harmonics(A.theta, A.response, A.weight, A.x0, fo);
+  weighted(fit, R.M, R.a, R.b);
+  R.a_se.assign(R.a.size(), 0.0);
+  R.b_se.assign(R.b.size(), 0.0);
+  for (int n = 1; n <= R.M; n += 2) {
+    const auto i = static_cast<std::size_t>(n);
+    const double w = sigma_factor(n, R.M) * fit.amplitude;
+    R.a_se[i] = w * fit.Kp_se[i];
+    R.b_se[i] = w * fit.Kpp_se[i];
+  }
+
+  const Grid grid(R.M);
+  const CycleMeasures est = measures(grid, R.a, R.b, R.x0);
+  std::vector<double> ca, cb;
+  weighted(fit, R.M_check, ca, cb);
+  ca.resize(R.a.size(), 0.0);
+  cb.resize(R.b.size(), 0.0);
+  const CycleMeasures chk = measures(grid, ca, cb, R.x0);
+  // The noise check: the odd harmonics redrawn from their standard errors.
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> z(0.0, 1.0);
+  std::vector<double> dc, ds, dd;
+  std::vector<double> a(R.a.size()), b(R.b.size());
+  for (int k = 0; k < o.bootstrap; ++k) {
+    for (int n = 1; n <= R.M; n += 2) {
+      const auto i = static_cast<std::size_t>(n);
+      a[i] = R.a[i] + R.a_se[i] * z(rng);
+      b[i] = R.b[i] + R.b_se[i] * z(rng);
+    }
+    const CycleMeasures m = measures(grid, a, b, R.x0);
+    dc.push_back(m.cage);
+    ds.push_back(m.static_yield);
+    dd.push_back(m.dynamic_yield);
+  }
+  R.cage_modulus = judge(est.cage, chk.cage, dc, o.max_relative_change);
+  R.static_yield = judge(est.static_yield, chk.static_yield, ds, o.max_relative_change);
+  R.dynamic_yield = judge(est.dynamic_yield, chk.dynamic_yield, dd, o.max_relative_change);
+
+  R.points.reserve(A.theta.size());
+  for (double th : A.theta) R.points.push_back(spp_point(R.a, R.b, R.x0, th, &R.a_se, &R.b_se));
+  return R;
+}
+
+}  // namespace shearzone::laos
