@@ -27,6 +27,7 @@ FIGURES = [
     "laos/fig3d_tau_N.png",              # Fig 3D
     "laos/fig5_lissajous_N45.png",       # Fig 5
     "laos/fig6_tan_delta.png",           # Fig 6
+    "laos/fig_spp_N45.png",              # within the cycle (laos --spp)
     "sim_cup/check/closed_loop.png",     # the closed loop: video r_c and PIV error against truth
 ]
 MIN_W, MIN_H, MIN_BYTES, MIN_DPI = 400, 300, 10_000, 150

@@ -92,7 +92,7 @@ mkdir -p "$F"
 echo "== 8. LAOS: torque logs of three chain lengths -> harmonics, tan delta, Chebyshev (Figs 3, 5, 6)"
 L="$OUT/laos"
 "$SZ" laos data-samples/laos/vane_N1.csv data-samples/laos/vane_N9.csv data-samples/laos/vane_N45.csv \
-    --interval-col interval -o "$L" --force
+    --interval-col interval -o "$L" --force --spp
 "$SZ" laos data-samples/laos/vane_N45_dphi.csv --interval-col interval -o "$L/dphi_N45" -q --force
 "$SZ" fit power "$L/summary.csv" --x N --y tau_max_N_m --group phi0_nominal_rad \
     -o "$L/tau_power.csv" -q --force
@@ -100,13 +100,15 @@ L="$OUT/laos"
 "$PY" scripts/plot_laos.py tandelta "$L/fig6_tan_delta.png" "$L/summary.csv"
 "$PY" scripts/plot_laos.py taumax "$L/fig3a_tau_max.png" "$L/summary.csv"
 "$PY" scripts/plot_laos.py taun "$L/fig3d_tau_N.png" "$L/summary.csv" "$L/tau_power.csv"
+"$PY" scripts/plot_laos.py spp "$L/fig_spp_N45.png" "$L" --N 45
 echo "== 9. Contact dynamics: 60 chains of 6 beads poured into a box (snapshots + XDMF for ParaView)"
 "$SZ" sim data-samples/sim/pour_chains.toml -o "$OUT/sim_pour" --force
 echo "== 10. Contact dynamics: a small vane cup through the protocol (fill, pre-shear, two amplitude branches)"
 "$SZ" sim data-samples/sim/vane_cup.toml -o "$OUT/sim_cup" --force
-# Each branch's torque log through LAOS (no options), and the large branch's top surface
+# Each branch's torque log through LAOS (no options; with the SPP: a single noisy cycle,
+# so its cycle measures read noise_limited), and the large branch's top surface
 # seen by a virtual camera (surface.h5, the PIV field layout) through profile and width.
-"$SZ" laos "$OUT/sim_cup/phi0_0.020/torque.csv" "$OUT/sim_cup/phi0_0.300/torque.csv" -o "$OUT/sim_cup/laos" --force
+"$SZ" laos "$OUT/sim_cup/phi0_0.020/torque.csv" "$OUT/sim_cup/phi0_0.300/torque.csv" -o "$OUT/sim_cup/laos" --force --spp
 "$SZ" profile "$OUT/sim_cup/phi0_0.300/surface.h5" -o "$OUT/sim_cup/profile.csv" --force
 "$SZ" width "$OUT/sim_cup/profile.csv" -o "$OUT/sim_cup/widths.csv" --vc 2e-3 --force
 echo "== 10b. The closed loop: the large branch filmed by a virtual camera, the video through the lab pipeline"

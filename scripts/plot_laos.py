@@ -5,8 +5,10 @@
     plot_laos.py tandelta OUT.png SUMMARY.csv        # Fig 6: tan delta_1 against phi0, per N
     plot_laos.py taumax OUT.png SUMMARY.csv          # Fig 3A: tau_max against phi0, per N
     plot_laos.py taun OUT.png SUMMARY.csv POWER.csv [--offset 2]  # Fig 3D: tau_max against N, power laws
+    plot_laos.py spp OUT.png OUTDIR [--N 45]         # within the cycle: Cole-Cole G''t against G't, G't over a cycle
 
-OUTDIR is a `shearzone laos` output folder (lissajous_NN.csv files); POWER.csv is the long
+OUTDIR is a `shearzone laos` output folder (lissajous_NN.csv files; spp_NN.csv with
+`laos --spp`); POWER.csv is the long
 output of `shearzone fit power SUMMARY.csv --x N --y tau_max_N_m --group phi0_nominal_rad`.
 
 Error bars: tan delta_1 uses a tan_delta_1_se column when the summary has one, else the
@@ -95,6 +97,56 @@ def lissajous(a):
     ax2.legend(h, lab, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
                title=r"amplitude $\varphi_0$", title_fontsize=7, alignment="left")
     fig.suptitle("Fig. 5  Lissajous–Bowditch curves" + (f", chain length N = {a.N}" if a.N else ""))
+    szplot.tight(fig, w_pad=0.8)
+    szplot.save(fig, a.out)
+
+
+def spp(a):
+    """Cole-Cole trajectories (G''t against G't) and the transient moduli over one cycle."""
+    files = sorted(glob.glob(os.path.join(a.outdir, "spp_[0-9]*.csv")))
+    if a.N:
+        files = [p for p in files if header(p).get("N") == a.N]
+    if not files:
+        sys.exit(f"plot_laos.py: no spp_NN.csv in {a.outdir} (run laos with --spp)"
+                 + (f" with N = {a.N}" if a.N else ""))
+    x0_key = next((k for k in ("phi0_rad", "gamma0") if header(files[0]).get(k)), "phi0_rad")
+    files.sort(key=lambda p: num(header(p).get(x0_key)))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(6.6, 2.8))
+    cmap = plt.get_cmap("viridis")
+    unit = "Pa"
+    for i, path in enumerate(files):
+        rows = read_csv(path)
+        if not rows:
+            continue
+        cp = col(rows[0], "Gt_prime_", "Kt_prime_")
+        cpp = col(rows[0], "Gt_dprime_", "Kt_dprime_")
+        unit = "Pa" if cp.endswith("_Pa") else "N m/rad"
+        cyc = np.array([num(r["cycle"]) for r in rows])
+        cs, cn = np.unique(cyc, return_counts=True)
+        m = cyc == cs[np.argmax(cn)]  # the fullest cycle: the reconstruction repeats per cycle
+        th = np.array([num(r["theta_rad"]) for r in rows])[m]
+        gp = np.array([num(r[cp]) for r in rows])[m]
+        gpp = np.array([num(r[cpp]) for r in rows])[m]
+        order = np.argsort(th)
+        colour = cmap(0.9 * i / max(len(files) - 1, 1))
+        x0 = num(header(path).get(x0_key))
+        label = f"{x0:.3g}" if math.isfinite(x0) else os.path.basename(path)
+        ax1.plot(gp[order], gpp[order], lw=0.9, color=colour, label=label)
+        ax2.plot(np.mod(th[order], 2 * math.pi) / (2 * math.pi), gp[order], lw=0.9, color=colour)
+    ax1.set_xlabel(f"$G'_t$ ({unit})")
+    ax1.set_ylabel(f"$G''_t$ ({unit})")
+    ax1.set_title("(a) Cole–Cole: one cycle")
+    ax2.set_xlabel(r"phase $\theta/2\pi$ (cycles; drive $x_0 \sin\theta$)")
+    ax2.set_ylabel(f"$G'_t$ ({unit})")
+    ax2.set_title("(b) transient storage modulus")
+    for ax in (ax1, ax2):
+        ax.axhline(0, color="0.8", lw=0.5, zorder=0)
+    ax1.axvline(0, color="0.8", lw=0.5, zorder=0)
+    h, lab = ax1.get_legend_handles_labels()
+    ax2.legend(h, lab, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
+               title="amplitude" + (r" $\varphi_0$ (rad)" if x0_key == "phi0_rad" else r" $\gamma_0$"),
+               title_fontsize=7)
+    fig.suptitle("Within the cycle (SPP)" + (f", chain length N = {a.N}" if a.N else ""))
     szplot.tight(fig, w_pad=0.8)
     szplot.save(fig, a.out)
 
@@ -230,6 +282,10 @@ def main():
         p = sub.add_parser(name)
         p.add_argument("out")
         p.add_argument("summary")
+    p = sub.add_parser("spp")
+    p.add_argument("out")
+    p.add_argument("outdir")
+    p.add_argument("--N", help="only the logs of this chain length (the files' N header)")
     p = sub.add_parser("taun")
     p.add_argument("out")
     p.add_argument("summary")
@@ -246,6 +302,8 @@ def main():
     elif a.panel == "taumax":
         per_n_plot(a, "tau_max_N_m", r"max. torque $\tau_{\max}$ (mN m)", "Fig. 3A  Maximum torque against amplitude",
                    scale=1e3)
+    elif a.panel == "spp":
+        spp(a)
     else:
         taun(a)
     print(f"plot_laos.py: {a.panel} -> {a.out}")

@@ -45,7 +45,7 @@ mkdir -p "$F"
 "$SZ" fit power "$F/erf_wide.csv" --x group --y W_rad --sigma W_se_rad -o "$F/W_power.csv" -q
 "$SZ" collapse erf "$T" --x phi0_rad --y rc_m --sigma rc_se_m --group N -o "$F/collapse_erf" -q
 L="$OUT/laos"
-"$SZ" laos $D/laos/vane_N1.csv $D/laos/vane_N9.csv $D/laos/vane_N45.csv --interval-col interval -o "$L" -q
+"$SZ" laos $D/laos/vane_N1.csv $D/laos/vane_N9.csv $D/laos/vane_N45.csv --interval-col interval -o "$L" -q --spp
 "$SZ" fit power "$L/summary.csv" --x N --y tau_max_N_m --group phi0_nominal_rad -o "$L/tau_power.csv" -q
 # A short filmed cup (60 beads, 5 frames) through the closed loop
 "$SZ" sim $D/sim/filmed_cup.toml -o "$OUT/sim_cup/run" -q
@@ -69,6 +69,7 @@ L="$OUT/laos"
 "$PY" scripts/plot_laos.py tandelta "$L/fig6_tan_delta.png" "$L/summary.csv"
 "$PY" scripts/plot_laos.py taumax "$L/fig3a_tau_max.png" "$L/summary.csv"
 "$PY" scripts/plot_laos.py taun "$L/fig3d_tau_N.png" "$L/summary.csv" "$L/tau_power.csv"
+"$PY" scripts/plot_laos.py spp "$L/fig_spp_N45.png" "$L" --N 45
 "$PY" scripts/plot_truth.py "$OUT/pair_rotation/truth.csv" "$OUT/pair_rotation/truth.png" \
     --image "$OUT/pair_rotation/A.png" --every 2
 "$PY" scripts/plot_truth.py "$OUT/beads_vane/truth.csv" "$OUT/beads_vane/truth.png" \
