@@ -242,6 +242,54 @@ SppPoint spp_point(const std::vector<double>& a, const std::vector<double>& b, d
   return p;
 }
 
+namespace {
+
+/// The three cycle measures of one fit, with their checks; a, b and their standard
+/// errors (σ-weighted, index n) into the last four arguments.
+struct Judged {
+  SppMeasure cage, static_yield, dynamic_yield;
+};
+Judged judge_fit(const HarmonicFit& fit, int M, int M_check, double x0, const SppOptions& o, const Grid& grid,
+                 std::vector<double>& ra, std::vector<double>& rb, std::vector<double>& ra_se,
+                 std::vector<double>& rb_se) {
+  weighted(fit, M, ra, rb);
+  ra_se.assign(ra.size(), 0.0);
+  rb_se.assign(rb.size(), 0.0);
+  for (int n = 1; n <= M; n += 2) {
+    const auto i = static_cast<std::size_t>(n);
+    const double w = sigma_factor(n, M) * fit.amplitude;
+    ra_se[i] = w * fit.Kp_se[i];
+    rb_se[i] = w * fit.Kpp_se[i];
+  }
+  const CycleMeasures est = measures(grid, ra, rb, x0);
+  std::vector<double> ca, cb;
+  weighted(fit, M_check, ca, cb);
+  ca.resize(ra.size(), 0.0);
+  cb.resize(rb.size(), 0.0);
+  const CycleMeasures chk = measures(grid, ca, cb, x0);
+  // The noise check: the odd harmonics redrawn from their standard errors.
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> z(0.0, 1.0);
+  std::vector<double> dc, ds, dd;
+  std::vector<double> a(ra.size()), b(rb.size());
+  for (int k = 0; k < o.bootstrap; ++k) {
+    for (int n = 1; n <= M; n += 2) {
+      const auto i = static_cast<std::size_t>(n);
+      a[i] = ra[i] + ra_se[i] * z(rng);
+      b[i] = rb[i] + rb_se[i] * z(rng);
+    }
+    const CycleMeasures m = measures(grid, a, b, x0);
+    dc.push_back(m.cage);
+    ds.push_back(m.static_yield);
+    dd.push_back(m.dynamic_yield);
+  }
+  return {judge(est.cage, chk.cage, dc, o.max_relative_change),
+          judge(est.static_yield, chk.static_yield, ds, o.max_relative_change),
+          judge(est.dynamic_yield, chk.dynamic_yield, dd, o.max_relative_change)};
+}
+
+}  // namespace
+
 SppResult analyse_spp(const AmplitudeResult& A, const SppOptions& o, const std::string& context) {
   o.validate();
   SppResult R;
@@ -257,45 +305,43 @@ SppResult analyse_spp(const AmplitudeResult& A, const SppOptions& o, const std::
   fo.max_harmonic = R.M;
   fo.drift = o.drift && A.status != AmplitudeStatus::kClosedCycle;
   const HarmonicFit fit = fit_harmonics(A.theta, A.response, A.weight, A.x0, fo);
-  weighted(fit, R.M, R.a, R.b);
-  R.a_se.assign(R.a.size(), 0.0);
-  R.b_se.assign(R.b.size(), 0.0);
-  for (int n = 1; n <= R.M; n += 2) {
-    const auto i = static_cast<std::size_t>(n);
-    const double w = sigma_factor(n, R.M) * fit.amplitude;
-    R.a_se[i] = w * fit.Kp_se[i];
-    R.b_se[i] = w * fit.Kpp_se[i];
-  }
-
   const Grid grid(R.M);
-  const CycleMeasures est = measures(grid, R.a, R.b, R.x0);
-  std::vector<double> ca, cb;
-  weighted(fit, R.M_check, ca, cb);
-  ca.resize(R.a.size(), 0.0);
-  cb.resize(R.b.size(), 0.0);
-  const CycleMeasures chk = measures(grid, ca, cb, R.x0);
-  // The noise check: the odd harmonics redrawn from their standard errors.
-  std::mt19937_64 rng(o.seed);
-  std::normal_distribution<double> z(0.0, 1.0);
-  std::vector<double> dc, ds, dd;
-  std::vector<double> a(R.a.size()), b(R.b.size());
-  for (int k = 0; k < o.bootstrap; ++k) {
-    for (int n = 1; n <= R.M; n += 2) {
-      const auto i = static_cast<std::size_t>(n);
-      a[i] = R.a[i] + R.a_se[i] * z(rng);
-      b[i] = R.b[i] + R.b_se[i] * z(rng);
-    }
-    const CycleMeasures m = measures(grid, a, b, R.x0);
-    dc.push_back(m.cage);
-    ds.push_back(m.static_yield);
-    dd.push_back(m.dynamic_yield);
-  }
-  R.cage_modulus = judge(est.cage, chk.cage, dc, o.max_relative_change);
-  R.static_yield = judge(est.static_yield, chk.static_yield, ds, o.max_relative_change);
-  R.dynamic_yield = judge(est.dynamic_yield, chk.dynamic_yield, dd, o.max_relative_change);
-
+  const Judged all = judge_fit(fit, R.M, R.M_check, R.x0, o, grid, R.a, R.b, R.a_se, R.b_se);
+  R.cage_modulus = all.cage;
+  R.static_yield = all.static_yield;
+  R.dynamic_yield = all.dynamic_yield;
   R.points.reserve(A.theta.size());
   for (double th : A.theta) R.points.push_back(spp_point(R.a, R.b, R.x0, th, &R.a_se, &R.b_se));
+
+  // Each used cycle on its own, where there are several: the same fit over that cycle's
+  // phases only (its trapezoid weights), the same checks.
+  const int first = A.sample_cycle.empty() ? 0 : A.sample_cycle.front();
+  const int last = A.sample_cycle.empty() ? 0 : A.sample_cycle.back();
+  if (last > first) {
+    for (int c = first; c <= last; ++c) {
+      // The cycle's span, clamped to the samples as the analysis clamps its cycles (a
+      // record may start within its slack after the first cycle's start).
+      const double a0 = A.theta_origin + kTwoPi * (c - 1);
+      const double a = std::max(a0, A.theta.front()), b = std::min(a0 + kTwoPi, A.theta.back());
+      if (!(b - a > 0.99 * kTwoPi)) continue;
+      std::vector<double> w(A.theta.size(), 0.0);
+      add_trapezoid_weights(A.theta, a, b, w);
+      const auto rows = std::count_if(w.begin(), w.end(), [](double v) { return v > 0; });
+      SppCycle sc;
+      sc.cycle = c;
+      if (rows < 2 * R.M + 3 + (fo.drift ? 1 : 0)) {
+        R.cycles.push_back(sc);  // too few samples for M on one cycle: not_found
+        continue;
+      }
+      const HarmonicFit fc = fit_harmonics(A.theta, A.response, w, A.x0, fo);
+      std::vector<double> ca, cb, ca_se, cb_se;
+      const Judged j = judge_fit(fc, R.M, R.M_check, R.x0, o, grid, ca, cb, ca_se, cb_se);
+      sc.cage_modulus = j.cage;
+      sc.static_yield = j.static_yield;
+      sc.dynamic_yield = j.dynamic_yield;
+      R.cycles.push_back(sc);
+    }
+  }
   return R;
 }
 

@@ -440,6 +440,42 @@ void write_spp_summary(io::AtomicOutputSet& set, const core::Metadata& meta, con
   }
 }
 
+/// spp_cycles.csv: a row per used cycle of the amplitudes with several, each cycle's own
+/// measures.
+void write_spp_cycles(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
+                      const std::vector<SppItem>& spp, bool ss, const Names& nm) {
+  const std::string K = nm.K, ru = nm.r.substr(nm.r.find('_'));
+  std::vector<std::string> cols = {"source", "segment", "amplitude", "cycle", "t_start_s", "M_spp"};
+  for (const auto& [name, unit] : {std::pair{std::string(ss ? "cage_modulus" : "cage_stiffness"), "_" + K},
+                                   std::pair{std::string(ss ? "static_yield_stress" : "static_yield_torque"), ru},
+                                   std::pair{std::string(ss ? "dynamic_yield_stress" : "dynamic_yield_torque"), ru}}) {
+    cols.push_back(name + unit);
+    cols.push_back(name + "_unchecked" + unit);
+    cols.push_back(name + "_noise_sd" + unit);
+    cols.push_back(name + "_truncation_change" + unit);
+    cols.push_back(name + "_status");
+  }
+  auto& f = set.add("spp_cycles.csv");
+  io::CsvWriter w(f.stream(), meta, cols);
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    if (!spp[i].R) continue;
+    for (const laos::SppCycle& c : spp[i].R->cycles) {
+      double t0 = core::kUnset;
+      for (const auto& cr : items[i].A.cycles)
+        if (cr.cycle == c.cycle) t0 = cr.t_start_s;
+      std::vector<std::string> row = {items[i].source, items[i].segment, std::to_string(i + 1),
+                                      std::to_string(c.cycle), format_number_nan_empty(t0),
+                                      std::to_string(spp[i].R->M)};
+      for (const laos::SppMeasure* m : {&c.cage_modulus, &c.static_yield, &c.dynamic_yield}) {
+        for (double x : {m->value, m->estimate, m->noise_sd, m->truncation_change})
+          row.push_back(format_number_nan_empty(x));
+        row.push_back(laos::spp_status_name(m->status));
+      }
+      w.row(row);
+    }
+  }
+}
+
 /// spp_NN.csv: the transient quantities at every sample of amplitude NN.
 void write_spp_samples(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
                        const std::vector<SppItem>& spp, bool ss, const Names& nm) {
@@ -516,6 +552,7 @@ LaosJobSummary run_laos_job(const LaosJobOptions& o, const core::Metadata& heade
       sum.spp_rows.push_back(row);
     }
     write_spp_summary(set, meta, an.items, spp, ss, nm);
+    write_spp_cycles(set, meta, an.items, spp, ss, nm);
     write_spp_samples(set, meta, an.items, spp, ss, nm);
   }
   sum.files = set.final_paths();

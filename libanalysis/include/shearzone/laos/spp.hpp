@@ -23,7 +23,8 @@
 // factors sinc(n/(M+2)), divided by the fundamental's so that a linear response is
 // reproduced exactly (docs/laos.md, "Within the cycle").
 //
-// Cycle measures, from the reconstructed steady cycle (both loading branches: from an
+// Cycle measures, from the reconstructed steady cycle (the fit over the used cycles) and
+// from each used cycle's own fit (same M) where there are several (both loading branches: from an
 // upward zero crossing of σ to its maximum, and from a downward crossing to its
 // minimum; the values are the mean of the two magnitudes):
 //   - cage modulus: G'_t where σ = 0;
@@ -84,6 +85,12 @@ struct SppPoint {
   double x_eq = 0;           ///< equilibrium strain γ_eq
 };
 
+/// The cycle measures of one used cycle on its own (its phases only, the same M).
+struct SppCycle {
+  int cycle = 0;  ///< 1-based, as AmplitudeResult::sample_cycle
+  SppMeasure cage_modulus, static_yield, dynamic_yield;
+};
+
 struct SppResult {
   int M = 0;                        ///< highest odd harmonic used
   int M_check = 0;                  ///< the truncation check's
@@ -91,7 +98,8 @@ struct SppResult {
   double omega = core::kUnset;      ///< rad/s (NaN: rates per second unknown)
   std::vector<double> a, b;         ///< σ-weighted odd coefficients: r = Σ a_n sin nθ + b_n cos nθ
   std::vector<double> a_se, b_se;   ///< their standard errors
-  SppMeasure cage_modulus, static_yield, dynamic_yield;
+  SppMeasure cage_modulus, static_yield, dynamic_yield;  ///< over the used cycles
+  std::vector<SppCycle> cycles;     ///< each used cycle on its own (when there are several)
   std::vector<SppPoint> points;     ///< at the amplitude's samples (AmplitudeResult::theta)
 };
 
