@@ -395,7 +395,11 @@ def laos(t, angle, torque, **options: Any) -> dict:
     strain_constant, max_harmonic, cycles, no_drift, no_split, ...). Returns
     ``{"amplitudes": [...], "skipped_blocks": n}``: per amplitude x0, K1p, K1pp,
     tan_delta, I3_over_I1, the Chebyshev e and v, S, T, the harmonics Kp/Kpp with
-    their SEs, the cycles and the Lissajous samples of the cycles used."""
+    their SEs, the cycles and the Lissajous samples of the cycles used; with
+    ``spp=True`` also ``"spp"``: M, the cage modulus and the static and dynamic yield
+    (value, unchecked, noise_sd, truncation_change, status), the same per used cycle,
+    and per sample theta, x, rate, r, Gp, Gp_se, Gpp, Gpp_se, delta, dGp_dtheta,
+    dGpp_dtheta, r_d, x_eq (docs/laos.md, "Within the cycle")."""
     ts = np.asarray(t, dtype=float).ravel() if t is not None else np.empty(0)
     return _native.laos_arrays(ts, np.asarray(angle, dtype=float).ravel(), np.asarray(torque, dtype=float).ravel(),
                                _words(options))

@@ -373,6 +373,58 @@ py::dict amplitude_dict(const laos::AmplitudeResult& a) {
   return d;
 }
 
+py::dict spp_measure_dict(const laos::SppMeasure& m) {
+  py::dict d;
+  d["value"] = m.value;
+  d["unchecked"] = m.estimate;
+  d["noise_sd"] = m.noise_sd;
+  d["truncation_change"] = m.truncation_change;
+  d["status"] = laos::spp_status_name(m.status);
+  return d;
+}
+
+/// What `laos --spp` writes for one amplitude (spp_summary.csv, spp_cycles.csv, spp_NN.csv).
+py::dict spp_dict(const laos::SppResult& r) {
+  py::dict d;
+  d["M"] = r.M;
+  d["M_check"] = r.M_check;
+  d["cage_modulus"] = spp_measure_dict(r.cage_modulus);
+  d["static_yield"] = spp_measure_dict(r.static_yield);
+  d["dynamic_yield"] = spp_measure_dict(r.dynamic_yield);
+  py::list cycles;
+  for (const auto& c : r.cycles) {
+    py::dict cd;
+    cd["cycle"] = c.cycle;
+    cd["cage_modulus"] = spp_measure_dict(c.cage_modulus);
+    cd["static_yield"] = spp_measure_dict(c.static_yield);
+    cd["dynamic_yield"] = spp_measure_dict(c.dynamic_yield);
+    cycles.append(cd);
+  }
+  d["cycles"] = cycles;
+  const auto column = [&](double laos::SppPoint::*f) {
+    std::vector<double> v;
+    v.reserve(r.points.size());
+    for (const auto& p : r.points) v.push_back(p.*f);
+    return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
+  };
+  py::dict pts;
+  pts["theta"] = column(&laos::SppPoint::theta);
+  pts["x"] = column(&laos::SppPoint::x);
+  pts["rate"] = column(&laos::SppPoint::rate);
+  pts["r"] = column(&laos::SppPoint::r);
+  pts["Gp"] = column(&laos::SppPoint::Gp);
+  pts["Gp_se"] = column(&laos::SppPoint::Gp_se);
+  pts["Gpp"] = column(&laos::SppPoint::Gpp);
+  pts["Gpp_se"] = column(&laos::SppPoint::Gpp_se);
+  pts["delta"] = column(&laos::SppPoint::delta);
+  pts["dGp_dtheta"] = column(&laos::SppPoint::dGp);
+  pts["dGpp_dtheta"] = column(&laos::SppPoint::dGpp);
+  pts["r_d"] = column(&laos::SppPoint::r_d);
+  pts["x_eq"] = column(&laos::SppPoint::x_eq);
+  d["points"] = pts;
+  return d;
+}
+
 py::dict laos_arrays(std::vector<double> t, std::vector<double> drive, std::vector<double> response,
                      const std::vector<std::string>& words) {
   std::vector<std::string> all{"laos", "<arrays>"};
@@ -406,7 +458,14 @@ py::dict laos_arrays(std::vector<double> t, std::vector<double> drive, std::vect
     rec = laos::analyse_record(w, ao, "arrays");
   }
   py::list amps;
-  for (const auto& a : rec.amplitudes) amps.append(amplitude_dict(a));
+  laos::SppOptions so = job.spp_options;
+  so.drift = job.analysis.drift;
+  for (std::size_t i = 0; i < rec.amplitudes.size(); ++i) {
+    const auto& a = rec.amplitudes[i];
+    py::dict ad = amplitude_dict(a);
+    if (job.spp) ad["spp"] = spp_dict(laos::analyse_spp(a, so, fmt::format("arrays: amplitude {}", i + 1)));
+    amps.append(ad);
+  }
   py::dict d;
   d["amplitudes"] = amps;
   d["skipped_blocks"] = rec.skipped_blocks;

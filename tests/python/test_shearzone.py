@@ -147,6 +147,16 @@ def test_laos_on_arrays_equals_the_command(tmp_path):
     for name, col in (("x0", "phi0_rad"), ("K1p", "K1_prime_N_m_per_rad"), ("K1pp", "K1_dprime_N_m_per_rad"),
                       ("tan_delta", "tan_delta_1"), ("I3_over_I1", "I3_over_I1"), ("S", "S"), ("T", "T")):
         assert a[name] == ref[col][0], name
+    # --spp: the same cycle measures and transient moduli as the command's files
+    cli("laos", tmp_path / "log.csv", "-o", tmp_path / "spp", "--f-hz", 1, "--spp")
+    s = sz.laos(t, phi, tau, f_hz=1, spp=True)["amplitudes"][0]["spp"]
+    ref = sz.read_table(tmp_path / "spp" / "spp_summary.csv")
+    assert s["M"] == ref["M_spp"][0]
+    assert s["cage_modulus"]["status"] == ref["cage_stiffness_status"][0]
+    assert s["cage_modulus"]["unchecked"] == ref["cage_stiffness_unchecked_N_m_per_rad"][0]
+    pts = sz.read_table(tmp_path / "spp" / "spp_01.csv")
+    np.testing.assert_array_equal(s["points"]["Gp"], pts["Kt_prime_N_m_per_rad"])
+    assert len(s["cycles"]) == len(sz.read_table(tmp_path / "spp" / "spp_cycles.csv"))
     log = sz.read_log(tmp_path / "log.csv")
     assert log["format"] == "csv" and len(log["segments"]) == 1
     np.testing.assert_array_equal(log["segments"][0]["drive"], phi)
