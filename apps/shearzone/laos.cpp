@@ -193,11 +193,11 @@ std::vector<Subcommand> add_laos(CLI::App& root, Context& ctx) {
               "Within the cycle (sequence of physical processes): transient moduli per sample (spp_NN.csv), "
               "cage modulus and yield stresses per amplitude (spp_summary.csv)");
   c->add_option("--spp-harmonics", j.spp_options.max_harmonic,
-                "SPP: highest odd harmonic of the response (capped by the sampling)")
+                "SPP: highest odd harmonic of the response (capped by the sampling); range: 3..999")
       ->capture_default_str();
   c->add_option("--spp-tolerance", j.spp_options.max_relative_change,
                 "SPP: largest noise spread or truncation change of a cycle measure, as a fraction of it, for "
-                "the measure to be given")
+                "the measure to be given; range: 0 < x < 1")
       ->capture_default_str();
   return {{c, [c, s, &ctx] { return run_laos(*c, *s, ctx); }}};
 }
