@@ -170,6 +170,10 @@ def cases(work):
         ("profile_cycles_nan", ["profile", "fields.h5", "--cycles", "NAN", "-o", "p.csv"], 1, ["p.csv"],
          "--cycles: NaN is not a value"),
         ("laos_f_hz_minus_nan", ["laos", "laos.csv", "--f-hz", "-nan", "-o", "lo"], 1, ["lo"], "--f-hz: NaN"),
+        ("laos_spp_tolerance_nan", ["laos", "laos.csv", "--spp", "--spp-tolerance", "nan", "-o", "lo"], 1, ["lo"],
+         "--spp-tolerance: NaN"),
+        ("laos_spp_harmonics_huge", ["laos", "laos.csv", "--spp", "--spp-harmonics", "1000000", "-o", "lo"], 2, ["lo"],
+         "--spp-harmonics 1000000: expected 3..999"),
         ("synth_config_phi0_nan", ["synth", "beads", "--config", "phi0_nan.toml", "-o", "o"], 2, ["o"],
          r"phi0_nan.toml:1: key \"phi0\": --phi0: NaN is not a value"),
     ]
