@@ -407,20 +407,14 @@ py::dict spp_dict(const laos::SppResult& r) {
     for (const auto& p : r.points) v.push_back(p.*f);
     return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
   };
+  using P = laos::SppPoint;
+  const std::pair<const char*, double P::*> columns[] = {
+      {"theta", &P::theta}, {"x", &P::x},           {"rate", &P::rate},         {"r", &P::r},
+      {"Gp", &P::Gp},       {"Gp_se", &P::Gp_se},   {"Gpp", &P::Gpp},           {"Gpp_se", &P::Gpp_se},
+      {"delta", &P::delta}, {"dGp_dtheta", &P::dGp}, {"dGpp_dtheta", &P::dGpp}, {"r_d", &P::r_d},
+      {"x_eq", &P::x_eq}};
   py::dict pts;
-  pts["theta"] = column(&laos::SppPoint::theta);
-  pts["x"] = column(&laos::SppPoint::x);
-  pts["rate"] = column(&laos::SppPoint::rate);
-  pts["r"] = column(&laos::SppPoint::r);
-  pts["Gp"] = column(&laos::SppPoint::Gp);
-  pts["Gp_se"] = column(&laos::SppPoint::Gp_se);
-  pts["Gpp"] = column(&laos::SppPoint::Gpp);
-  pts["Gpp_se"] = column(&laos::SppPoint::Gpp_se);
-  pts["delta"] = column(&laos::SppPoint::delta);
-  pts["dGp_dtheta"] = column(&laos::SppPoint::dGp);
-  pts["dGpp_dtheta"] = column(&laos::SppPoint::dGpp);
-  pts["r_d"] = column(&laos::SppPoint::r_d);
-  pts["x_eq"] = column(&laos::SppPoint::x_eq);
+  for (const auto& [name, member] : columns) pts[name] = column(member);
   d["points"] = pts;
   return d;
 }
