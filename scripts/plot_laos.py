@@ -44,6 +44,17 @@ def col(row, *prefixes):
     raise KeyError(f"none of the columns {list(row)} starts with {prefixes}")
 
 
+def labels(ax, x, y, title, vertical=True):
+    """Axis labels (y None: none), the title, and grey zero lines (vertical: also x = 0)."""
+    ax.set_xlabel(x)
+    if y is not None:
+        ax.set_ylabel(y)
+    ax.set_title(title)
+    ax.axhline(0, color="0.8", lw=0.5, zorder=0)
+    if vertical:
+        ax.axvline(0, color="0.8", lw=0.5, zorder=0)
+
+
 def lissajous(a):
     files = sorted(glob.glob(os.path.join(a.outdir, "lissajous_*.csv")))
     if a.N:
@@ -83,14 +94,9 @@ def lissajous(a):
                 order = np.argsort(xx[first])
                 ax.plot(xx[first][order], np.array([num(r[ck]) for r in rows])[first][order] * scale,
                         ls="--", lw=0.8, color=colour)
-    ax1.set_xlabel(r"strain $\varphi/\varphi_0$ (dimensionless)")
-    ax1.set_ylabel(f"torque $\\tau$ ({unit})")
-    ax1.set_title("(a) elastic: torque against angle")
-    ax2.set_xlabel(r"rate $\dot\varphi/\dot\varphi_{\max}$ (dimensionless)")
-    ax2.set_title("(b) viscous: torque against rate")
-    for ax in (ax1, ax2):
-        ax.axhline(0, color="0.8", lw=0.5, zorder=0)
-        ax.axvline(0, color="0.8", lw=0.5, zorder=0)
+    labels(ax1, r"strain $\varphi/\varphi_0$ (dimensionless)", f"torque $\\tau$ ({unit})",
+           "(a) elastic: torque against angle")
+    labels(ax2, r"rate $\dot\varphi/\dot\varphi_{\max}$ (dimensionless)", None, "(b) viscous: torque against rate")
     h, lab = ax1.get_legend_handles_labels()
     h += [Line2D([], [], color="k", lw=0.9), Line2D([], [], color="k", lw=0.8, ls="--")]
     lab += ["measured", "elastic (a), viscous (b)\npart: odd harmonics"]
@@ -133,15 +139,9 @@ def spp(a):
         label = f"{x0:.3g}" if math.isfinite(x0) else os.path.basename(path)
         ax1.plot(gp[order], gpp[order], lw=0.9, color=colour, label=label)
         ax2.plot(np.mod(th[order], 2 * math.pi) / (2 * math.pi), gp[order], lw=0.9, color=colour)
-    ax1.set_xlabel(f"$G'_t$ ({unit})")
-    ax1.set_ylabel(f"$G''_t$ ({unit})")
-    ax1.set_title("(a) Cole–Cole: one cycle")
-    ax2.set_xlabel(r"phase $\theta/2\pi$ (cycles; drive $x_0 \sin\theta$)")
-    ax2.set_ylabel(f"$G'_t$ ({unit})")
-    ax2.set_title("(b) transient storage modulus")
-    for ax in (ax1, ax2):
-        ax.axhline(0, color="0.8", lw=0.5, zorder=0)
-    ax1.axvline(0, color="0.8", lw=0.5, zorder=0)
+    labels(ax1, f"$G'_t$ ({unit})", f"$G''_t$ ({unit})", "(a) Cole–Cole: one cycle")
+    labels(ax2, r"phase $\theta/2\pi$ (cycles; drive $x_0 \sin\theta$)", f"$G'_t$ ({unit})",
+           "(b) transient storage modulus", vertical=False)
     h, lab = ax1.get_legend_handles_labels()
     ax2.legend(h, lab, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
                title="amplitude" + (r" $\varphi_0$ (rad)" if x0_key == "phi0_rad" else r" $\gamma_0$"),
