@@ -5,7 +5,7 @@
     plot_laos.py tandelta OUT.png SUMMARY.csv        # Fig 6: tan delta_1 against phi0, per N
     plot_laos.py taumax OUT.png SUMMARY.csv          # Fig 3A: tau_max against phi0, per N
     plot_laos.py taun OUT.png SUMMARY.csv POWER.csv [--offset 2]  # Fig 3D: tau_max against N, power laws
-    plot_laos.py spp OUT.png OUTDIR [--N 45]         # within the cycle: Cole-Cole G''t against G't, G't over a cycle
+    plot_laos.py spp OUT.png OUTDIR [--N 45]         # within the cycle: Cole-Cole G''t against G't, both over a cycle
 
 OUTDIR is a `shearzone laos` output folder (lissajous_NN.csv files; spp_NN.csv with
 `laos --spp`); POWER.csv is the long
@@ -138,11 +138,15 @@ def spp(a):
         x0 = num(header(path).get(x0_key))
         label = f"{x0:.3g}" if math.isfinite(x0) else os.path.basename(path)
         ax1.plot(gp[order], gpp[order], lw=0.9, color=colour, label=label)
-        ax2.plot(np.mod(th[order], 2 * math.pi) / (2 * math.pi), gp[order], lw=0.9, color=colour)
+        ph = np.mod(th[order], 2 * math.pi) / (2 * math.pi)
+        ax2.plot(ph, gp[order], lw=0.9, color=colour)
+        ax2.plot(ph, gpp[order], lw=0.8, ls="--", color=colour)
     labels(ax1, f"$G'_t$ ({unit})", f"$G''_t$ ({unit})", "(a) Cole–Cole: one cycle")
-    labels(ax2, r"phase $\theta/2\pi$ (cycles; drive $x_0 \sin\theta$)", f"$G'_t$ ({unit})",
-           "(b) transient storage modulus", vertical=False)
+    labels(ax2, r"phase $\theta/2\pi$ (cycles; drive $x_0 \sin\theta$)", f"$G'_t$, $G''_t$ ({unit})",
+           "(b) transient moduli over a cycle", vertical=False)
     h, lab = ax1.get_legend_handles_labels()
+    h += [Line2D([], [], color="k", lw=0.9), Line2D([], [], color="k", lw=0.8, ls="--")]
+    lab += ["$G'_t$ (b)", "$G''_t$ (b)"]
     ax2.legend(h, lab, loc="upper left", bbox_to_anchor=(1.03, 1.0), borderaxespad=0.0,
                title="amplitude" + (r" $\varphi_0$ (rad)" if x0_key == "phi0_rad" else r" $\gamma_0$"),
                title_fontsize=7)
