@@ -32,18 +32,22 @@ double sigma_factor(int n, int M) {
   return sinc(n / m) / sinc(1.0 / m);
 }
 
-/// The response and its θ-derivatives σ', σ'', σ''' on the measure grid, from a table of
-/// sin nθ_k, cos nθ_k for the odd n <= M.
+std::vector<int> odd_up_to(int M) {
+  std::vector<int> n;
+  for (int k = 1; k <= M; k += 2) n.push_back(k);
+  return n;
+}
+
+/// The odd harmonics n <= M and a table of sin nθ_k, cos nθ_k on the measure grid.
+/// (Sized in the initialisers: GCC 12 at -O3 sees a possible null pointer in a vector
+/// grown by resize().)
 struct Grid {
-  int M = 0;
   std::vector<int> n;            ///< the odd harmonics
   std::vector<double> s, c;      ///< [k * n.size() + j]
   std::vector<double> theta;
-  explicit Grid(int M_) : M(M_) {
-    for (int k = 1; k <= M; k += 2) n.push_back(k);
-    theta.resize(kGrid);
-    s.resize(static_cast<std::size_t>(kGrid) * n.size());
-    c.resize(s.size());
+  explicit Grid(int M)
+      : n(odd_up_to(M)), s(static_cast<std::size_t>(kGrid) * n.size()), c(s.size()),
+        theta(static_cast<std::size_t>(kGrid)) {
     for (int k = 0; k < kGrid; ++k) {
       theta[static_cast<std::size_t>(k)] = kTwoPi * k / kGrid;
       for (std::size_t j = 0; j < n.size(); ++j) {
@@ -61,10 +65,7 @@ struct Curve {
 
 /// σ, G'_t and dG'_t/dθ on the grid for odd coefficients a, b (index n).
 Curve curve(const Grid& g, const std::vector<double>& a, const std::vector<double>& b, double x0) {
-  Curve cv;
-  cv.r.resize(kGrid);
-  cv.Gp.resize(kGrid);
-  cv.dGp.resize(kGrid);
+  Curve cv{std::vector<double>(kGrid), std::vector<double>(kGrid), std::vector<double>(kGrid)};
   const std::size_t J = g.n.size();
   for (std::size_t k = 0; k < static_cast<std::size_t>(kGrid); ++k) {
     double r0 = 0, r1 = 0, r2 = 0, r3 = 0;
