@@ -59,6 +59,23 @@ struct Grid {
   }
 };
 
+/// The response and its first three θ-derivatives summed over odd harmonics n, each
+/// a_n sin nθ + b_n cos nθ; and the transient quantities they give at θ.
+struct Derivatives {
+  double r0 = 0, r1 = 0, r2 = 0, r3 = 0;
+  void add(double n, double an, double bn, double sn, double cn) {
+    const double even = an * sn + bn * cn, odd = an * cn - bn * sn;
+    r0 += even;
+    r1 += n * odd;
+    r2 -= n * n * even;
+    r3 -= n * n * n * odd;
+  }
+  double Gp(double st, double ct, double x0) const { return (ct * r1 - st * r2) / x0; }
+  double Gpp(double st, double ct, double x0) const { return -(st * r1 + ct * r2) / x0; }
+  double dGp(double st, double x0) const { return -st * (r1 + r3) / x0; }
+  double dGpp(double ct, double x0) const { return -ct * (r1 + r3) / x0; }
+};
+
 struct Curve {
   std::vector<double> r, Gp, dGp;
 };
@@ -68,20 +85,15 @@ Curve curve(const Grid& g, const std::vector<double>& a, const std::vector<doubl
   Curve cv{std::vector<double>(kGrid), std::vector<double>(kGrid), std::vector<double>(kGrid)};
   const std::size_t J = g.n.size();
   for (std::size_t k = 0; k < static_cast<std::size_t>(kGrid); ++k) {
-    double r0 = 0, r1 = 0, r2 = 0, r3 = 0;
+    Derivatives d;
     for (std::size_t j = 0; j < J; ++j) {
-      const double nn = g.n[j], an = a[static_cast<std::size_t>(g.n[j])], bn = b[static_cast<std::size_t>(g.n[j])];
-      const double sn = g.s[k * J + j], cn = g.c[k * J + j];
-      const double even = an * sn + bn * cn, odd = an * cn - bn * sn;
-      r0 += even;
-      r1 += nn * odd;
-      r2 -= nn * nn * even;
-      r3 -= nn * nn * nn * odd;
+      const auto n = static_cast<std::size_t>(g.n[j]);
+      d.add(static_cast<double>(n), a[n], b[n], g.s[k * J + j], g.c[k * J + j]);
     }
-    const double st = std::sin(g.theta[k]), ct = std::cos(g.theta[k]);
-    cv.r[k] = r0;
-    cv.Gp[k] = (ct * r1 - st * r2) / x0;
-    cv.dGp[k] = -st * (r1 + r3) / x0;
+    const double st = g.s[k * J], ct = g.c[k * J];  // n = 1: sin θ, cos θ
+    cv.r[k] = d.r0;
+    cv.Gp[k] = d.Gp(st, ct, x0);
+    cv.dGp[k] = d.dGp(st, x0);
   }
   return cv;
 }
@@ -207,14 +219,11 @@ const char* spp_status_name(SppStatus s) {
 SppPoint spp_point(const std::vector<double>& a, const std::vector<double>& b, double x0, double theta,
                    const std::vector<double>* a_se, const std::vector<double>* b_se) {
   const double st = std::sin(theta), ct = std::cos(theta);
-  double r0 = 0, r1 = 0, r2 = 0, r3 = 0, var_p = 0, var_pp = 0;
+  Derivatives d;
+  double var_p = 0, var_pp = 0;
   for (std::size_t n = 1; n < a.size(); n += 2) {
     const double nn = static_cast<double>(n), sn = std::sin(nn * theta), cn = std::cos(nn * theta);
-    const double even = a[n] * sn + b[n] * cn, odd = a[n] * cn - b[n] * sn;
-    r0 += even;
-    r1 += nn * odd;
-    r2 -= nn * nn * even;
-    r3 -= nn * nn * nn * odd;
+    d.add(nn, a[n], b[n], sn, cn);
     if (a_se != nullptr && b_se != nullptr) {
       // G'_t x0 = ct r1 − st r2 and −G''_t x0 = st r1 + ct r2 are linear in a_n, b_n.
       const double dp_da = ct * nn * cn + st * nn * nn * sn, dp_db = -ct * nn * sn + st * nn * nn * cn;
@@ -232,13 +241,13 @@ SppPoint spp_point(const std::vector<double>& a, const std::vector<double>& b, d
   p.theta = theta;
   p.x = x0 * st;
   p.rate = x0 * ct;
-  p.r = r0;
-  p.Gp = (ct * r1 - st * r2) / x0;
-  p.Gpp = -(st * r1 + ct * r2) / x0;
+  p.r = d.r0;
+  p.Gp = d.Gp(st, ct, x0);
+  p.Gpp = d.Gpp(st, ct, x0);
   p.delta = std::atan(p.Gpp / p.Gp) + (p.Gp < 0 ? kPi : 0.0);
-  p.dGp = -st * (r1 + r3) / x0;
-  p.dGpp = -ct * (r1 + r3) / x0;
-  p.r_d = r0 - p.Gp * p.x - p.Gpp * p.rate;
+  p.dGp = d.dGp(st, x0);
+  p.dGpp = d.dGpp(ct, x0);
+  p.r_d = d.r0 - p.Gp * p.x - p.Gpp * p.rate;
   p.x_eq = p.Gp != 0 ? p.x - p.r_d / p.Gp : core::kUnset;
   return p;
 }

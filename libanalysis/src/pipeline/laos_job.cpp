@@ -402,23 +402,33 @@ std::vector<SppItem> spp_of(const LaosJobOptions& o, const std::vector<Item>& it
   return out;
 }
 
+/// The 15 columns of the three cycle measures (value, unchecked, noise spread,
+/// truncation change, status each), in the log's units.
+std::vector<std::string> spp_measure_columns(bool ss, const Names& nm) {
+  const std::string ru = nm.r.substr(nm.r.find('_'));
+  std::vector<std::string> cols;
+  for (const auto& [name, unit] : {std::pair{std::string(ss ? "cage_modulus" : "cage_stiffness"), "_" + nm.K},
+                                   std::pair{std::string(ss ? "static_yield_stress" : "static_yield_torque"), ru},
+                                   std::pair{std::string(ss ? "dynamic_yield_stress" : "dynamic_yield_torque"), ru}}) {
+    for (const char* what : {"", "_unchecked", "_noise_sd", "_truncation_change"}) cols.push_back(name + what + unit);
+    cols.push_back(name + "_status");
+  }
+  return cols;
+}
+
+/// The cells of spp_measure_columns for one measure (none: all empty).
+void append_measure(std::vector<std::string>& row, const laos::SppMeasure* m) {
+  const laos::SppMeasure none;
+  const laos::SppMeasure& v = m != nullptr ? *m : none;
+  for (double x : {v.value, v.estimate, v.noise_sd, v.truncation_change}) row.push_back(format_number_nan_empty(x));
+  row.push_back(m != nullptr ? laos::spp_status_name(v.status) : "");
+}
+
 /// spp_summary.csv: a row per amplitude, the cycle measures with their checks.
 void write_spp_summary(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
                        const std::vector<SppItem>& spp, bool ss, const Names& nm) {
-  const std::string K = nm.K, ru = nm.r.substr(nm.r.find('_'));
-  const std::string sy = ss ? "static_yield_stress" : "static_yield_torque";
-  const std::string dy = ss ? "dynamic_yield_stress" : "dynamic_yield_torque";
   std::vector<std::string> cols = {"source", "segment", "amplitude", "N", nm.x0, "M_spp", "M_check"};
-  auto add_measure_cols = [&](const std::string& name, const std::string& unit) {
-    cols.push_back(name + unit);
-    cols.push_back(name + "_unchecked" + unit);
-    cols.push_back(name + "_noise_sd" + unit);
-    cols.push_back(name + "_truncation_change" + unit);
-    cols.push_back(name + "_status");
-  };
-  add_measure_cols(ss ? "cage_modulus" : "cage_stiffness", "_" + K);
-  add_measure_cols(sy, ru);
-  add_measure_cols(dy, ru);
+  for (auto& c : spp_measure_columns(ss, nm)) cols.push_back(std::move(c));
   cols.push_back("spp_status");
   auto& f = set.add("spp_summary.csv");
   io::CsvWriter w(f.stream(), meta, cols);
@@ -429,12 +439,8 @@ void write_spp_summary(io::AtomicOutputSet& set, const core::Metadata& meta, con
     row.push_back(R ? std::to_string(R->M) : "");
     row.push_back(R ? std::to_string(R->M_check) : "");
     for (const laos::SppMeasure* m : {R ? &R->cage_modulus : nullptr, R ? &R->static_yield : nullptr,
-                                      R ? &R->dynamic_yield : nullptr}) {
-      const laos::SppMeasure none;
-      const laos::SppMeasure& v = m != nullptr ? *m : none;
-      for (double x : {v.value, v.estimate, v.noise_sd, v.truncation_change}) row.push_back(format_number_nan_empty(x));
-      row.push_back(m != nullptr ? laos::spp_status_name(v.status) : "");
-    }
+                                      R ? &R->dynamic_yield : nullptr})
+      append_measure(row, m);
     row.push_back(R ? "ok" : "refused: " + spp[i].refused);
     w.row(row);
   }
@@ -444,17 +450,8 @@ void write_spp_summary(io::AtomicOutputSet& set, const core::Metadata& meta, con
 /// measures.
 void write_spp_cycles(io::AtomicOutputSet& set, const core::Metadata& meta, const std::vector<Item>& items,
                       const std::vector<SppItem>& spp, bool ss, const Names& nm) {
-  const std::string K = nm.K, ru = nm.r.substr(nm.r.find('_'));
   std::vector<std::string> cols = {"source", "segment", "amplitude", "cycle", "t_start_s", "M_spp"};
-  for (const auto& [name, unit] : {std::pair{std::string(ss ? "cage_modulus" : "cage_stiffness"), "_" + K},
-                                   std::pair{std::string(ss ? "static_yield_stress" : "static_yield_torque"), ru},
-                                   std::pair{std::string(ss ? "dynamic_yield_stress" : "dynamic_yield_torque"), ru}}) {
-    cols.push_back(name + unit);
-    cols.push_back(name + "_unchecked" + unit);
-    cols.push_back(name + "_noise_sd" + unit);
-    cols.push_back(name + "_truncation_change" + unit);
-    cols.push_back(name + "_status");
-  }
+  for (auto& c : spp_measure_columns(ss, nm)) cols.push_back(std::move(c));
   auto& f = set.add("spp_cycles.csv");
   io::CsvWriter w(f.stream(), meta, cols);
   for (std::size_t i = 0; i < items.size(); ++i) {
@@ -466,11 +463,7 @@ void write_spp_cycles(io::AtomicOutputSet& set, const core::Metadata& meta, cons
       std::vector<std::string> row = {items[i].source, items[i].segment, std::to_string(i + 1),
                                       std::to_string(c.cycle), format_number_nan_empty(t0),
                                       std::to_string(spp[i].R->M)};
-      for (const laos::SppMeasure* m : {&c.cage_modulus, &c.static_yield, &c.dynamic_yield}) {
-        for (double x : {m->value, m->estimate, m->noise_sd, m->truncation_change})
-          row.push_back(format_number_nan_empty(x));
-        row.push_back(laos::spp_status_name(m->status));
-      }
+      for (const laos::SppMeasure* m : {&c.cage_modulus, &c.static_yield, &c.dynamic_yield}) append_measure(row, m);
       w.row(row);
     }
   }
