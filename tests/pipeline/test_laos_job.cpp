@@ -1,5 +1,7 @@
 // The laos pipeline job: a CSV log through io, the stage, and the output folder.
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -183,4 +185,35 @@ TEST_CASE("laos job: --spp on the demo's piles gives their spring and yield torq
   }
   CHECK(cycle_cages >= 10);
   CHECK(cycle_yields >= 5);
+}
+
+TEST_CASE("laos job: --spp on a record too coarse for the third harmonic refuses that amplitude only, "
+          "with the reason, and writes no samples for it",
+          "[laos][spp]") {
+  // 6 samples per cycle: the sampling caps M at 2, the harmonics still analyse.
+  TempDir dir("laos-spp-coarse");
+  {
+    std::ofstream f(dir / "coarse.csv");
+    f.precision(12);
+    f << "time_s,angle_rad,torque_N_m\n";
+    for (int i = 0; i <= 24; ++i) {
+      const double th = 2 * std::numbers::pi * i / 6.0;
+      f << i / 6.0 << "," << 0.1 * std::sin(th) << "," << 2e-3 * std::sin(th) + 5e-4 * std::cos(th) << "\n";
+    }
+  }
+  pipeline::LaosJobOptions o;
+  o.inputs = {dir / "coarse.csv"};
+  o.output = dir / "out";
+  o.spp = true;
+  const auto sum = pipeline::run_laos_job(o, core::standard_metadata("test"));
+  REQUIRE(sum.rows.size() == 1);
+  CHECK(sum.spp_refused == 1);
+  const auto t = io::read_csv(dir / "out" / "spp_summary.csv");
+  REQUIRE(t.num_rows() == 1);
+  CHECK_THAT(t.rows[0][t.column_index("spp_status")],
+             Catch::Matchers::StartsWith("refused: ") && Catch::Matchers::Contains("at least n = 3"));
+  CHECK(t.rows[0][t.column_index("cage_stiffness_N_m_per_rad")].empty());
+  CHECK(t.rows[0][t.column_index("cage_stiffness_status")].empty());
+  CHECK(!std::filesystem::exists(dir / "out" / "spp_01.csv"));
+  CHECK(std::filesystem::exists(dir / "out" / "summary.csv"));
 }
