@@ -18,8 +18,8 @@ constexpr double kTwoPi = 2.0 * kPi;
 /// Phases per cycle on which the cycle measures are searched (and refined between).
 constexpr int kGrid = 4096;
 /// The truncation error at M bounded from the change between M and about M/2: an error
-/// falling as M^(-1/2) (the slowest measured: the static yield stress of the closed-form
-/// yielding responses, docs/laos.md) is the change times 1/(sqrt(2) - 1).
+/// falling as M^(-1/2) is the change times 1/(sqrt(2) - 1). (The yield stresses of the
+/// closed-form yielding responses fall as 1/M, docs/laos.md: the bound is conservative.)
 constexpr double kTruncationErrorPerChange = 1.0 / (std::numbers::sqrt2 - 1.0);
 
 int largest_odd_at_most(int m) { return m % 2 == 1 ? m : m - 1; }
@@ -102,13 +102,28 @@ struct CycleMeasures {
   double cage = core::kUnset, static_yield = core::kUnset, dynamic_yield = core::kUnset;
 };
 
+/// The phase offset in (−½, ½) grid steps of the vertex of the parabola through
+/// (k − 1, k, k + 1) of y, at a local minimum k (0 where the three do not curve up).
+double parabola_offset(double ym, double y0, double yp) {
+  const double den = ym - 2 * y0 + yp;
+  return den > 0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0;
+}
+
+/// A lobe of G'_t <= 0 no wider than this many kernel widths 2π/(M + 2) is a kink the
+/// series cannot resolve: the σ factors spread the kink of an elastic–plastic response
+/// (G'_t = −r″ sin θ / x0 there, r″ a δ) into a lobe 1.3-1.6 kernel widths wide at M =
+/// 19-639, centred on it (docs/laos.md, "Within the cycle").
+constexpr double kKinkLobeWidths = 2.0;
+
 /// One loading branch: sign +1 from an upward zero crossing of σ to its maximum, −1
 /// from a downward crossing to its minimum. Values as magnitudes.
-CycleMeasures branch(const Curve& cv, int sign) {
+CycleMeasures branch(const Curve& cv, int sign, int M) {
   CycleMeasures m;
   const auto K = static_cast<long>(kGrid);
   auto at = [&](const std::vector<double>& v, long k) { return v[static_cast<std::size_t>(((k % K) + K) % K)]; };
   auto r = [&](long k) { return sign * at(cv.r, k); };
+  // σ at grid phase k moved by a parabola's offset (in grid steps) towards its neighbour.
+  auto r_at = [&](long k, double off) { return r(k) + std::abs(off) * (r(off >= 0 ? k + 1 : k - 1) - r(k)); };
   long peak = 0;
   for (long k = 1; k < K; ++k)
     if (r(k) > r(peak)) peak = k;
@@ -119,33 +134,47 @@ CycleMeasures branch(const Curve& cv, int sign) {
   // Cage modulus: G'_t at the zero of σ between start and start + 1.
   const double f0 = -r(start) / (r(start + 1) - r(start));
   m.cage = at(cv.Gp, start) + f0 * (at(cv.Gp, start + 1) - at(cv.Gp, start));
-  // Static yield: σ where G'_t first goes from > 0 to <= 0.
-  for (long k = start + 1; k < peak; ++k)
-    if (at(cv.Gp, k) > 0 && at(cv.Gp, k + 1) <= 0) {
-      const double f = at(cv.Gp, k) / (at(cv.Gp, k) - at(cv.Gp, k + 1));
-      m.static_yield = r(k) + f * (r(k + 1) - r(k));
-      break;
+  // Static yield: where G'_t changes sign (+ to −), read in the lobe of G'_t <= 0 that
+  // holds the branch's lowest G'_t (ringing ahead of a kink can make small lobes of its
+  // own). A lobe no wider than kKinkLobeWidths kernel widths is an unresolved kink: its
+  // deepest point (the parabola's vertex) is the kink, while its leading zero sits where
+  // the kernel's tail first outweighs the elastic slope, ahead of the kink (the closed-
+  // form elastic–perfectly-plastic loop: −25 % at M = 39, −2.3 % at 639). A wider lobe is
+  // resolved, and its leading zero is the sign change.
+  long kmin = start + 1;
+  for (long k = start + 1; k <= peak; ++k)
+    if (at(cv.Gp, k) < at(cv.Gp, kmin)) kmin = k;
+  if (at(cv.Gp, kmin) <= 0) {
+    long k0 = kmin;  // the last phase before the lobe (G'_t > 0 there, unless the branch starts in it)
+    while (k0 > start && at(cv.Gp, k0) <= 0) --k0;
+    long k1 = kmin;  // the lobe's last phase
+    while (k1 < peak && at(cv.Gp, k1 + 1) <= 0) ++k1;
+    if (at(cv.Gp, k0) > 0) {
+      const double kernel_width = kGrid / (M + 2.0);  // 2π/(M + 2) in grid steps
+      if (static_cast<double>(k1 - k0) <= kKinkLobeWidths * kernel_width) {
+        m.static_yield = r_at(kmin, parabola_offset(at(cv.Gp, kmin - 1), at(cv.Gp, kmin), at(cv.Gp, kmin + 1)));
+      } else {
+        const double f = at(cv.Gp, k0) / (at(cv.Gp, k0) - at(cv.Gp, k0 + 1));
+        m.static_yield = r(k0) + f * (r(k0 + 1) - r(k0));
+      }
     }
+  }
   // Dynamic yield: σ at the smallest dG'_t/dθ, the minimum refined by a parabola; only
   // where the branch loses at least half of the cage modulus (no yield otherwise: a
   // linear response's rate is rounding noise, and its minimum anywhere).
-  double lowest = at(cv.Gp, start);
-  for (long k = start + 1; k <= peak; ++k) lowest = std::min(lowest, at(cv.Gp, k));
-  if (!(m.cage > 0) || !(lowest <= 0.5 * m.cage)) return m;
+  if (!(m.cage > 0) || !(at(cv.Gp, kmin) <= 0.5 * m.cage)) return m;
   long low = start + 1;
   for (long k = start + 1; k <= peak; ++k)
     if (at(cv.dGp, k) < at(cv.dGp, low)) low = k;
-  const double ym = at(cv.dGp, low - 1), y0 = at(cv.dGp, low), yp = at(cv.dGp, low + 1);
-  const double den = ym - 2 * y0 + yp;
-  const double off = den > 0 ? std::clamp(0.5 * (ym - yp) / den, -0.5, 0.5) : 0.0;
-  const long nb = off >= 0 ? low + 1 : low - 1;
-  m.dynamic_yield = r(low) + std::abs(off) * (r(nb) - r(low));
+  m.dynamic_yield = r_at(low, parabola_offset(at(cv.dGp, low - 1), at(cv.dGp, low), at(cv.dGp, low + 1)));
   return m;
 }
 
-CycleMeasures measures(const Grid& g, const std::vector<double>& a, const std::vector<double>& b, double x0) {
+/// The measures of the series a, b weighted for a cut at M (M <= the grid's harmonics).
+CycleMeasures measures(const Grid& g, const std::vector<double>& a, const std::vector<double>& b, double x0,
+                       int M) {
   const Curve cv = curve(g, a, b, x0);
-  const CycleMeasures up = branch(cv, +1), down = branch(cv, -1);
+  const CycleMeasures up = branch(cv, +1, M), down = branch(cv, -1, M);
   auto mean = [](double u, double v) { return std::isnan(u) || std::isnan(v) ? core::kUnset : 0.5 * (u + v); };
   return {mean(up.cage, down.cage), mean(up.static_yield, down.static_yield),
           mean(up.dynamic_yield, down.dynamic_yield)};
@@ -271,12 +300,12 @@ Judged judge_fit(const HarmonicFit& fit, int M, int M_check, double x0, const Sp
     ra_se[i] = w * fit.Kp_se[i];
     rb_se[i] = w * fit.Kpp_se[i];
   }
-  const CycleMeasures est = measures(grid, ra, rb, x0);
+  const CycleMeasures est = measures(grid, ra, rb, x0, M);
   std::vector<double> ca, cb;
   weighted(fit, M_check, ca, cb);
   ca.resize(ra.size(), 0.0);
   cb.resize(rb.size(), 0.0);
-  const CycleMeasures chk = measures(grid, ca, cb, x0);
+  const CycleMeasures chk = measures(grid, ca, cb, x0, M_check);
   // The noise check: the odd harmonics redrawn from their standard errors.
   std::mt19937_64 rng(o.seed);
   std::normal_distribution<double> z(0.0, 1.0);
@@ -288,7 +317,7 @@ Judged judge_fit(const HarmonicFit& fit, int M, int M_check, double x0, const Sp
       a[i] = ra[i] + ra_se[i] * z(rng);
       b[i] = rb[i] + rb_se[i] * z(rng);
     }
-    const CycleMeasures m = measures(grid, a, b, x0);
+    const CycleMeasures m = measures(grid, a, b, x0, M);
     dc.push_back(m.cage);
     ds.push_back(m.static_yield);
     dd.push_back(m.dynamic_yield);

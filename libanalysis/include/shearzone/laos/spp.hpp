@@ -28,7 +28,10 @@
 // upward zero crossing of σ to its maximum, and from a downward crossing to its
 // minimum; the values are the mean of the two magnitudes):
 //   - cage modulus: G'_t where σ = 0;
-//   - static yield stress: σ where G'_t first changes sign (+ to −) on the branch;
+//   - static yield stress: σ where G'_t changes sign (+ to −) on the branch, read in the
+//     lobe of G'_t <= 0 that holds the branch's lowest G'_t: at its deepest point where
+//     the lobe is no wider than 2 kernel widths 2π/(M + 2) (a kink, which the σ factors
+//     spread symmetrically about itself), else at its leading zero;
 //   - dynamic yield stress: σ where dG'_t/dθ is smallest on the branch.
 // Each is checked twice before it is given: against noise (its spread when the odd
 // harmonics are redrawn `bootstrap` times from their standard errors) and against the
