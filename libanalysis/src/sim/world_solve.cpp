@@ -616,6 +616,106 @@ void World::sweep_parallel(detail::SweepControl& c, int rows) {
   }
 }
 
+namespace {
+
+/// Rows (one kind) into the order of the lists' `member` lists, then those in no list;
+/// the lists renumbered to match, row_of[p] the own index of the row now at p, `remap`
+/// applied to each row's body indices. The own-order rows are kept in `own`.
+template <class Row, class Remap>
+void to_list_order(std::vector<Row>& rows, std::vector<Row>& own, std::vector<int>& row_of,
+                   std::vector<detail::RowLists>& lists, std::vector<int> detail::RowLists::*member, Remap&& remap) {
+  row_of.clear();
+  std::vector<char> listed(rows.size(), 0);
+  for (detail::RowLists& l : lists)
+    for (int& k : l.*member) {
+      listed[static_cast<std::size_t>(k)] = 1;
+      row_of.push_back(k);
+      k = static_cast<int>(row_of.size()) - 1;
+    }
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    if (listed[k] == 0) row_of.push_back(static_cast<int>(k));
+  own.resize(rows.size());
+  for (std::size_t p = 0; p < rows.size(); ++p) {
+    own[p] = rows[static_cast<std::size_t>(row_of[p])];
+    remap(own[p]);
+  }
+  rows.swap(own);
+}
+
+/// The inverse: each row back to its own index, `keep(own, row)` restoring the own
+/// row's body indices in it.
+template <class Row, class Keep>
+void to_own_order(std::vector<Row>& rows, std::vector<Row>& own, const std::vector<int>& row_of, Keep&& keep) {
+  for (std::size_t p = 0; p < rows.size(); ++p) {
+    Row& o = own[static_cast<std::size_t>(row_of[p])];
+    keep(o, rows[p]);
+    o = rows[p];
+  }
+  rows.swap(own);
+}
+
+}  // namespace
+
+// Threads > 1: the sweeps run on copies of the bodies and rows stored slab by slab, so
+// that each thread streams its own part of memory. In the bodies' own order the slabs
+// of a poured packing interleave (every other body, on the cup), and although a body
+// and a row each fill whole cache lines, the threads then share lines through the
+// prefetchers' neighbouring lines: measured on the 2 700-bead shallow cup, two threads
+// took 1.6x one thread's time per sweep with equal work each. The copies keep each
+// list's rows in order and each row's arithmetic, so the result is bit-identical to the
+// sweeps on the own order.
+void World::to_slab_order() {
+  const std::size_t n = x_.size(), T = static_cast<std::size_t>(opt_.threads);
+  // Bodies: slab by slab, in their own order within a slab; the wall sentinels (n + s)
+  // stay where they are.
+  std::vector<std::size_t> start(T + 1, 0);
+  for (std::size_t b = 0; b < n; ++b) ++start[static_cast<std::size_t>(slab_[b]) + 1];
+  for (std::size_t s = 0; s < T; ++s) start[s + 1] += start[s];
+  slab_pos_.resize(body_.size());
+  own_body_.resize(body_.size());
+  for (std::size_t b = 0; b < n; ++b) slab_pos_[b] = static_cast<int>(start[static_cast<std::size_t>(slab_[b])]++);
+  for (std::size_t b = n; b < body_.size(); ++b) slab_pos_[b] = static_cast<int>(b);
+  for (std::size_t b = 0; b < body_.size(); ++b) own_body_[static_cast<std::size_t>(slab_pos_[b])] = body_[b];
+  body_.swap(own_body_);
+  auto pos = [&](int b) { return slab_pos_[static_cast<std::size_t>(b)]; };
+  // Rows: in the order of the lists, then those in no list (ropes and angles that are
+  // not live), so that every row keeps its entries of the Anderson vectors.
+  own_lists_ = lists_;
+  to_list_order(contacts_, own_contacts_, contact_of_, lists_, &RowLists::contacts, [&](ContactRow& r) {
+    r.i = pos(r.i);
+    r.j = pos(r.j);
+  });
+  to_list_order(ropes_, own_ropes_, rope_of_, lists_, &RowLists::ropes, [&](RopeRow& r) {
+    r.i = pos(r.i);
+    r.j = pos(r.j);
+  });
+  to_list_order(angles_, own_angles_, angle_of_, lists_, &RowLists::angles, [&](AngleRow& r) {
+    r.a = pos(r.a);
+    r.b = pos(r.b);
+    r.c = pos(r.c);
+  });
+}
+
+void World::from_slab_order() {
+  for (std::size_t b = 0; b < body_.size(); ++b) own_body_[b] = body_[static_cast<std::size_t>(slab_pos_[b])];
+  body_.swap(own_body_);
+  // Each row back to its own place, with its own body indices.
+  to_own_order(contacts_, own_contacts_, contact_of_, [](const ContactRow& o, ContactRow& r) {
+    r.i = o.i;
+    r.j = o.j;
+  });
+  to_own_order(ropes_, own_ropes_, rope_of_, [](const RopeRow& o, RopeRow& r) {
+    r.i = o.i;
+    r.j = o.j;
+  });
+  to_own_order(angles_, own_angles_, angle_of_, [](const AngleRow& o, AngleRow& r) {
+    r.a = o.a;
+    r.b = o.b;
+    r.c = o.c;
+  });
+  lists_.swap(own_lists_);
+}
+
 // Stage 4: nonlinear Gauss-Seidel sweeps until the tolerance or max_iterations.
 void World::solve(StepDiagnostics& d) {
   bool any_rows = false;
@@ -628,8 +728,13 @@ void World::solve(StepDiagnostics& d) {
     detail::anderson_before(aa);
     c.aa = &aa;
   }
-  if (opt_.threads == 1) sweep_serial(c);
-  else sweep_parallel(c, d.rows);
+  if (opt_.threads == 1) {
+    sweep_serial(c);
+  } else {
+    to_slab_order();
+    sweep_parallel(c, d.rows);
+    from_slab_order();
+  }
   if (c.aa) aa_buf_.swap(aa.buf);
   if (!c.converged) {
     d.hit_iteration_cap = true;

@@ -362,6 +362,8 @@ class World {
   void solve(StepDiagnostics& d);                      // 4: NLGS to the tolerance or the cap
   void sweep_serial(detail::SweepControl& control);
   void sweep_parallel(detail::SweepControl& control, int rows);
+  void to_slab_order();    // 4, threads > 1: bodies and rows stored slab by slab
+  void from_slab_order();  // 4: back to the bodies' and rows' own order
   void sweep_lists(const RowLists& lists, bool forward, int sweep, bool check, SweepTotals& out,
                    detail::Anderson* aa = nullptr, double* sums = nullptr);
   void apply_contact(const ContactRow& r, const Vec3& p, const detail::Sector& sec);
@@ -392,6 +394,16 @@ class World {
   // Sweep order: lists_[t] for slab t, lists_.back() for the rows across slabs.
   std::vector<RowLists> lists_;
   std::vector<int> slab_;  // slab of each body (threads > 1)
+  // The solve's slab-ordered copies (threads > 1): body b at slab_pos_[b]; the rows in
+  // the order of lists_ (slab 0, 1, …, the boundary), each holding its index in the own
+  // order (row_of_); the own-order arrays wait in the second of each pair.
+  std::vector<int> slab_pos_;
+  std::vector<SolverBody> own_body_;
+  std::vector<ContactRow> own_contacts_;
+  std::vector<RopeRow> own_ropes_;
+  std::vector<AngleRow> own_angles_;
+  std::vector<int> contact_of_, rope_of_, angle_of_;
+  std::vector<RowLists> own_lists_;
   std::vector<double> aa_buf_;  // Anderson scratch, kept between steps (no state)
   double roundoff_dv_ = 0.0;    // this step's round-off floor of a sweep's correction (m/s)
   // Cell-grid scratch; the periodic sector's images (body, position) in the grid.
