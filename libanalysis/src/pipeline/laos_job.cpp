@@ -218,12 +218,15 @@ core::Metadata laos_metadata(const LaosJobOptions& o, const core::Metadata& head
                      "xdot/omega, x_eq = x - r_d/G't; rates d/dt = omega d/dtheta");
     add("spp_harmonics_requested", std::to_string(o.spp_options.max_harmonic));
     add("spp_cycle_measures", "on both loading branches (from a zero crossing of r to its extremum), the mean "
-                              "of the magnitudes: cage = G't where r = 0; static yield = r where G't first "
-                              "changes sign + to -; dynamic yield = r at the smallest dG't/dtheta (where G't "
+                              "of the magnitudes: cage = G't where r = 0; static yield = r where G't changes "
+                              "sign + to -, in the lobe of G't <= 0 holding the branch's lowest G't: at its "
+                              "deepest point where the lobe is at most 2 kernel widths 2 pi/(M_spp+2) wide (a "
+                              "kink), else at its leading zero; dynamic yield = r at the smallest dG't/dtheta (where G't "
                               "falls below half the cage value)");
     add("spp_checks", fmt::format("a measure is given (status ok) when its spread over {} redraws of the odd "
                                   "harmonics from their standard errors and its change from M_spp to M_check "
-                                  "(the largest odd number <= (M_spp+1)/2) are both within {:.3g} % of it; "
+                                  "(the largest odd number <= (M_spp+1)/2) times 1/(sqrt(2) - 1) are both "
+                                  "within {:.3g} % of it; "
                                   "else noise_limited or truncation_limited and no value (the _unchecked "
                                   "column keeps it); G't and G''t per sample carry standard errors from those "
                                   "of the harmonics",
