@@ -210,7 +210,8 @@ class VideoReader::Decoder {
     ctx_ = avcodec_alloc_context3(codec);
     packet_ = av_packet_alloc();
     frame_ = av_frame_alloc();
-    if (ctx_ == nullptr || packet_ == nullptr || frame_ == nullptr)
+    bgr_ = av_frame_alloc();
+    if (ctx_ == nullptr || packet_ == nullptr || frame_ == nullptr || bgr_ == nullptr)
       throw InternalError(fmt::format("{}: cannot allocate the decoder", path));
     const AVStream* st = fmt_->streams[stream_];
     if (avcodec_parameters_to_context(ctx_, st->codecpar) < 0)
@@ -227,6 +228,7 @@ class VideoReader::Decoder {
     sws_freeContext(sws_);
     sws_ = nullptr;
     av_frame_free(&frame_);
+    av_frame_free(&bgr_);
     av_packet_free(&packet_);
     avcodec_free_context(&ctx_);
     if (fmt_ != nullptr) avformat_close_input(&fmt_);
@@ -238,12 +240,12 @@ class VideoReader::Decoder {
   AVCodecContext* ctx_ = nullptr;
   AVPacket* packet_ = nullptr;
   AVFrame* frame_ = nullptr;
+  AVFrame* bgr_ = nullptr;  // swscale's output: rows and end padded as libavutil pads them
   SwsContext* sws_ = nullptr;
   int stream_ = -1;
   double time_base_ = 0.0;
   std::int64_t start_ = 0;
   bool flushing_ = false;
-  cv::Mat full_;
 };
 
 bool VideoReader::Decoder::next(cv::Mat& bgr, double& t_s, bool& damaged) {
@@ -287,11 +289,21 @@ void VideoReader::Decoder::to_bgr(cv::Mat& bgr) {
                               SWS_BICUBIC, nullptr, nullptr, nullptr);
   if (sws_ == nullptr)
     throw InputError(fmt::format("{}: frame pixel format {} cannot be converted", path_, frame_->format));
-  full_.create(ch, cw, CV_8UC3);
-  std::uint8_t* dst[4] = {full_.data, nullptr, nullptr, nullptr};
-  int dst_step[4] = {static_cast<int>(full_.step[0]), 0, 0, 0};
-  sws_scale(sws_, frame_->data, frame_->linesize, 0, ch, dst, dst_step);
-  bgr = full_(cv::Rect(0, 0, frame_->width, frame_->height)).clone();
+  // swscale's vector code writes past the end of a row whose length is not a multiple of
+  // its vector width (272 px of BGR24, from a 266 px wide MPEG-4 clip, corrupted the
+  // heap). Its output is therefore a frame of libavutil's own, rows aligned to 32 bytes
+  // and the buffer padded, as OpenCV allocates it.
+  if (bgr_->width != cw || bgr_->height != ch) {
+    av_frame_unref(bgr_);
+    bgr_->format = AV_PIX_FMT_BGR24;
+    bgr_->width = cw;
+    bgr_->height = ch;
+    if (av_frame_get_buffer(bgr_, 32) < 0)
+      throw InternalError(fmt::format("{}: cannot allocate a {}x{} frame", path_, cw, ch));
+  }
+  sws_scale(sws_, frame_->data, frame_->linesize, 0, ch, bgr_->data, bgr_->linesize);
+  const cv::Mat full(ch, cw, CV_8UC3, bgr_->data[0], static_cast<std::size_t>(bgr_->linesize[0]));
+  bgr = full(cv::Rect(0, 0, frame_->width, frame_->height)).clone();
 }
 
 bool looks_like_video(const std::filesystem::path& path) {
