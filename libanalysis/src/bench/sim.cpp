@@ -987,6 +987,8 @@ BenchSimSummary run_box_bench(const BenchSimOptions& o, const core::Metadata& he
                   1e3 * kDiameter, kDensity, kFriction, kPitch, kJitter, kSettleStep,
                   kSettleTolerance, kSettleIterations, kSettleEnergy, o.settle_max_steps,
                   o.relax_min_steps, kRelaxEnergy, o.relax_max_steps, o.seed));
+  base.emplace_back("solver", fmt::format("{} (the packing's relaxation and every table)",
+                                          solver_choices(o).front().words()));
   base.emplace_back("row_updates", "local solves of the NLGS sweeps (frozen rows skipped do not count); "
                                    "active: those on rows with a non-zero impulse after the solve or "
                                    "closed (contact gap <= 0, taut rope, angle at its limit)");
