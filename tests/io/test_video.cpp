@@ -274,8 +274,8 @@ TEST_CASE("an intact clip reads as OpenCV reads it: the same pixels and times (M
   }
 }
 
-// libswscale's vector code writes up to 24 bytes past the end of a BGR24 row whose width
-// is not a multiple of 16 px (from 8 to 14 px over one: measured, 200-318 px wide). Into a
+// libswscale's vector code writes 6-24 bytes past the end of a BGR24 row whose width mod
+// 16 is 8-14 px (measured at every even width from 200 to 318 px). Into a
 // buffer of exactly the frame's size that corrupted the heap: `sim check --size 266,200`
 // aborted in about half its runs ("malloc(): invalid size"). Each width below is one of
 // those classes; every clip is read by several readers in turn, whose frame buffers land

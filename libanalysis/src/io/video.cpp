@@ -289,10 +289,10 @@ void VideoReader::Decoder::to_bgr(cv::Mat& bgr) {
                               SWS_BICUBIC, nullptr, nullptr, nullptr);
   if (sws_ == nullptr)
     throw InputError(fmt::format("{}: frame pixel format {} cannot be converted", path_, frame_->format));
-  // swscale's vector code writes past the end of a row whose length is not a multiple of
-  // its vector width (272 px of BGR24, from a 266 px wide MPEG-4 clip, corrupted the
-  // heap). Its output is therefore a frame of libavutil's own, rows aligned to 32 bytes
-  // and the buffer padded, as OpenCV allocates it.
+  // swscale's vector code writes 6-24 bytes past the end of a BGR24 row whose width mod 16
+  // is 8-14 px (a 266 px wide clip: 18 bytes, which corrupted the heap). Its output is
+  // therefore a frame of libavutil's own, rows aligned to 32 bytes and the buffer padded,
+  // as OpenCV allocates it.
   if (bgr_->width != cw || bgr_->height != ch) {
     av_frame_unref(bgr_);
     bgr_->format = AV_PIX_FMT_BGR24;
