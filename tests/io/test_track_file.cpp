@@ -103,6 +103,15 @@ TEST_CASE("tracks file: a corrupt heap that declares 16 GB is refused, not alloc
                                                    Contains("local heap at byte 1384 declares 17179869360 bytes"));
 }
 
+TEST_CASE("tracks file: a heap whose reserved bytes are set is checked as any other heap", "[io][tracks]") {
+  // Found by fuzz_track_h5 (CI's seed corpus, 2 minutes): the heap at byte 1384 with its
+  // reserved bytes 0x3b and its size 16 GiB. HDF5 ignores those bytes; the heap check
+  // once skipped such a heap, and HDF5 asked for 17 179 869 360 bytes.
+  const auto path = std::filesystem::path(SHEARZONE_TEST_DATA_DIR) / "regressions" / "h5_tracks_heap_reserved_bytes.h5";
+  CHECK_THROWS_WITH(io::read_track_file(path), Contains("h5_tracks_heap_reserved_bytes.h5") &&
+                                                   Contains("local heap at byte 1384 declares 17179869360 bytes"));
+}
+
 TEST_CASE("tracks file: an unfiltered chunk shorter than its chunk is refused, not read past its end", "[io][tracks]") {
   // Found by fuzz_track_h5: the deflate message of /beads/t_a_s lost, its 187-byte chunk
   // was copied as the 32 kB chunk it declares (a heap overflow inside HDF5 1.10).

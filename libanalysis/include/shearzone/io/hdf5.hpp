@@ -19,6 +19,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -34,9 +35,24 @@ struct H5Array {
 /// else a quarter of the physical memory.
 std::size_t memory_budget_bytes();
 
+namespace detail {
+/// Runs `work` in a forked child process and waits at most `seconds` for it. Throws
+/// InputError naming `file` ("not a valid HDF5 file: HDF5 crashed <what> (signal 11)")
+/// when the child dies by a signal, exits non-zero (a sanitizer's report, an exception)
+/// or runs past the limit (it is killed). The child's stderr goes to /dev/null and its
+/// crash handlers are the system's defaults, so nothing reaches the user but that one
+/// line. Where fork fails (a process too large to duplicate under the kernel's
+/// overcommit rule) `work` is not run and nothing is thrown. H5File::open_read walks a
+/// file's metadata this way before opening it: HDF5 1.10 crashes on some corrupt files.
+void run_in_child(const std::string& file, const std::string& what, double seconds,
+                  const std::function<void()>& work);
+}  // namespace detail
+
 class H5File {
  public:
-  /// Opens an existing file read-only.
+  /// Opens an existing file read-only, after checking its superblock and group heaps
+  /// against its size and walking its metadata in a child process (detail::run_in_child):
+  /// a corrupt file is an InputError, never a crash of this process.
   static H5File open_read(const std::filesystem::path& path);
   /// Creates (truncating) a file for writing.
   static H5File create(const std::filesystem::path& path);
