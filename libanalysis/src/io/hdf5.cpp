@@ -30,6 +30,9 @@
 
 static_assert(sizeof(hid_t) == sizeof(std::int64_t), "hid_t is expected to be 64-bit");
 
+// The sanitizers' report channel in a sanitized build; absent (null) otherwise.
+extern "C" void __sanitizer_set_report_fd(void* fd) __attribute__((weak));
+
 namespace shearzone::io {
 namespace {
 
@@ -225,7 +228,13 @@ void run_in_child(const std::string& file, const std::string& what, double secon
     // A crash ends the child quietly: no handler of the parent's (a sanitizer's, Python's
     // faulthandler) runs, and what libc or HDF5 would print goes nowhere.
     for (const int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) signal(sig, SIG_DFL);
-    if (const int null_fd = open("/dev/null", O_WRONLY); null_fd >= 0) dup2(null_fd, STDERR_FILENO);
+    if (const int null_fd = open("/dev/null", O_WRONLY); null_fd >= 0) {
+      dup2(null_fd, STDERR_FILENO);
+      // A sanitizer's reports too (under libFuzzer they go to a copy of stderr, which a
+      // forked child would reopen as a stray file ".<pid>" in the working folder).
+      if (__sanitizer_set_report_fd != nullptr)
+        __sanitizer_set_report_fd(reinterpret_cast<void*>(static_cast<std::uintptr_t>(null_fd)));
+    }
     try {
       work();
     } catch (...) {
