@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -18,7 +19,7 @@ namespace {
 
 class H5Reader final : public FieldReader {
  public:
-  explicit H5Reader(const std::filesystem::path& path) : h5_(H5File::open_read(path)), path_(path) {
+  H5Reader(H5File h5, const std::filesystem::path& path) : h5_(std::move(h5)), path_(path) {
     for (const char* d : {"/grid/x_px", "/grid/y_px", "/pairs/u_px", "/pairs/v_px", "/pairs/flag",
                           "/pairs/t_a_s", "/pairs/dt_s"})
       if (!h5_.exists(d))
@@ -204,7 +205,11 @@ void FieldReader::read_points(std::size_t k, core::PointVectors& points, double&
 
 std::unique_ptr<FieldReader> open_field_file(const std::filesystem::path& path, double csv_dt_s) {
   if (is_field_csv(path)) return std::make_unique<CsvReader>(path, csv_dt_s);
-  return std::make_unique<H5Reader>(path);
+  return std::make_unique<H5Reader>(H5File::open_read(path), path);
+}
+
+std::unique_ptr<FieldReader> open_field_file(H5File h5, const std::filesystem::path& path) {
+  return std::make_unique<H5Reader>(std::move(h5), path);
 }
 
 }  // namespace shearzone::io

@@ -225,6 +225,7 @@ std::unique_ptr<PairReader> open_pair_file(const std::filesystem::path& path, do
   if (!is_field_csv(path)) {
     H5File h5 = H5File::open_read(path);
     if (h5.exists("/beads/track_id")) return std::make_unique<TrackPairReader>(std::move(h5), path);
+    return open_field_file(std::move(h5), path);  // opened (and its metadata walked) once
   }
   return open_field_file(path, csv_dt_s);
 }

@@ -37,6 +37,7 @@
 #include "shearzone/core/metadata.hpp"
 #include "shearzone/core/point_vectors.hpp"
 #include "shearzone/core/vector_field.hpp"
+#include "shearzone/io/hdf5.hpp"
 
 namespace shearzone::io {
 
@@ -106,5 +107,7 @@ class FieldReader : public PairReader {
 /// really holds and that fit the memory budget (io/hdf5.hpp). CSV: one pair on a
 /// regular grid; `csv_dt_s` is its time step (the CSV does not carry a usable one).
 std::unique_ptr<FieldReader> open_field_file(const std::filesystem::path& path, double csv_dt_s);
+/// The same for an HDF5 field file already open (open_pair_file looks inside first).
+std::unique_ptr<FieldReader> open_field_file(H5File h5, const std::filesystem::path& path);
 
 }  // namespace shearzone::io
