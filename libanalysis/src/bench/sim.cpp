@@ -216,6 +216,11 @@ int mobile_count(const sim::World& w) {
 /// Observables of one drive cycle of the sheared cup (run_cup_accuracy).
 struct CycleObservables {
   double amplitude = 0.0, K1p = 0.0, K1pp = 0.0, r_c = std::numeric_limits<double>::quiet_NaN();
+  /// The whole cup: the mean of r_c measured in each quarter about a blade alone (as many
+  /// surface beads as a periodic quarter holds; NaN where no quarter's mean falls below
+  /// v_c); a quarter: r_c. The bed's height: the surface's top (the 99.5th percentile of
+  /// the centres) above the lowest centre, plus one bead, in diameters.
+  double r_c_quarters = std::numeric_limits<double>::quiet_NaN(), bed_height_over_d = 0.0;
   double mean_sweeps = 0.0, overlap = 0.0, rope_excess = 0.0, wall = 0.0;
   std::int64_t caps = 0;
 };
@@ -227,7 +232,26 @@ struct CycleObservables {
 /// heights (at the start), their azimuthal speed |v_θ| about the vane's axis sampled every
 /// 10 steps and binned by radius (d/2 bins); r_c is where the cycle mean first falls below
 /// 1 % of the vane tip's mean speed 4 φ0 f R_v, outward from the vane (linear between bins;
-/// NaN when it never does).
+/// NaN when it never does). The whole cup's r_c_quarters takes the same rule in each of the
+/// four quarters [90k − 45°, 90k + 45°) about the axis (blade k in its middle, as in a
+/// periodic quarter) and averages the quarters that have one.
+/// Where the mean of the radial bins (vsum / vcount, bins of `bin` from rv) first falls
+/// below v_c, outward; linear between bins, NaN when it never does.
+double first_below(const std::vector<double>& vsum, const std::vector<double>& vcount, double rv, double bin,
+                   double v_c) {
+  double prev_r = 0.0, prev_v = 0.0;
+  bool have_prev = false;
+  for (std::size_t i = 0; i < vsum.size(); ++i) {
+    if (vcount[i] == 0.0) continue;
+    const double r = rv + (static_cast<double>(i) + 0.5) * bin, v = vsum[i] / vcount[i];
+    if (v < v_c) return have_prev ? prev_r + (r - prev_r) * (prev_v - v_c) / (prev_v - v) : r;
+    prev_r = r;
+    prev_v = v;
+    have_prev = true;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double phi0, double f, int cycles) {
   sim::World w = sim::World::from_state(state);
   const double t_drive = w.time();  // the drive's phase counts from here
@@ -254,10 +278,14 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
   const double h = w.options().time_step;
   const std::int64_t per_cycle = std::llround(1.0 / (f * h));
   const double v_c = 0.01 * 4.0 * phi0 * f * rv;
+  const bool whole = w.options().sectors <= 1;
+  const double bed_height_over_d = (top - heights.front()) / d + 1.0;
   std::vector<CycleObservables> out;
   for (int k = 0; k < cycles; ++k) {
     CycleObservables o;
+    o.bed_height_over_d = bed_height_over_d;
     std::vector<double> theta, torque, vsum(nbins, 0.0), vcount(nbins, 0.0);
+    std::array<std::vector<double>, 4> qsum{vsum, vsum, vsum, vsum}, qcount{vsum, vsum, vsum, vsum};
     const auto t0 = std::chrono::steady_clock::now();
     double sweeps = 0.0;
     for (std::int64_t s = 0; s < per_cycle; ++s) {
@@ -280,6 +308,12 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
         const std::size_t i = std::min(nbins - 1, static_cast<std::size_t>((r - rv) / bin));
         vsum[i] += vt;
         vcount[i] += 1.0;
+        if (whole) {  // the quarter about blade q: azimuth in [90q − 45°, 90q + 45°)
+          const double az = std::atan2(radial.y(), radial.x()) + 0.25 * std::numbers::pi;
+          const auto q = static_cast<std::size_t>((static_cast<int>(std::floor(az / (0.5 * std::numbers::pi))) + 4) % 4);
+          qsum[q][i] += vt;
+          qcount[q][i] += 1.0;
+        }
       }
     }
     o.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -291,18 +325,18 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
     o.K1p = fit.Kp[1];
     o.K1pp = fit.Kpp[1];
     o.amplitude = phi0 * std::hypot(o.K1p, o.K1pp);
-    double prev_r = 0.0, prev_v = 0.0;
-    bool have_prev = false;
-    for (std::size_t i = 0; i < nbins; ++i) {
-      if (vcount[i] == 0.0) continue;
-      const double r = rv + (static_cast<double>(i) + 0.5) * bin, v = vsum[i] / vcount[i];
-      if (v < v_c) {
-        o.r_c = have_prev ? prev_r + (r - prev_r) * (prev_v - v_c) / (prev_v - v) : r;
-        break;
+    o.r_c = first_below(vsum, vcount, rv, bin, v_c);
+    o.r_c_quarters = o.r_c;
+    if (whole) {
+      double sum = 0.0;
+      int n = 0;
+      for (std::size_t q = 0; q < 4; ++q) {
+        const double r = first_below(qsum[q], qcount[q], rv, bin, v_c);
+        if (std::isnan(r)) continue;
+        sum += r;
+        ++n;
       }
-      prev_r = r;
-      prev_v = v;
-      have_prev = true;
+      o.r_c_quarters = n ? sum / n : std::numeric_limits<double>::quiet_NaN();
     }
     out.push_back(o);
   }
@@ -428,13 +462,15 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<sim
 /// appended; returns the bead count. Rows missing, a cycle count or bead count other
 /// than this run's: InputError naming the file and line.
 int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std::uint64_t seed, io::CsvWriter& csv,
-                   std::vector<double>& amp, std::vector<double>& rc, std::vector<double>& cost) {
+                   std::vector<double>& amp, std::vector<double>& rc, std::vector<double>& rcq,
+                   std::vector<double>& bed, std::vector<double>& cost) {
   const std::size_t cN = ref.column_index("N"), cK = ref.column_index("sectors"), cS = ref.column_index("seed");
   const std::size_t cB = ref.column_index("beads"), cA = ref.column_index("torque_amplitude_N_m");
   const std::size_t cR = ref.column_index("r_c_m"), cW = ref.column_index("wall_s");
+  const std::size_t cQ = ref.column_index("r_c_quarters_m"), cH = ref.column_index("bed_height_over_d");
   const int beads = cup_chains(o, N, 1) * N;  // the whole cup's mobile beads
-  double a = 0.0, r = 0.0, wall = 0.0;
-  int rows = 0, r_n = 0;
+  double a = 0.0, r = 0.0, q = 0.0, height = 0.0, wall = 0.0;
+  int rows = 0, r_n = 0, q_n = 0;
   for (std::size_t i = 0; i < ref.num_rows(); ++i) {
     if (ref.number(i, cN) != N || ref.number(i, cK) != 1 || ref.number(i, cS) != static_cast<double>(seed)) continue;
     if (ref.number(i, cB) != beads)
@@ -446,6 +482,11 @@ int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std
       r += ref.number(i, cR);
       ++r_n;
     }
+    if (!ref.cell_empty(i, cQ)) {
+      q += ref.number(i, cQ);
+      ++q_n;
+    }
+    height = ref.number(i, cH);
     wall = ref.number(i, cW);
     ++rows;
   }
@@ -454,6 +495,8 @@ int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std
                                  ref.source, rows, N, seed, o.cycles));
   amp.push_back(a / rows);
   rc.push_back(r_n ? r / r_n : std::numeric_limits<double>::quiet_NaN());
+  rcq.push_back(q_n ? q / q_n : std::numeric_limits<double>::quiet_NaN());
+  bed.push_back(height);
   cost.push_back(wall);
   return beads;
 }
@@ -493,9 +536,24 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
   m.emplace_back("torque_amplitude_N_m", "phi0 |K*_1| of the whole cup's motor torque (K x the simulated wedge's)");
   m.emplace_back("r_c_m", "surface beads (within 1 d of the 99.5th height percentile): radius where the cycle mean "
                           "|v_theta| first falls below 1 % of the vane tip's mean speed 4 phi0 f R_v (empty: never)");
-  const std::vector<std::string> columns{"N",      "sectors",          "seed",          "beads",
-                                         "cycle",  "torque_amplitude_N_m", "K1p_N_m_per_rad", "K1pp_N_m_per_rad",
-                                         "r_c_m",  "mean_sweeps_per_step", "cap_hits",      "max_overlap_over_d",
+  m.emplace_back("r_c_quarters_m", "K = 1: the mean of r_c_m's rule applied to each quarter about a blade alone "
+                                   "(the quarter's number of surface beads; empty: no quarter falls below); K = 4: r_c_m");
+  m.emplace_back("bed_height_over_d", "the surface's top (99.5th height percentile of the centres) above the lowest "
+                                      "centre, plus one bead, in bead diameters, after the fill");
+  const std::vector<std::string> columns{"N",
+                                         "sectors",
+                                         "seed",
+                                         "beads",
+                                         "cycle",
+                                         "torque_amplitude_N_m",
+                                         "K1p_N_m_per_rad",
+                                         "K1pp_N_m_per_rad",
+                                         "r_c_m",
+                                         "r_c_quarters_m",
+                                         "bed_height_over_d",
+                                         "mean_sweeps_per_step",
+                                         "cap_hits",
+                                         "max_overlap_over_d",
                                          "wall_s"};
   if (reference && reference->columns != columns)
     throw InputError(fmt::format("{}: columns {} (expected sim_cup_sector.csv's: {})", o.sector_reference.string(),
@@ -507,7 +565,7 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
   std::size_t done = 0;
   for (const int N : o.chain_lengths) {
     struct Stats {
-      std::vector<double> amp, rc, cost;  // seed means
+      std::vector<double> amp, rc, rcq, bed, cost;  // seed means
       int beads = 0;
     };
     std::vector<Stats> stats(geometries.size());
@@ -515,7 +573,8 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
       for (const std::uint64_t seed : o.seeds) {
         const int K = geometries[g];
         if (K == 1 && reference) {
-          stats[g].beads = reference_rows(*reference, o, N, seed, csv, stats[g].amp, stats[g].rc, stats[g].cost);
+          stats[g].beads = reference_rows(*reference, o, N, seed, csv, stats[g].amp, stats[g].rc, stats[g].rcq,
+                                        stats[g].bed, stats[g].cost);
           if (progress) progress(++done, total);
           continue;
         }
@@ -526,19 +585,24 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
         const double pre_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const std::vector<CycleObservables> cyc = run_cycles(pre, o.phi0_rad, o.f_Hz, o.cycles);
         const int mobile = mobile_count(*sc.world);
-        double amp = 0, rc = 0, cost = pre_wall / std::max(1, o.preshear_cycles);
-        int rc_n = 0;
+        double amp = 0, rc = 0, rcq = 0, cost = pre_wall / std::max(1, o.preshear_cycles);
+        int rc_n = 0, rcq_n = 0;
         if (o.preshear_cycles == 0) cost = 0;
         for (std::size_t k = 0; k < cyc.size(); ++k) {
           const CycleObservables& c = cyc[k];
           csv.row(std::vector<std::string>{
               std::to_string(N), std::to_string(K), std::to_string(seed), std::to_string(mobile), std::to_string(k),
               sci(c.amplitude), sci(c.K1p), sci(c.K1pp), std::isnan(c.r_c) ? std::string() : sci(c.r_c),
+              std::isnan(c.r_c_quarters) ? std::string() : sci(c.r_c_quarters), fixed(c.bed_height_over_d, 3),
               fixed(c.mean_sweeps, 1), std::to_string(c.caps), sci(c.overlap), fixed(c.wall, 2)});
           amp += c.amplitude / static_cast<double>(cyc.size());
           if (!std::isnan(c.r_c)) {
             rc += c.r_c;
             ++rc_n;
+          }
+          if (!std::isnan(c.r_c_quarters)) {
+            rcq += c.r_c_quarters;
+            ++rcq_n;
           }
           cost = c.wall;
         }
@@ -546,6 +610,8 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
         st.beads = mobile;
         st.amp.push_back(amp);
         st.rc.push_back(rc_n ? rc / rc_n : std::numeric_limits<double>::quiet_NaN());
+        st.rcq.push_back(rcq_n ? rcq / rcq_n : std::numeric_limits<double>::quiet_NaN());
+        st.bed.push_back(cyc.empty() ? 0.0 : cyc.front().bed_height_over_d);
         st.cost.push_back(cost);
         if (progress) progress(++done, total);
       }
@@ -564,26 +630,31 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
         if (!std::isnan(x)) var += (x - mean) * (x - mean);
       return std::array<double, 3>{mean, n > 1 ? std::sqrt(var / (n - 1)) : std::numeric_limits<double>::quiet_NaN(), n};
     };
-    std::array<std::array<double, 3>, 2> a{}, r{};
+    std::array<std::array<double, 3>, 2> a{}, r{}, q{}, b{};
     for (std::size_t g = 0; g < geometries.size(); ++g) {
       a[g] = mean_sd(stats[g].amp);
       r[g] = mean_sd(stats[g].rc);
+      q[g] = mean_sd(stats[g].rcq);
+      b[g] = mean_sd(stats[g].bed);
       const auto c = mean_sd(stats[g].cost);
       sum.lines.push_back(fmt::format(
-          "cup N = {}, {}: {} beads, torque amplitude {:.4g} +- {:.2g} N m, r_c {:.1f} +- {:.1f} mm (mean +- s.d. "
-          "over {} seeds), {:.3g} s per cycle",
+          "cup N = {}, {}: {} beads, torque amplitude {:.4g} +- {:.2g} N m, r_c {:.1f} +- {:.1f} mm (per quarter "
+          "{:.1f} +- {:.1f} mm), bed {:.2f} +- {:.2f} d (mean +- s.d. over {} seeds), {:.3g} s per cycle",
           N, geometries[g] == 1 ? "whole cup" : "quarter", stats[g].beads, a[g][0], a[g][1], 1e3 * r[g][0],
-          1e3 * r[g][1], o.seeds.size(), c[0]));
+          1e3 * r[g][1], 1e3 * q[g][0], 1e3 * q[g][1], b[g][0], b[g][1], o.seeds.size(), c[0]));
     }
     // The difference in units of its standard error (sqrt(s1²/n1 + s2²/n2)).
+    // (0 for equal values that do not scatter, as a bed of one layer).
     auto z = [](const std::array<double, 3>& x, const std::array<double, 3>& y) {
       const double se = std::sqrt(x[1] * x[1] / x[2] + y[1] * y[1] / y[2]);
-      return (y[0] - x[0]) / se;
+      return y[0] == x[0] ? 0.0 : (y[0] - x[0]) / se;
     };
     sum.lines.push_back(fmt::format("cup N = {}: quarter - whole: torque amplitude {:+.1f} % ({:+.1f} standard errors), "
-                                    "r_c {:+.1f} mm ({:+.1f} standard errors)",
+                                    "r_c {:+.1f} mm ({:+.1f} standard errors), r_c per quarter {:+.1f} mm ({:+.1f} "
+                                    "standard errors), bed {:+.3f} d ({:+.1f} standard errors)",
                                     N, 100.0 * (a[1][0] / a[0][0] - 1.0), z(a[0], a[1]), 1e3 * (r[1][0] - r[0][0]),
-                                    z(r[0], r[1])));
+                                    z(r[0], r[1]), 1e3 * (q[1][0] - q[0][0]), z(q[0], q[1]), b[1][0] - b[0][0],
+                                    z(b[0], b[1])));
   }
   out.commit_all();
   sum.files = out.final_paths();
