@@ -457,35 +457,50 @@ BenchSimSummary run_cup_accuracy(const BenchSimOptions& o, const std::vector<sim
   return sum;
 }
 
+/// Per geometry of --sector-check: the seed means (NaN r_c: none) and the bead count.
+struct SectorSeeds {
+  std::vector<double> amp, rc, rcq, bed, cost;
+  int beads = 0;
+};
+
+/// The mean of the values that are not NaN (NaN when none is).
+struct MeanOfFinite {
+  double sum = 0.0;
+  int n = 0;
+  void add(double x) {
+    if (std::isnan(x)) return;
+    sum += x;
+    ++n;
+  }
+  [[nodiscard]] double value() const { return n ? sum / n : std::numeric_limits<double>::quiet_NaN(); }
+};
+
 /// The whole cup's rows for N and seed from a --reference table: each copied into `csv`,
-/// the seed's mean torque amplitude, mean r_c (NaN: none) and last cycle's wall time
-/// appended; returns the bead count. Rows missing, a cycle count or bead count other
-/// than this run's: InputError naming the file and line.
-int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std::uint64_t seed, io::CsvWriter& csv,
-                   std::vector<double>& amp, std::vector<double>& rc, std::vector<double>& rcq,
-                   std::vector<double>& bed, std::vector<double>& cost) {
+/// the seed's means (torque amplitude, r_c, r_c per quarter; NaN: none), bed height and
+/// last cycle's wall time appended to `seeds`, with its bead count. Rows missing, a cycle
+/// count or bead count other than this run's: InputError naming the file and line.
+void reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std::uint64_t seed, io::CsvWriter& csv,
+                    SectorSeeds& seeds) {
   const std::size_t cN = ref.column_index("N"), cK = ref.column_index("sectors"), cS = ref.column_index("seed");
   const std::size_t cB = ref.column_index("beads"), cA = ref.column_index("torque_amplitude_N_m");
   const std::size_t cR = ref.column_index("r_c_m"), cW = ref.column_index("wall_s");
   const std::size_t cQ = ref.column_index("r_c_quarters_m"), cH = ref.column_index("bed_height_over_d");
   const int beads = cup_chains(o, N, 1) * N;  // the whole cup's mobile beads
-  double a = 0.0, r = 0.0, q = 0.0, height = 0.0, wall = 0.0;
-  int rows = 0, r_n = 0, q_n = 0;
+  auto cell = [&](std::size_t i, std::size_t c) {
+    return ref.cell_empty(i, c) ? std::numeric_limits<double>::quiet_NaN() : ref.number(i, c);
+  };
+  MeanOfFinite amp, rc, rcq;
+  double height = 0.0, wall = 0.0;
+  int rows = 0;
   for (std::size_t i = 0; i < ref.num_rows(); ++i) {
     if (ref.number(i, cN) != N || ref.number(i, cK) != 1 || ref.number(i, cS) != static_cast<double>(seed)) continue;
     if (ref.number(i, cB) != beads)
       throw InputError(fmt::format("{}:{}: {} beads in the whole cup (expected {}: --cup-beads {}, N = {})", ref.source,
                                    ref.row_lines[i], ref.rows[i][cB], beads, o.cup_beads, N));
     csv.row(ref.rows[i]);
-    a += ref.number(i, cA);
-    if (!ref.cell_empty(i, cR)) {
-      r += ref.number(i, cR);
-      ++r_n;
-    }
-    if (!ref.cell_empty(i, cQ)) {
-      q += ref.number(i, cQ);
-      ++q_n;
-    }
+    amp.add(ref.number(i, cA));
+    rc.add(cell(i, cR));
+    rcq.add(cell(i, cQ));
     height = ref.number(i, cH);
     wall = ref.number(i, cW);
     ++rows;
@@ -493,12 +508,12 @@ int reference_rows(const io::CsvTable& ref, const BenchSimOptions& o, int N, std
   if (rows != o.cycles)
     throw InputError(fmt::format("{}: {} whole-cup rows for N = {}, seed {} (expected {}, one per measured cycle)",
                                  ref.source, rows, N, seed, o.cycles));
-  amp.push_back(a / rows);
-  rc.push_back(r_n ? r / r_n : std::numeric_limits<double>::quiet_NaN());
-  rcq.push_back(q_n ? q / q_n : std::numeric_limits<double>::quiet_NaN());
-  bed.push_back(height);
-  cost.push_back(wall);
-  return beads;
+  seeds.amp.push_back(amp.value());
+  seeds.rc.push_back(rc.value());
+  seeds.rcq.push_back(rcq.value());
+  seeds.bed.push_back(height);
+  seeds.cost.push_back(wall);
+  seeds.beads = beads;
 }
 
 /// --scene cup --sector-check: the periodic quarter against the whole cup. Per N, seed
@@ -564,17 +579,12 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
   const std::size_t total = o.chain_lengths.size() * geometries.size() * o.seeds.size();
   std::size_t done = 0;
   for (const int N : o.chain_lengths) {
-    struct Stats {
-      std::vector<double> amp, rc, rcq, bed, cost;  // seed means
-      int beads = 0;
-    };
-    std::vector<Stats> stats(geometries.size());
+    std::vector<SectorSeeds> stats(geometries.size());
     for (std::size_t g = 0; g < geometries.size(); ++g)
       for (const std::uint64_t seed : o.seeds) {
         const int K = geometries[g];
         if (K == 1 && reference) {
-          stats[g].beads = reference_rows(*reference, o, N, seed, csv, stats[g].amp, stats[g].rc, stats[g].rcq,
-                                        stats[g].bed, stats[g].cost);
+          reference_rows(*reference, o, N, seed, csv, stats[g]);
           if (progress) progress(++done, total);
           continue;
         }
@@ -585,9 +595,8 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
         const double pre_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const std::vector<CycleObservables> cyc = run_cycles(pre, o.phi0_rad, o.f_Hz, o.cycles);
         const int mobile = mobile_count(*sc.world);
-        double amp = 0, rc = 0, rcq = 0, cost = pre_wall / std::max(1, o.preshear_cycles);
-        int rc_n = 0, rcq_n = 0;
-        if (o.preshear_cycles == 0) cost = 0;
+        MeanOfFinite amp, rc, rcq;
+        double cost = o.preshear_cycles == 0 ? 0.0 : pre_wall / o.preshear_cycles;
         for (std::size_t k = 0; k < cyc.size(); ++k) {
           const CycleObservables& c = cyc[k];
           csv.row(std::vector<std::string>{
@@ -595,22 +604,16 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
               sci(c.amplitude), sci(c.K1p), sci(c.K1pp), std::isnan(c.r_c) ? std::string() : sci(c.r_c),
               std::isnan(c.r_c_quarters) ? std::string() : sci(c.r_c_quarters), fixed(c.bed_height_over_d, 3),
               fixed(c.mean_sweeps, 1), std::to_string(c.caps), sci(c.overlap), fixed(c.wall, 2)});
-          amp += c.amplitude / static_cast<double>(cyc.size());
-          if (!std::isnan(c.r_c)) {
-            rc += c.r_c;
-            ++rc_n;
-          }
-          if (!std::isnan(c.r_c_quarters)) {
-            rcq += c.r_c_quarters;
-            ++rcq_n;
-          }
+          amp.add(c.amplitude);
+          rc.add(c.r_c);
+          rcq.add(c.r_c_quarters);
           cost = c.wall;
         }
-        Stats& st = stats[g];
+        SectorSeeds& st = stats[g];
         st.beads = mobile;
-        st.amp.push_back(amp);
-        st.rc.push_back(rc_n ? rc / rc_n : std::numeric_limits<double>::quiet_NaN());
-        st.rcq.push_back(rcq_n ? rcq / rcq_n : std::numeric_limits<double>::quiet_NaN());
+        st.amp.push_back(amp.value());
+        st.rc.push_back(rc.value());
+        st.rcq.push_back(rcq.value());
         st.bed.push_back(cyc.empty() ? 0.0 : cyc.front().bed_height_over_d);
         st.cost.push_back(cost);
         if (progress) progress(++done, total);
