@@ -225,16 +225,6 @@ struct CycleObservables {
   std::int64_t caps = 0;
 };
 
-/// `cycles` whole drive cycles of the vane from `state` (φ = φ0 sin 2πf t from t = 0):
-/// per cycle the fundamental of the motor torque by the laos stage's harmonic fit
-/// (fit_harmonics, 5 harmonics and drift, trapezoid weights in θ = 2πf t), its amplitude
-/// |K*_1| φ0, and the surface: mobile beads within 1 d of the 99.5th percentile of the
-/// heights (at the start), their azimuthal speed |v_θ| about the vane's axis sampled every
-/// 10 steps and binned by radius (d/2 bins); r_c is where the cycle mean first falls below
-/// 1 % of the vane tip's mean speed 4 φ0 f R_v, outward from the vane (linear between bins;
-/// NaN when it never does). The whole cup's r_c_quarters takes the same rule in each of the
-/// four quarters [90k − 45°, 90k + 45°) about the axis (blade k in its middle, as in a
-/// periodic quarter) and averages the quarters that have one.
 /// Where the mean of the radial bins (vsum / vcount, bins of `bin` from rv) first falls
 /// below v_c, outward; linear between bins, NaN when it never does.
 double first_below(const std::vector<double>& vsum, const std::vector<double>& vcount, double rv, double bin,
@@ -252,6 +242,16 @@ double first_below(const std::vector<double>& vsum, const std::vector<double>& v
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+/// `cycles` whole drive cycles of the vane from `state` (φ = φ0 sin 2πf t from t = 0):
+/// per cycle the fundamental of the motor torque by the laos stage's harmonic fit
+/// (fit_harmonics, 5 harmonics and drift, trapezoid weights in θ = 2πf t), its amplitude
+/// |K*_1| φ0, and the surface: mobile beads within 1 d of the 99.5th percentile of the
+/// heights (at the start), their azimuthal speed |v_θ| about the vane's axis sampled every
+/// 10 steps and binned by radius (d/2 bins); r_c is where the cycle mean first falls below
+/// 1 % of the vane tip's mean speed 4 φ0 f R_v, outward from the vane (linear between bins;
+/// NaN when it never does). The whole cup's r_c_quarters takes the same rule in each of the
+/// four quarters [90k − 45°, 90k + 45°) about the axis (blade k in its middle, as in a
+/// periodic quarter) and averages the quarters that have one.
 std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double phi0, double f, int cycles) {
   sim::World w = sim::World::from_state(state);
   const double t_drive = w.time();  // the drive's phase counts from here
