@@ -217,9 +217,10 @@ int mobile_count(const sim::World& w) {
 struct CycleObservables {
   double amplitude = 0.0, K1p = 0.0, K1pp = 0.0, r_c = std::numeric_limits<double>::quiet_NaN();
   /// The whole cup: the mean of r_c measured in each quarter about a blade alone (as many
-  /// surface beads as a periodic quarter holds; NaN where no quarter's mean falls below
-  /// v_c); a quarter: r_c. The bed's height: the surface's top (the 99.5th percentile of
-  /// the centres) above the lowest centre, plus one bead, in diameters.
+  /// surface beads as a periodic quarter holds; NaN unless every quarter's mean falls
+  /// below v_c: a mean of the inner ones only would read short); a quarter: r_c. The
+  /// bed's height at the start of the measured cycles: the surface's top (the 99.5th
+  /// percentile of the centres) above the lowest centre, plus one bead, in diameters.
   double r_c_quarters = std::numeric_limits<double>::quiet_NaN(), bed_height_over_d = 0.0;
   double mean_sweeps = 0.0, overlap = 0.0, rope_excess = 0.0, wall = 0.0;
   std::int64_t caps = 0;
@@ -251,7 +252,7 @@ double first_below(const std::vector<double>& vsum, const std::vector<double>& v
 /// 1 % of the vane tip's mean speed 4 φ0 f R_v, outward from the vane (linear between bins;
 /// NaN when it never does). The whole cup's r_c_quarters takes the same rule in each of the
 /// four quarters [90k − 45°, 90k + 45°) about the axis (blade k in its middle, as in a
-/// periodic quarter) and averages the quarters that have one.
+/// periodic quarter) and averages them (NaN unless all four have one).
 std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double phi0, double f, int cycles) {
   sim::World w = sim::World::from_state(state);
   const double t_drive = w.time();  // the drive's phase counts from here
@@ -328,15 +329,8 @@ std::vector<CycleObservables> run_cycles(const sim::WorldState& state, double ph
     o.r_c = first_below(vsum, vcount, rv, bin, v_c);
     o.r_c_quarters = o.r_c;
     if (whole) {
-      double sum = 0.0;
-      int n = 0;
-      for (std::size_t q = 0; q < 4; ++q) {
-        const double r = first_below(qsum[q], qcount[q], rv, bin, v_c);
-        if (std::isnan(r)) continue;
-        sum += r;
-        ++n;
-      }
-      o.r_c_quarters = n ? sum / n : std::numeric_limits<double>::quiet_NaN();
+      o.r_c_quarters = 0.0;  // NaN as soon as one quarter has none
+      for (std::size_t q = 0; q < 4; ++q) o.r_c_quarters += 0.25 * first_below(qsum[q], qcount[q], rv, bin, v_c);
     }
     out.push_back(o);
   }
@@ -552,9 +546,9 @@ BenchSimSummary run_sector_check(const BenchSimOptions& o, const core::Metadata&
   m.emplace_back("r_c_m", "surface beads (within 1 d of the 99.5th height percentile): radius where the cycle mean "
                           "|v_theta| first falls below 1 % of the vane tip's mean speed 4 phi0 f R_v (empty: never)");
   m.emplace_back("r_c_quarters_m", "K = 1: the mean of r_c_m's rule applied to each quarter about a blade alone "
-                                   "(the quarter's number of surface beads; empty: no quarter falls below); K = 4: r_c_m");
+                                   "(the quarter's number of surface beads; empty unless all four fall below); K = 4: r_c_m");
   m.emplace_back("bed_height_over_d", "the surface's top (99.5th height percentile of the centres) above the lowest "
-                                      "centre, plus one bead, in bead diameters, after the fill");
+                                      "centre, plus one bead, in bead diameters, at the start of the measured cycles");
   const std::vector<std::string> columns{"N",
                                          "sectors",
                                          "seed",
