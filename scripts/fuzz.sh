@@ -48,8 +48,12 @@ seed "$C/track" tests/data/regressions/*.pgm
 status=0
 for t in $TARGETS; do
   mkdir -p "$BUILD_DIR/findings/$t" "$C/$t"
+  # The targets write each input to a file named after their process: in a folder of
+  # the build, removed after the run, so that no run leaves a file in the system's /tmp.
+  scratch="$(realpath -m "$BUILD_DIR")/scratch/$t"
+  rm -rf "$scratch" && mkdir -p "$scratch"
   echo "== fuzz_$t: ${SECONDS_PER_TARGET} s"
-  if ! ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:quarantine_size_mb=64 \
+  if ! TMPDIR="$scratch" ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:quarantine_size_mb=64 \
        LSAN_OPTIONS=suppressions="$PWD/tests/fuzz/lsan.supp" \
        OPENCV_FFMPEG_LOGLEVEL=-8 OPENCV_LOG_LEVEL=SILENT \
        "$BUILD_DIR/tests/fuzz/fuzz_$t" "$C/$t" -max_total_time="$SECONDS_PER_TARGET" -timeout=10 \
@@ -62,5 +66,6 @@ for t in $TARGETS; do
     grep -E "stat::number_of_executed_units|stat::peak_rss_mb" "$BUILD_DIR/findings/$t.log" | tr '\n' ' '
     echo
   fi
+  rm -rf "$scratch"
 done
 exit $status
