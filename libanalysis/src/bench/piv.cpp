@@ -162,6 +162,8 @@ BenchPivSummary run_piv_bench(const BenchPivOptions& o, const core::Metadata& he
                                    piv::subpixel_name(po.subpixel), po.final_pass_repeats);
     if (po.predictor_smoothing != piv::PivOptions{}.predictor_smoothing)
       name += " s" + format_number(po.predictor_smoothing);
+    if (po.predictor_fit != piv::PivOptions{}.predictor_fit)
+      name += std::string(" ") + piv::predictor_fit_name(po.predictor_fit);
     rows.push_back({name, windows, piv::interpolation_name(po.interpolation), piv::subpixel_name(po.subpixel),
                     std::to_string(po.final_pass_repeats), fixed(t, 4), fixed(1.0 / t, 3), fixed(sc.rms, 4),
                     fixed(sc.bias_u, 4), fixed(sc.bias_v, 4), fixed(sc.invalid_pct, 2), preset});

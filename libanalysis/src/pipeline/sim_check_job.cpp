@@ -427,6 +427,9 @@ void write_closed_loop(const SimCheckOptions& o, const core::Metadata& header, c
   core::Metadata meta = header;
   meta.emplace_back("run", o.run_dir.string());
   meta.emplace_back("v_c_m_per_s", io::format_number(o.width.v_c_m_per_s));
+  // The PIV settings every row shares (the rows differ in windows, interpolation, spacing).
+  for (const auto& kv : o.piv.piv.to_metadata())
+    if (kv.first == "piv_predictor_smoothing_steps" || kv.first == "piv_predictor_smoothing_fit") meta.push_back(kv);
   meta.emplace_back("rc_video", "r_c of piv -> profile -> width on the rendered video (geometry from the camera)");
   meta.emplace_back("rc_centres", "r_c of the camera's truth: the surface beads' centre motion on the same camera "
                                   "(what PIV of shiny spheres can at best see); for track_k settings, the same "

@@ -1,9 +1,11 @@
 #include "shearzone/piv/options.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
 
+#include "shearzone/core/check.hpp"
 #include "shearzone/core/enum_names.hpp"
 #include "shearzone/core/error.hpp"
 #include "shearzone/io/csv.hpp"
@@ -41,9 +43,31 @@ Residual residual_from_name(const std::string& name) {
   return core::enum_from_name(name, {Residual::kPeak, Residual::kGradient}, residual_name, "residual estimator");
 }
 
+const char* predictor_fit_name(PredictorFit f) { return f == PredictorFit::kGaussian ? "gaussian" : "quadratic"; }
+
+std::vector<double> quadratic_fit_weights(int half_width) {
+  SHEARZONE_CHECK_OP(half_width, >=, 2);
+  const double m = half_width;
+  const double norm = (2 * m + 1) * (4 * m * m + 4 * m - 3);
+  std::vector<double> w;
+  w.reserve(static_cast<std::size_t>(2 * half_width + 1));
+  for (int i = -half_width; i <= half_width; ++i)
+    w.push_back(3.0 * (3 * m * m + 3 * m - 1 - 5.0 * i * i) / norm);
+  return w;
+}
+
+PredictorFit predictor_fit_from_name(const std::string& name) {
+  return core::enum_from_name(name, {PredictorFit::kGaussian, PredictorFit::kQuadratic}, predictor_fit_name,
+                              "predictor smoothing fit");
+}
+
 int PivOptions::step_px(std::size_t pass) const {
   const int w = windows_px.at(pass);
   return std::max(1, static_cast<int>(std::lround(w * (1.0 - overlap))));
+}
+
+int PivOptions::predictor_fit_half_width() const {
+  return std::max(2, static_cast<int>(std::lround(2.0 * predictor_smoothing)));
 }
 
 void PivOptions::validate() const {
@@ -95,6 +119,12 @@ core::Metadata PivOptions::to_metadata() const {
           {"piv_residual", deform ? residual_name(residual) : "peak"},
           {"piv_restricted_search", format_number(restricted_search)},
           {"piv_predictor_smoothing_steps", format_number(predictor_smoothing)},
+          {"piv_predictor_smoothing_fit",
+           predictor_smoothing <= 0 ? std::string("none")
+           : predictor_fit == PredictorFit::kGaussian
+               ? fmt::format("gaussian, sigma {} grid steps", format_number(predictor_smoothing))
+               : fmt::format("quadratic least squares over +-{} grid steps along each axis",
+                             predictor_fit_half_width())},
           {"piv_coarse_estimate",
            coarse_estimate
                ? fmt::format("on: templates of {} px matched at half resolution within +-{} px; the "

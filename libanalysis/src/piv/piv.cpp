@@ -64,15 +64,21 @@ double sample_grid(const cv::Mat& values, const Grid& g, double x, double y) {
 }
 
 /// The predictor of the next pass: a field's u and v as ny x nx CV_32F grids, smoothed
-/// by `smoothing` grid steps (0: as they are).
-void smoothed_predictor(const VectorField& f, double smoothing, cv::Mat& pred_u, cv::Mat& pred_v) {
+/// as the options say (predictor_smoothing 0: as they are).
+void smoothed_predictor(const VectorField& f, const PivOptions& opt, cv::Mat& pred_u, cv::Mat& pred_v) {
   const int nx = static_cast<int>(f.nx()), ny = static_cast<int>(f.ny());
   pred_u = cv::Mat(ny, nx, CV_32F, const_cast<float*>(f.u_px.data())).clone();
   pred_v = cv::Mat(ny, nx, CV_32F, const_cast<float*>(f.v_px.data())).clone();
-  if (smoothing > 0) {
-    cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), smoothing, 0, cv::BORDER_REPLICATE);
-    cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), smoothing, 0, cv::BORDER_REPLICATE);
+  if (opt.predictor_smoothing <= 0) return;
+  if (opt.predictor_fit == PredictorFit::kGaussian) {
+    cv::GaussianBlur(pred_u, pred_u, cv::Size(0, 0), opt.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+    cv::GaussianBlur(pred_v, pred_v, cv::Size(0, 0), opt.predictor_smoothing, 0, cv::BORDER_REPLICATE);
+    return;
   }
+  const std::vector<double> w = quadratic_fit_weights(opt.predictor_fit_half_width());
+  const cv::Mat k(static_cast<int>(w.size()), 1, CV_64F, const_cast<double*>(w.data()));
+  cv::sepFilter2D(pred_u, pred_u, -1, k, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  cv::sepFilter2D(pred_v, pred_v, -1, k, k, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
 }
 
 /// Fraction of masked pixels in a window, from an integral image of (mask != 0).
@@ -333,7 +339,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
       if (dmax > 0.25 * w0) {
         // The coarse field, gap-filled (masked windows too), is the first pass's predictor.
         fill_holes(cf, {VectorFlag::kReplaced, VectorFlag::kInvalid, VectorFlag::kMasked});
-        smoothed_predictor(cf, opt_.predictor_smoothing, pred_u, pred_v);
+        smoothed_predictor(cf, opt_, pred_u, pred_v);
         prev.window = w0;
         prev.nx = static_cast<int>(cf.nx());
         prev.ny = static_cast<int>(cf.ny());
@@ -589,7 +595,7 @@ PivResult PivEngine::process(const cv::Mat& a_in, const cv::Mat& b_in, const cv:
     result.passes.push_back(rep);
 
     // Step 5: the predictor for the next pass (smoothed copy).
-    smoothed_predictor(f, opt_.predictor_smoothing, pred_u, pred_v);
+    smoothed_predictor(f, opt_, pred_u, pred_v);
     prev = g;
   }
 

@@ -49,6 +49,26 @@ enum class Residual {
 const char* residual_name(Residual r);
 Residual residual_from_name(const std::string& name);
 
+/// How the predictor is smoothed between passes, over `predictor_smoothing` S grid
+/// steps (docs/piv.md, "Velocity profiles of beads").
+enum class PredictorFit {
+  /// A Gaussian of S steps. Averages the most noise, but a profile that curves within a
+  /// few steps (a shear zone decaying over about a bead) reads high by about S^2/2 v''
+  /// (steps squared), and the next pass removes only part of it.
+  kGaussian,
+  /// A least-squares quadratic through the points within +-max(2, round(2 S)) steps
+  /// along each grid axis (Savitzky-Golay). Exact for quadratic fields, so a steep
+  /// profile keeps its curvature; it averages less noise than the Gaussian.
+  kQuadratic,
+};
+const char* predictor_fit_name(PredictorFit f);
+PredictorFit predictor_fit_from_name(const std::string& name);
+/// The weights of kQuadratic along one axis, for offsets -m..m: the centre value of the
+/// least-squares quadratic through 2m + 1 equally spaced points,
+/// 3 (3m^2 + 3m - 1 - 5 i^2) / ((2m + 1)(4m^2 + 4m - 3)) (m >= 2; 17/35, 12/35, -3/35
+/// for m = 2). They sum to 1 and their second moment is 0.
+std::vector<double> quadratic_fit_weights(int half_width);
+
 struct PivOptions {
   /// Interrogation window side per pass, px, coarse to fine; each a power of two
   /// from 8 to 256 and not larger than the previous one.
@@ -74,8 +94,10 @@ struct PivOptions {
   /// Peak search radius in passes after the first, as a fraction of the window
   /// (the residual displacement is small once the images are deformed).
   double restricted_search = 0.25;
-  /// Gaussian smoothing of the predictor between passes, in grid steps (0: off).
+  /// Smoothing of the predictor between passes, in grid steps (0: off).
   double predictor_smoothing = 1.0;
+  /// Its shape: a Gaussian of that many steps, or a local quadratic fit.
+  PredictorFit predictor_fit = PredictorFit::kGaussian;
   /// Coarse estimate before the first pass: templates of the first window's footprint
   /// (W px) matched at half resolution within +-W px by normalised cross-correlation
   /// (no pairs leave a template, unlike the first pass's FFT correlation, which loses
@@ -120,6 +142,8 @@ struct PivOptions {
   core::Metadata to_metadata() const;
   /// Grid step of pass p, px.
   int step_px(std::size_t pass) const;
+  /// The quadratic fit's half-width, grid steps: max(2, round(2 predictor_smoothing)).
+  int predictor_fit_half_width() const;
 };
 
 /// A named setting (`piv --preset`): the window sequence, deformation interpolation,
