@@ -23,7 +23,7 @@ struct PivCli {
   std::string interpolation = "bspline5";
   std::string subpixel = "gauss3";
   std::string residual = "gradient";
-  std::string smoothing_fit = "gaussian";
+  std::string smoothing_fit = "auto";
   std::string method = "piv";
   std::string grey = "luma";
   std::string preset;
@@ -51,7 +51,8 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   j.piv.interpolation = piv::interpolation_from_name(s.interpolation);
   j.piv.subpixel = piv::subpixel_from_name(s.subpixel);
   j.piv.residual = piv::residual_from_name(s.residual);
-  j.piv.predictor_fit = piv::predictor_fit_from_name(s.smoothing_fit);
+  j.fit_predictor_to_texture = s.smoothing_fit == "auto";
+  if (!j.fit_predictor_to_texture) j.piv.predictor_fit = piv::predictor_fit_from_name(s.smoothing_fit);
   j.method = pipeline::pair_method_from_name(s.method);
   if (j.method != pipeline::PairMethod::kTrack)
     for (const char* opt : {"--bead-diameter-px", "--fb-tolerance-px", "--track-levels", "--tracks", "--disc-offset-px"})
@@ -248,10 +249,11 @@ std::vector<Subcommand> add_piv(CLI::App& root, Context& ctx) {
                 "Predictor smoothing between passes, grid steps (0: off); range: 0..5")
       ->capture_default_str();
   c->add_option("--smoothing-fit", s->smoothing_fit,
-                "Shape of the predictor smoothing: gaussian (sigma --smoothing steps) or quadratic (a "
+                "Shape of the predictor smoothing: gaussian (sigma --smoothing steps), quadratic (a "
                 "least-squares quadratic over +-max(2, 2 x --smoothing) steps: keeps a steep profile's "
-                "curvature, less bias on bead profiles, more scatter on seeded particles)")
-      ->check(CLI::IsMember({"gaussian", "quadratic"}))
+                "curvature, less bias on bead profiles, more scatter on seeded particles) or auto (quadratic "
+                "where the first frame's texture reads as beads of 6.5 px or more, else gaussian)")
+      ->check(CLI::IsMember({"auto", "gaussian", "quadratic"}))
       ->capture_default_str();
   // Validation
   c->add_option("--median-threshold", p.median_threshold,

@@ -152,7 +152,7 @@ struct CheckCli {
   std::vector<std::string> interpolations;
   std::vector<std::string> methods{"piv"};
   std::string estimator = "auto";
-  std::string smoothing_fit = "gaussian";
+  std::string smoothing_fit = "auto";
   bool passes_given = false;
 };
 
@@ -163,7 +163,8 @@ int run_check(CheckCli& s, const Context& ctx) {
   apply_size(j.render, s.size);
   j.width.estimator = profile::estimator_from_name(s.estimator);
   if (!s.windows.empty()) j.piv.piv.windows_px = s.windows;
-  j.piv.piv.predictor_fit = piv::predictor_fit_from_name(s.smoothing_fit);
+  j.piv.fit_predictor_to_texture = s.smoothing_fit == "auto";
+  if (!j.piv.fit_predictor_to_texture) j.piv.piv.predictor_fit = piv::predictor_fit_from_name(s.smoothing_fit);
   // --passes shapes the --final-windows grid: checked always, and refused without it
   // (it was ignored there, out of range or not).
   for (const int p : s.passes)
@@ -282,8 +283,8 @@ std::vector<Subcommand> add_sim_render(CLI::App& sim, Context& ctx) {
                  "Grid: image deformation interpolations (bilinear, bicubic, bspline, bspline5; default: piv's)")
       ->delimiter(',');
   ck->add_option("--smoothing-fit", k->smoothing_fit,
-                 "PIV's predictor smoothing in every setting: gaussian or quadratic (as piv --smoothing-fit)")
-      ->check(CLI::IsMember({"gaussian", "quadratic"}))
+                 "PIV's predictor smoothing in every setting: auto, gaussian or quadratic (as piv --smoothing-fit)")
+      ->check(CLI::IsMember({"auto", "gaussian", "quadratic"}))
       ->capture_default_str();
   ck->add_option("--methods", k->methods,
                  "How the video's pairs are measured: piv (the window grid above), track (each bead tracked, one "

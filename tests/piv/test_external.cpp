@@ -306,8 +306,11 @@ TEST_CASE("the Oseen vortex matches UVmat once its y axis is flipped", "[piv][ex
 
 // The small-bead pass (piv/texture.hpp) must not take real particle images for beads: its
 // threshold (kSmallBeadMinPx) lies above the textures these pairs measure (2.9-5.3 px as
-// shaded-bead diameters), so their default windows stay 64, 32, 16.
-TEST_CASE("real particle pairs keep the default windows: their texture is not taken for small beads", "[piv]") {
+// shaded-bead diameters), so their default windows stay 64, 32, 16, and their predictor
+// keeps the Gaussian smoothing (predictor_fit_for_texture), under which their accuracy
+// figures above were measured.
+TEST_CASE("real particle pairs keep the default windows and smoothing: their texture is not taken for small beads",
+          "[piv]") {
   const std::vector<int> base = piv::PivOptions{}.windows_px;
   for (const std::string& f : {kData + "/openpiv-test1/exp1_001_a.bmp", kData + "/fluidimage-oseen/Oseen_center_01.tif",
                                kData + "/piv-synthetic-vane/vane_shear_640x480_A.png",
@@ -317,6 +320,7 @@ TEST_CASE("real particle pairs keep the default windows: their texture is not ta
     INFO(f << ": half-width " << hw << " px, as a bead " << hw * piv::kBeadDiameterPerHalfWidth << " px");
     CHECK(hw * piv::kBeadDiameterPerHalfWidth < piv::kSmallBeadMinPx);
     CHECK(piv::windows_for_texture(base, hw, img.size()) == base);
+    CHECK(piv::predictor_fit_for_texture(hw) == piv::PredictorFit::kGaussian);
   }
 }
 

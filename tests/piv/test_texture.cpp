@@ -67,6 +67,18 @@ TEST_CASE("beads of 6.5-10 px get a pass of 8 px windows, particles and larger b
   CHECK(piv::windows_for_texture({16, 8}, hw(7.0), {512, 512}) == std::vector<int>{16, 8});
 }
 
+TEST_CASE("the predictor's fit is quadratic for beads of 6.5 px or more, Gaussian for particles", "[piv]") {
+  const auto hw = [](double bead_px) { return bead_px / piv::kBeadDiameterPerHalfWidth; };
+  CHECK(piv::predictor_fit_for_texture(hw(6.6)) == piv::PredictorFit::kQuadratic);
+  CHECK(piv::predictor_fit_for_texture(hw(64)) == piv::PredictorFit::kQuadratic);
+  CHECK(piv::predictor_fit_for_texture(hw(6.4)) == piv::PredictorFit::kGaussian);
+  CHECK(piv::predictor_fit_for_texture(hw(3.0)) == piv::PredictorFit::kGaussian);
+  CHECK(piv::predictor_fit_for_texture(std::nan("")) == piv::PredictorFit::kGaussian);  // not measured
+  // Measured on shaded beads: 8 px beads read as 7.1-8.0 px of texture, above the limit.
+  synth::FrameGenerator gen(bead_shift(8, 1.3, -0.6, 3));
+  CHECK(piv::predictor_fit_for_texture(piv::texture_half_width_px(gen.next())) == piv::PredictorFit::kQuadratic);
+}
+
 // The gate of issue 33. Before: -0.5 % at 8 px, -3 % at 16, -8 % at 24, -19 % at 36,
 // -28 % at 48 and -42 % at 64 px (u; v worse), with 84 % valid at 64 px.
 TEST_CASE("bead shifts of 8-64 px beads are unbiased with the default settings", "[piv]") {
@@ -77,7 +89,9 @@ TEST_CASE("bead shifts of 8-64 px beads are unbiased with the default settings",
     synth::FrameGenerator gen(bead_shift(d, kU, kV, 3));
     const cv::Mat a = gen.next(), b = gen.next();
     piv::PivOptions o;
-    o.windows_px = piv::windows_for_texture(o.windows_px, piv::texture_half_width_px(a), a.size());
+    const double hw = piv::texture_half_width_px(a);
+    o.windows_px = piv::windows_for_texture(o.windows_px, hw, a.size());
+    o.predictor_fit = piv::predictor_fit_for_texture(hw);  // as `piv` chooses them
     const auto r = piv::PivEngine(o).process(a, b);
     const auto& f = r.field;
     double su = 0, sv = 0;

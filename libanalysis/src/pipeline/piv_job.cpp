@@ -304,10 +304,11 @@ struct FirstFrame {
 };
 
 /// The texture's size, measured on the first frame used as PIV sees it (preprocessed,
-/// masked): the windows are sized to it (unless given), and `profile` bounds how far
-/// the footprint a vector averages over moves r_c.
-piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, const cv::Mat& background,
-                             PivJobSummary& sum, FirstFrame& first) {
+/// masked): the windows are sized to it and the predictor's smoothing fit chosen by it
+/// (unless given), and `profile` bounds how far the footprint a vector averages over
+/// moves r_c.
+piv::PivOptions options_for_texture(const PivJobOptions& o, const FrameMasks& masks, const cv::Mat& background,
+                                    PivJobSummary& sum, FirstFrame& first) {
   piv::PivOptions piv_options = o.piv;
   auto pre = open_source(o);
   io::Frame fr;
@@ -322,6 +323,7 @@ piv::PivOptions size_windows(const PivJobOptions& o, const FrameMasks& masks, co
       piv_options.windows_px = piv::windows_for_texture(o.piv.windows_px, sum.texture_half_width_px, img.size());
     break;
   }
+  if (o.fit_predictor_to_texture) piv_options.predictor_fit = piv::predictor_fit_for_texture(sum.texture_half_width_px);
   sum.windows_px = piv_options.windows_px;
   return piv_options;
 }
@@ -387,6 +389,19 @@ void add_piv_window_metadata(core::Metadata& meta, const PivJobOptions& o, const
                           fmt::join(o.piv.windows_px, ",")));
   else
     meta.emplace_back("piv_windows_rule", "as given");
+  if (o.fit_predictor_to_texture) {
+    const double bead_px = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
+    meta.emplace_back(
+        "piv_predictor_smoothing_fit_rule",
+        !std::isfinite(bead_px)
+            ? std::string("gaussian: the texture size could not be measured in the first frame")
+            : fmt::format("from the texture: {} (shaded beads of about {:.3g} px across; quadratic from {} px, "
+                          "beads; gaussian below, seeded particles)",
+                          piv::predictor_fit_name(piv_options.predictor_fit), bead_px,
+                          format_number(piv::kSmallBeadMinPx)));
+  } else {
+    meta.emplace_back("piv_predictor_smoothing_fit_rule", "as given");
+  }
   // What a vector is a mean over: `profile` reads these (root attributes of .h5 fields).
   meta.emplace_back("piv_final_window_px", std::to_string(piv_options.windows_px.back()));
   if (std::isfinite(sum.texture_half_width_px))
@@ -541,7 +556,7 @@ PivJobSummary run_piv_job(const PivJobOptions& o, const core::Metadata& header,
   const cv::Mat background = o.preprocess.background ? background_image(o) : cv::Mat();
   const FrameMasks masks{o, static_mask, vane_angle};
   FirstFrame first;
-  const piv::PivOptions piv_options = size_windows(o, masks, background, sum, first);
+  const piv::PivOptions piv_options = options_for_texture(o, masks, background, sum, first);
   const track::TrackOptions tracking = o.method == PairMethod::kTrack ? track_options(o, sum, first) : o.track;
   const PairEstimator estimate = pair_estimator(
       o, piv_options, tracking, sum.track_cell_px,

@@ -23,6 +23,7 @@
 #include "shearzone/pipeline/profile_job.hpp"
 #include "shearzone/pipeline/width_job.hpp"
 #include "shearzone/piv/options.hpp"
+#include "shearzone/piv/texture.hpp"
 #include "shearzone/track/track.hpp"
 
 namespace shearzone::pipeline {
@@ -428,8 +429,16 @@ void write_closed_loop(const SimCheckOptions& o, const core::Metadata& header, c
   meta.emplace_back("run", o.run_dir.string());
   meta.emplace_back("v_c_m_per_s", io::format_number(o.width.v_c_m_per_s));
   // The PIV settings every row shares (the rows differ in windows, interpolation, spacing).
-  for (const auto& kv : o.piv.piv.to_metadata())
-    if (kv.first == "piv_predictor_smoothing_steps" || kv.first == "piv_predictor_smoothing_fit") meta.push_back(kv);
+  for (const auto& kv : o.piv.piv.to_metadata()) {
+    if (kv.first == "piv_predictor_smoothing_steps") meta.push_back(kv);
+    if (kv.first == "piv_predictor_smoothing_fit")
+      meta.emplace_back(kv.first, o.piv.fit_predictor_to_texture
+                                      ? fmt::format("auto: quadratic where the first frame's texture reads as beads "
+                                                    "of {} px or more (as rendered beads do), else gaussian; each "
+                                                    "setting's fields.h5 names the one used",
+                                                    io::format_number(piv::kSmallBeadMinPx))
+                                      : kv.second);
+  }
   meta.emplace_back("rc_video", "r_c of piv -> profile -> width on the rendered video (geometry from the camera)");
   meta.emplace_back("rc_centres", "r_c of the camera's truth: the surface beads' centre motion on the same camera "
                                   "(what PIV of shiny spheres can at best see); for track_k settings, the same "

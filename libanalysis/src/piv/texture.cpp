@@ -116,4 +116,9 @@ std::vector<int> windows_for_texture(const std::vector<int>& windows, double hal
   return out;
 }
 
+PredictorFit predictor_fit_for_texture(double half_width_px) {
+  return half_width_px * kBeadDiameterPerHalfWidth >= kSmallBeadMinPx ? PredictorFit::kQuadratic
+                                                                       : PredictorFit::kGaussian;
+}
+
 }  // namespace shearzone::piv

@@ -117,6 +117,10 @@ struct PivJobOptions {
   /// (the texture size measured in the first frame; piv/texture.hpp). Off: the windows
   /// as given.
   bool size_windows_to_texture = true;
+  /// Choose the predictor's smoothing fit from the same texture: the quadratic fit for
+  /// beads, the Gaussian for particles or an unmeasured texture
+  /// (piv::predictor_fit_for_texture). Off: piv.predictor_fit as given.
+  bool fit_predictor_to_texture = true;
 
   /// ConfigError on inconsistent options (checked before any work).
   void validate() const;
@@ -130,7 +134,7 @@ struct PivJobSummary {
   std::size_t vectors_per_pair = 0;
   std::size_t valid = 0, replaced = 0, masked = 0, invalid = 0;  ///< over all pairs
   double log_offset_s = 0.0;    ///< the angle log's offset used (found, with log_offset_auto)
-  double texture_half_width_px = std::numeric_limits<double>::quiet_NaN();  ///< measured (size_windows_to_texture)
+  double texture_half_width_px = std::numeric_limits<double>::quiet_NaN();  ///< measured in the first frame
   std::vector<int> windows_px;  ///< the windows used (PIV)
   double track_bead_diameter_px = 0.0;  ///< the bead diameter tracked (method kTrack)
   int track_cell_px = 0;        ///< the grid's cell (method kTrack)

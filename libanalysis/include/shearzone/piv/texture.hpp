@@ -13,6 +13,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "shearzone/piv/options.hpp"
+
 namespace shearzone::piv {
 
 /// Ratio of a shaded bead's diameter to its image's autocorrelation half-width
@@ -57,5 +59,13 @@ constexpr int kMinFinalWindowPx = 8;
 /// them as they are.
 std::vector<int> windows_for_texture(const std::vector<int>& windows, double half_width_px,
                                      cv::Size image);
+
+/// The predictor's smoothing fit for a texture: kQuadratic for beads (a shaded bead's
+/// diameter of kSmallBeadMinPx or more), whose shear zones decay over a few grid steps
+/// and which the Gaussian reads high (the closed loop's r_c 0.1-0.3 bead diameters low
+/// at 8-15 px per bead, docs/piv.md); kGaussian for seeded particles, whose smooth flows
+/// gain from its stronger averaging (the quadratic scatters 15-36 % more on the real
+/// particle pairs), and where the texture could not be measured (NaN).
+PredictorFit predictor_fit_for_texture(double half_width_px);
 
 }  // namespace shearzone::piv
