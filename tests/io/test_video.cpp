@@ -1,5 +1,6 @@
 #include <sched.h>
 
+#include <cmath>
 #include <fstream>
 #include <utility>
 #include <vector>

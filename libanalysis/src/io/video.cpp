@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdarg>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <tuple>
 #include <utility>
@@ -13,6 +14,7 @@
 #include <string_view>
 
 #include <fmt/format.h>
+#include <malloc.h>
 #include <sched.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -442,6 +444,28 @@ class OneCpuWhileOpening {
   bool restore_ = false;
 };
 
+/// FFmpeg's H.264 encoder, as OpenCV 4.6 drives it, reads heap memory nothing wrote: the
+/// same frames written at 144x108 px gave three different streams over 9 runs while other
+/// threads allocated (decoded, they differed from frame 33 on), and one stream in 9 runs
+/// with glibc filling what it hands out and takes back with a fixed byte
+/// (MALLOC_PERTURB_). While any writer is open, that fill is on (mallopt M_PERTURB, the
+/// same setting), so the bytes read are the same on every run. Blocks glibc maps
+/// directly (128 KiB and more) come zeroed and need no fill.
+constexpr int kHeapFillByte = 0xa5;
+std::mutex& heap_fill_mutex() {
+  static std::mutex m;
+  return m;
+}
+int& heap_fill_users() {
+  static int n = 0;
+  return n;
+}
+void define_heap_while_encoding(bool on) {
+  const std::lock_guard lock(heap_fill_mutex());
+  int& n = heap_fill_users();
+  if (on ? n++ == 0 : --n == 0) mallopt(M_PERTURB, on ? kHeapFillByte : 0);
+}
+
 }  // namespace
 
 VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size size,
@@ -452,6 +476,8 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size
                                   "mp4v, avc1 or MJPG",
                                   codec));
   if (!(fps > 0)) throw ConfigError(fmt::format("video fps = {}: must be > 0", fps));
+  define_heap_while_encoding(true);
+  heap_defined_ = true;
   writer_ = std::make_unique<cv::VideoWriter>();
   const int fourcc = cv::VideoWriter::fourcc(codec[0], codec[1], codec[2], codec[3]);
   bool ok = false;
@@ -463,14 +489,16 @@ VideoWriter::VideoWriter(const std::filesystem::path& path, double fps, cv::Size
   } catch (const cv::Exception& e) {
     ok = false;
   }
-  if (!ok)
+  if (!ok) {
+    close();
     throw ConfigError(fmt::format("{}: cannot open a video writer for codec \"{}\" at {}x{} px (the "
                                   "codec may not hold frames of this size, or this OpenCV/FFmpeg build "
                                   "lacks it; try mp4v or avc1 for .mp4, MJPG for .avi)",
                                   name_, codec, size.width, size.height));
+  }
 }
 
-VideoWriter::~VideoWriter() = default;
+VideoWriter::~VideoWriter() { close(); }
 
 void VideoWriter::write(const cv::Mat& gray8) {
   if (gray8.type() != CV_8UC1 || gray8.size() != size_)
@@ -481,6 +509,8 @@ void VideoWriter::write(const cv::Mat& gray8) {
 
 void VideoWriter::close() {
   if (writer_) writer_->release();
+  if (heap_defined_) define_heap_while_encoding(false);
+  heap_defined_ = false;
 }
 
 }  // namespace shearzone::io

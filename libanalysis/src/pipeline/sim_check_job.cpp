@@ -434,7 +434,7 @@ void write_closed_loop(const SimCheckOptions& o, const core::Metadata& header, c
     if (kv.first == "piv_predictor_smoothing_fit")
       meta.emplace_back(kv.first, o.piv.fit_predictor_to_texture
                                       ? fmt::format("auto: quadratic where the first frame's texture reads as beads "
-                                                    "of {} px or more (as rendered beads do), else gaussian; each "
+                                                    "of {} px or more (rendered beads of 8 px or more do), else gaussian; each "
                                                     "setting's fields.h5 names the one used",
                                                     io::format_number(piv::kSmallBeadMinPx))
                                       : kv.second);
