@@ -106,7 +106,7 @@ int run_piv(CLI::App& c, PivCli& s, const Context& ctx) {
   if (j.method == pipeline::PairMethod::kPiv && std::isfinite(texture_px) && texture_px >= piv::kSmallBeadMinPx &&
       texture_px < kSmallTexturePx)
     note_small_beads("piv", "the texture reads as beads of about", texture_px,
-                     "film at 15 px per bead or more where r_c matters");
+                     "with H.264, film at 15 px per bead or more where r_c matters");
   // Tracking is a first version: what the closed loop measured, every time (docs/track.md).
   if (j.method == pipeline::PairMethod::kTrack)
     std::fprintf(stderr,

@@ -115,7 +115,8 @@ struct RenderCli {
 /// The small-bead note of `sim render` and `sim check` (subcommands.hpp).
 void warn_bead_size(double bead_px) {
   if (bead_px < kSmallBeadPx)
-    note_small_beads("sim render", "beads are", bead_px, "film at 15 px per bead or more (--size or --m-per-px)");
+    note_small_beads("sim render", "beads are", bead_px,
+                     "with H.264, film at 15 px per bead or more (--size or --m-per-px)");
 }
 
 /// The camera and look options that `sim render` and `sim check` share.

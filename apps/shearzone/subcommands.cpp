@@ -56,8 +56,8 @@ int run_in_process(const std::vector<std::string>& words, Context& ctx) {
 
 void note_small_beads(const char* who, const char* what, double bead_px, const char* advice) {
   std::fprintf(stderr,
-               "%s: note: %s %.1f px across; at 8-12 px per bead the closed loop read r_c up to 0.4 "
-               "bead diameters low with MPEG-4 and 0.3-0.65 low with H.264 (docs/sim.md, \"Bead size, codec and "
+               "%s: note: %s %.1f px across; at 8-12 px per bead the closed loop read r_c within 0.25 "
+               "bead diameters with MPEG-4 but 0.13-0.52 low with H.264 (docs/sim.md, \"Bead size, codec and "
                "the closed loop\"): %s\n",
                who, what, bead_px, advice);
 }

@@ -77,9 +77,9 @@ std::vector<Subcommand> add_width(CLI::App& root, Context& ctx);
 /// `shearzone synth particles|beads`.
 std::vector<Subcommand> add_synth(CLI::App& root, Context& ctx);
 
-/// Small beads in the image: the closed loop reads r_c low (docs/sim.md, "Bead size,
-/// codec and the closed loop": at 8-12 px per bead up to 0.4 d low with MPEG-4 and
-/// 0.3-0.65 d low with H.264; within 0.25 d from 15 px with either). Below this size
+/// Small beads in the image: the closed loop reads r_c low with H.264 (docs/sim.md, "Bead
+/// size, codec and the closed loop": at 8-12 px per bead 0.13-0.52 d low with H.264,
+/// within 0.25 d with MPEG-4; within 0.25 d from 15 px with either). Below this size
 /// `sim render` and `sim check` say so on stderr. Large beads need no note: `piv`
 /// sizes its windows to them.
 constexpr double kSmallBeadPx = 14.0;
