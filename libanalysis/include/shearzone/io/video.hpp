@@ -104,7 +104,7 @@ class VideoWriter {
   std::string name_;  ///< the file messages name
   cv::Size size_;
   std::unique_ptr<cv::VideoWriter> writer_;
-  bool heap_defined_ = false;  ///< holds a DefinedHeapWhileEncoding count (video.cpp)
+  bool heap_defined_ = false;  ///< counted among the writers that keep the heap fill on (video.cpp)
 };
 
 /// True for the video extensions VideoReader is meant for (.mp4, .avi, .mov, .mkv).

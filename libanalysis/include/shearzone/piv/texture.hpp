@@ -62,8 +62,9 @@ std::vector<int> windows_for_texture(const std::vector<int>& windows, double hal
 
 /// The predictor's smoothing fit for a texture: kQuadratic for beads (a shaded bead's
 /// diameter of kSmallBeadMinPx or more), whose shear zones decay over a few grid steps
-/// and which the Gaussian reads high (the closed loop's r_c 0.1-0.3 bead diameters low
-/// at 8-15 px per bead, docs/piv.md); kGaussian for seeded particles, whose smooth flows
+/// and which the Gaussian reads high (with it the closed loop's r_c read up to 0.38 bead
+/// diameters low at 8-15 px per bead with MPEG-4, with the fit up to 0.24: docs/sim.md,
+/// "Bead size, codec and the closed loop"); kGaussian for seeded particles, whose smooth flows
 /// gain from its stronger averaging (the quadratic scatters 15-36 % more on the real
 /// particle pairs), and where the texture could not be measured (NaN).
 PredictorFit predictor_fit_for_texture(double half_width_px);
