@@ -450,7 +450,8 @@ class OneCpuWhileOpening {
 /// with glibc filling what it hands out and takes back with a fixed byte
 /// (MALLOC_PERTURB_). While any writer is open, that fill is on (mallopt M_PERTURB, the
 /// same setting), so the bytes read are the same on every run. Blocks glibc maps
-/// directly (128 KiB and more) come zeroed and need no fill.
+/// directly (from 128 KiB, larger once such blocks have been freed) come zeroed and
+/// need no fill.
 constexpr int kHeapFillByte = 0xa5;
 std::mutex& heap_fill_mutex() {
   static std::mutex m;
