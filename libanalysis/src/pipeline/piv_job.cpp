@@ -389,7 +389,9 @@ void add_piv_window_metadata(core::Metadata& meta, const PivJobOptions& o, const
                           fmt::join(o.piv.windows_px, ",")));
   else
     meta.emplace_back("piv_windows_rule", "as given");
-  if (o.fit_predictor_to_texture) {
+  if (piv_options.predictor_smoothing <= 0) {
+    meta.emplace_back("piv_predictor_smoothing_fit_rule", "none: the predictor is not smoothed (smoothing 0)");
+  } else if (o.fit_predictor_to_texture) {
     const double bead_px = sum.texture_half_width_px * piv::kBeadDiameterPerHalfWidth;
     meta.emplace_back(
         "piv_predictor_smoothing_fit_rule",
